@@ -1,0 +1,31 @@
+#include <fstream>
+#include <iostream>
+
+#include "sw/app/app_common.h"
+#include "sw/circuit/spice_netlist.h"
+#include "sw/common/csv.h"
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+int cmd_netlist(int argc, char** argv) {
+  const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
+  const ConfigTree cfg = load_config(args);
+  const CrossbarParams params = parse_crossbar_params(cfg);
+  const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"));
+  const Eigen::MatrixXd v = read_csv_matrix(args.require("--inputs"));
+  if (v.cols() != g.rows())
+    throw InputError("input vectors have " + std::to_string(v.cols()) + " voltages but the crossbar has " +
+                     std::to_string(g.rows()) + " rows");
+  if (g.minCoeff() <= 0) throw InputError("conductances must be > 0");
+  if (!args.has("--out")) {
+    write_spice_netlist(std::cout, params, g, v);
+    return 0;
+  }
+  std::ofstream out(args.get("--out"));
+  if (!out) throw InputError("cannot write '" + args.get("--out") + "'");
+  write_spice_netlist(out, params, g, v);
+  return 0;
+}
+
+}  // namespace xbarsim

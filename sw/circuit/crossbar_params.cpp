@@ -1,0 +1,72 @@
+#include "sw/circuit/crossbar_params.h"
+
+#include <sstream>
+#include <thread>
+
+namespace xbarsim {
+
+CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
+  CrossbarParams p;
+  p.r_wire_ohm = require_positive(cfg, "crossbar.r_wire");
+  p.r_in_ohm = require_positive(cfg, "crossbar.r_in");
+  p.r_out_ohm = require_positive(cfg, "crossbar.r_out");
+  p.g_min_s = require_positive(cfg, "crossbar.g_min");
+  p.g_max_s = require_positive(cfg, "crossbar.g_max");
+  if (!(p.g_max_s > p.g_min_s)) {
+    std::ostringstream os;
+    os << "configuration key 'crossbar.g_max' (" << p.g_max_s << ") must exceed 'crossbar.g_min' (" << p.g_min_s
+       << ")";
+    throw InputError(os.str());
+  }
+  p.v_in_max_v = require_positive(cfg, "crossbar.v_in_max");
+  const std::string mem = require_one_of(cfg, "crossbar.memristor.model", {"linear", "sinh"});
+  p.memristor.model = mem == "sinh" ? MemristorModel::Sinh : MemristorModel::Linear;
+  p.memristor.k_per_v = require_positive(cfg, "crossbar.memristor.k");
+  p.memristor.v_read_v = require_positive(cfg, "crossbar.memristor.v_read");
+  const std::string tr = require_one_of(cfg, "crossbar.transistor.model", {"none", "linear", "level1"});
+  p.transistor.model = tr == "none" ? TransistorModel::None
+                       : tr == "linear" ? TransistorModel::Linear
+                                        : TransistorModel::Level1;
+  p.transistor.r_on_ohm = require_positive(cfg, "crossbar.transistor.r_on");
+  p.transistor.vg_v = cfg.get_double("crossbar.transistor.vg");
+  p.transistor.vth_v = cfg.get_double("crossbar.transistor.vth");
+  p.transistor.kp_a_per_v2 = require_positive(cfg, "crossbar.transistor.kp");
+  if (p.transistor.model == TransistorModel::Level1 &&
+      !(p.transistor.vg_v - p.transistor.vth_v > p.v_in_max_v)) {
+    std::ostringstream os;
+    os << "crossbar.transistor: vg - vth (" << p.transistor.vg_v - p.transistor.vth_v
+       << " V) must exceed crossbar.v_in_max (" << p.v_in_max_v
+       << " V), otherwise access transistors cut off inside the input range";
+    throw InputError(os.str());
+  }
+  return p;
+}
+
+const char* to_string(MemristorModel m) { return m == MemristorModel::Sinh ? "sinh" : "linear"; }
+const char* to_string(TransistorModel t) {
+  return t == TransistorModel::None ? "none" : t == TransistorModel::Linear ? "linear" : "level1";
+}
+
+SolverOptions parse_solver_options(const ConfigTree& cfg) {
+  SolverOptions o;
+  o.method = require_one_of(cfg, "solver.method", {"auto", "line", "direct"});
+  o.tolerance = require_positive(cfg, "solver.tolerance");
+  o.max_iterations = static_cast<int>(cfg.get_int("solver.max_iterations"));
+  if (o.max_iterations < 1) throw InputError("configuration key 'solver.max_iterations' must be >= 1");
+  o.newton_max_iterations = static_cast<int>(cfg.get_int("solver.newton_max_iterations"));
+  if (o.newton_max_iterations < 1)
+    throw InputError("configuration key 'solver.newton_max_iterations' must be >= 1");
+  o.newton_tolerance = require_positive(cfg, "solver.newton_tolerance");
+  o.max_step_v = require_positive(cfg, "solver.max_step");
+  o.threads = static_cast<int>(cfg.get_int("solver.threads"));
+  if (o.threads < 0) throw InputError("configuration key 'solver.threads' must be >= 0");
+  return o;
+}
+
+int resolve_threads(int requested) {
+  if (requested > 0) return requested;
+  const unsigned hc = std::thread::hardware_concurrency();
+  return hc ? static_cast<int>(hc) : 1;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,65 @@
+#pragma once
+/// Common interface of the crossbar circuit solvers.
+#include <Eigen/Dense>
+#include <functional>
+#include <memory>
+
+#include "sw/circuit/crossbar_params.h"
+
+namespace xbarsim {
+
+/// DC operating point of a crossbar for one input vector.
+struct CircuitSolution {
+  Eigen::MatrixXd v_top;           ///< V, T(i,j): row-wire node of cell (i,j)
+  Eigen::MatrixXd v_mid;           ///< V, M(i,j): between memristor and access transistor
+  Eigen::MatrixXd v_bottom;        ///< V, B(i,j): column-wire node of cell (i,j)
+  Eigen::MatrixXd cell_current;    ///< A, memristor current T -> M
+  Eigen::VectorXd column_current;  ///< A, current through r_out of each column
+  int newton_iterations = 0;       ///< 0 for linear circuits
+  int linear_iterations = 0;       ///< total inner iterations (structured solver)
+};
+
+/// Solves the m x n 1T1M crossbar circuit for programmed conductances.
+class CrossbarSolver {
+ public:
+  virtual ~CrossbarSolver() = default;
+
+  /// Programs the nominal conductances (S), m x n. Throws InputError for non-positive or
+  /// non-finite values. Precomputes what can be reused across input vectors.
+  virtual void program(const Eigen::MatrixXd& g_s) = 0;
+
+  /// Operating point for one input vector of m row voltages (V).
+  virtual CircuitSolution solve(const Eigen::VectorXd& v_in) const = 0;
+
+  /// Column currents (A) for a batch of input vectors: k x m voltages -> k x n currents.
+  /// Linear devices use the effective matrix when it is cheaper; batches run on all threads.
+  virtual Eigen::MatrixXd column_currents(const Eigen::MatrixXd& v_in) const;
+
+  /// Effective conductance matrix G_eff (m x n, S) with I = V * G_eff exactly, for linear
+  /// devices only (throws SolverError otherwise).
+  virtual Eigen::MatrixXd effective_matrix() const = 0;
+
+  int rows() const { return static_cast<int>(g_.rows()); }
+  int cols() const { return static_cast<int>(g_.cols()); }
+  const Eigen::MatrixXd& conductances() const { return g_; }
+  const CrossbarParams& params() const { return params_; }
+  const SolverOptions& options() const { return options_; }
+
+ protected:
+  CrossbarSolver(const CrossbarParams& p, const SolverOptions& o) : params_(p), options_(o) {}
+  /// Validates and stores g; shared by implementations.
+  void store_conductances(const Eigen::MatrixXd& g_s);
+  void check_input(const Eigen::VectorXd& v_in) const;
+
+  CrossbarParams params_;
+  SolverOptions options_;
+  Eigen::MatrixXd g_;
+};
+
+/// The solver selected by options.method: "auto"/"line" -> LineSolver, "direct" -> NodalSolver.
+std::unique_ptr<CrossbarSolver> make_crossbar_solver(const CrossbarParams& p, const SolverOptions& o);
+
+/// Runs f(k) for k in [0, count) on `threads` threads (static blocks). Exceptions propagate.
+void parallel_for(int count, int threads, const std::function<void(int)>& f);
+
+}  // namespace xbarsim

@@ -1,0 +1,480 @@
+#include "sw/circuit/line_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+namespace {
+constexpr int kGmresRestart = 30;
+
+double dot(const double* a, const double* b, int n) {
+  double s = 0;
+  for (int k = 0; k < n; ++k) s += a[k] * b[k];
+  return s;
+}
+}  // namespace
+
+struct LineSolver::Workspace {
+  explicit Workspace(int mn)
+      : a(mn), b(mn), s(mn), r(mn), z(mn), p(mn), q(mn), v((kGmresRestart + 1) * static_cast<size_t>(mn)) {}
+  std::vector<double> a, b;           // schur_apply scratch
+  std::vector<double> s;              // Schur right-hand side
+  std::vector<double> r, z, p, q;     // Krylov vectors
+  std::vector<double> v;              // GMRES basis
+};
+
+LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
+    : CrossbarSolver(p, o), memristor_(p.memristor), transistor_(p.transistor) {
+  g_w_ = 1.0 / p.r_wire_ohm;
+  g_s_ = 1.0 / (p.r_in_ohm + p.r_wire_ohm);   // source -> r_in -> L_i -> r_wire -> T(i,0)
+  g_d_ = 1.0 / (p.r_wire_ohm + p.r_out_ohm);  // B(m-1,j) -> r_wire -> D_j -> r_out -> ground
+}
+
+void LineSolver::factor_rows(const double* extra, double* p_inv) const {
+  const double gw2 = g_w_ * g_w_;
+  for (int i = 0; i < m_; ++i) {
+    const int o = i * n_;
+    double prev_inv = 0;
+    for (int j = 0; j < n_; ++j) {
+      const double left = j == 0 ? g_s_ : g_w_;
+      const double right = j + 1 < n_ ? g_w_ : 0.0;  // R_i is open
+      const double d = left + right + extra[o + j] - (j ? gw2 * prev_inv : 0.0);
+      prev_inv = 1.0 / d;
+      p_inv[o + j] = prev_inv;
+    }
+  }
+}
+
+void LineSolver::factor_cols(const double* extra, double* q_diag, double* q_inv) const {
+  const double gw2 = g_w_ * g_w_;
+  for (int i = m_ - 1; i >= 0; --i) {
+    const double up = i > 0 ? g_w_ : 0.0;  // U_j is open
+    const double down = i + 1 < m_ ? g_w_ : g_d_;
+    const int o = i * n_;
+    for (int j = 0; j < n_; ++j) {
+      const double d = up + down + extra[o + j];
+      q_diag[o + j] = d;
+      q_inv[o + j] = 1.0 / (d - (i + 1 < m_ ? gw2 * q_inv[o + n_ + j] : 0.0));
+    }
+  }
+}
+
+void LineSolver::row_solve(const double* p_inv, const double* r, double* x) const {
+  const double gw = g_w_;
+  for (int i = 0; i < m_; ++i) {
+    const int o = i * n_;
+    double y = r[o];
+    x[o] = y;
+    for (int j = 1; j < n_; ++j) {
+      y = r[o + j] + gw * p_inv[o + j - 1] * y;
+      x[o + j] = y;
+    }
+    double xn = x[o + n_ - 1] * p_inv[o + n_ - 1];
+    x[o + n_ - 1] = xn;
+    for (int j = n_ - 2; j >= 0; --j) {
+      xn = (x[o + j] + gw * xn) * p_inv[o + j];
+      x[o + j] = xn;
+    }
+  }
+}
+
+void LineSolver::col_solve(const double* q_inv, const double* r, double* x) const {
+  const double gw = g_w_;
+  // Forward sweep from the grounded end (bottom) to the open end (top), all columns at once.
+  const int last = (m_ - 1) * n_;
+  for (int j = 0; j < n_; ++j) x[last + j] = r[last + j];
+  for (int i = m_ - 2; i >= 0; --i) {
+    const int o = i * n_;
+    for (int j = 0; j < n_; ++j) x[o + j] = r[o + j] + gw * q_inv[o + n_ + j] * x[o + n_ + j];
+  }
+  for (int j = 0; j < n_; ++j) x[j] *= q_inv[j];
+  for (int i = 1; i < m_; ++i) {
+    const int o = i * n_;
+    for (int j = 0; j < n_; ++j) x[o + j] = (x[o + j] + gw * x[o - n_ + j]) * q_inv[o + j];
+  }
+}
+
+void LineSolver::schur_apply(const System& s, const double* x, double* y, Workspace& w) const {
+  const int mn = m_ * n_;
+  double* a = w.a.data();
+  double* b = w.b.data();
+  for (int k = 0; k < mn; ++k) a[k] = s.cx[k] * x[k];
+  row_solve(s.p_inv.data(), a, b);
+  const double gw = g_w_;
+  for (int i = 0; i < m_; ++i) {
+    const int o = i * n_;
+    for (int j = 0; j < n_; ++j) {
+      double v = s.q_diag[o + j] * x[o + j] - s.cy[o + j] * b[o + j];
+      if (i > 0) v -= gw * x[o - n_ + j];
+      if (i + 1 < m_) v -= gw * x[o + n_ + j];
+      y[o + j] = v;
+    }
+  }
+}
+
+int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w) const {
+  const int mn = m_ * n_;
+  double *r = w.r.data(), *z = w.z.data(), *p = w.p.data(), *q = w.q.data();
+  const double rhs_norm = std::sqrt(dot(rhs, rhs, mn));
+  std::fill(x, x + mn, 0.0);
+  if (rhs_norm == 0) return 0;
+  std::copy(rhs, rhs + mn, r);
+  col_solve(s.q_inv.data(), r, z);
+  std::copy(z, z + mn, p);
+  double rz = dot(r, z, mn);
+  const double target = options_.tolerance * rhs_norm;
+  for (int it = 1; it <= options_.max_iterations; ++it) {
+    schur_apply(s, p, q, w);
+    const double alpha = rz / dot(p, q, mn);
+    double rr = 0;
+    for (int k = 0; k < mn; ++k) {
+      x[k] += alpha * p[k];
+      r[k] -= alpha * q[k];
+      rr += r[k] * r[k];
+    }
+    if (std::sqrt(rr) <= target) return it;
+    col_solve(s.q_inv.data(), r, z);
+    const double rz_new = dot(r, z, mn);
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    for (int k = 0; k < mn; ++k) p[k] = z[k] + beta * p[k];
+  }
+  std::ostringstream os;
+  os << "line solver (CG) did not reach relative residual " << options_.tolerance << " in "
+     << options_.max_iterations << " iterations (solver.max_iterations)";
+  throw SolverError(os.str());
+}
+
+int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& w) const {
+  const int mn = m_ * n_;
+  const int R = kGmresRestart;
+  double *r = w.r.data(), *z = w.z.data();
+  std::fill(x, x + mn, 0.0);
+  const double rhs_norm = std::sqrt(dot(rhs, rhs, mn));
+  if (rhs_norm == 0) return 0;
+  const double target = options_.tolerance * rhs_norm;
+  double h[kGmresRestart + 1][kGmresRestart];
+  double cs[kGmresRestart], sn[kGmresRestart], g[kGmresRestart + 1], y[kGmresRestart];
+  int total = 0;
+  std::copy(rhs, rhs + mn, r);
+  while (total < options_.max_iterations) {
+    const double beta = std::sqrt(dot(r, r, mn));
+    if (beta <= target) return total;
+    double* v0 = w.v.data();
+    for (int k = 0; k < mn; ++k) v0[k] = r[k] / beta;
+    std::fill(g, g + R + 1, 0.0);
+    g[0] = beta;
+    int k_used = 0;
+    bool done = false;
+    for (int k = 0; k < R && total < options_.max_iterations; ++k) {
+      ++total;
+      double* vk = w.v.data() + static_cast<size_t>(k) * mn;
+      double* vn = w.v.data() + static_cast<size_t>(k + 1) * mn;
+      col_solve(s.q_inv.data(), vk, z);  // right preconditioning: S Q^-1 v
+      schur_apply(s, z, vn, w);
+      for (int i = 0; i <= k; ++i) {
+        const double* vi = w.v.data() + static_cast<size_t>(i) * mn;
+        h[i][k] = dot(vn, vi, mn);
+        for (int q = 0; q < mn; ++q) vn[q] -= h[i][k] * vi[q];
+      }
+      h[k + 1][k] = std::sqrt(dot(vn, vn, mn));
+      if (h[k + 1][k] > 0)
+        for (int q = 0; q < mn; ++q) vn[q] /= h[k + 1][k];
+      for (int i = 0; i < k; ++i) {
+        const double t = cs[i] * h[i][k] + sn[i] * h[i + 1][k];
+        h[i + 1][k] = -sn[i] * h[i][k] + cs[i] * h[i + 1][k];
+        h[i][k] = t;
+      }
+      const double den = std::hypot(h[k][k], h[k + 1][k]);
+      cs[k] = h[k][k] / den;
+      sn[k] = h[k + 1][k] / den;
+      h[k][k] = den;
+      h[k + 1][k] = 0;
+      g[k + 1] = -sn[k] * g[k];
+      g[k] = cs[k] * g[k];
+      k_used = k + 1;
+      if (std::abs(g[k + 1]) <= target) {
+        done = true;
+        break;
+      }
+    }
+    for (int i = k_used - 1; i >= 0; --i) {
+      double t = g[i];
+      for (int c = i + 1; c < k_used; ++c) t -= h[i][c] * y[c];
+      y[i] = t / h[i][i];
+    }
+    std::fill(r, r + mn, 0.0);
+    for (int i = 0; i < k_used; ++i) {
+      const double* vi = w.v.data() + static_cast<size_t>(i) * mn;
+      for (int q = 0; q < mn; ++q) r[q] += y[i] * vi[q];
+    }
+    col_solve(s.q_inv.data(), r, z);
+    for (int q = 0; q < mn; ++q) x[q] += z[q];
+    // True residual for the restart (and the final check).
+    schur_apply(s, x, z, w);
+    for (int q = 0; q < mn; ++q) r[q] = rhs[q] - z[q];
+    if (done && std::sqrt(dot(r, r, mn)) <= 10 * target) return total;
+  }
+  std::ostringstream os;
+  os << "line solver (GMRES) did not reach relative residual " << options_.tolerance << " in "
+     << options_.max_iterations << " iterations (solver.max_iterations)";
+  throw SolverError(os.str());
+}
+
+int LineSolver::solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b,
+                         Workspace& w) const {
+  const int mn = m_ * n_;
+  // Schur right-hand side: r_B - Y P^-1 r_T (t as scratch).
+  std::vector<double>& schur_rhs = w.s;
+  row_solve(s.p_inv.data(), r_t, t);
+  for (int k = 0; k < mn; ++k) schur_rhs[k] = r_b[k] - s.cy[k] * t[k];
+  const int its = s.symmetric ? pcg(s, schur_rhs.data(), b, w) : gmres(s, schur_rhs.data(), b, w);
+  // Back-substitute the row wires: t = P^-1 (r_T - X b).
+  for (int k = 0; k < mn; ++k) schur_rhs[k] = r_t[k] - s.cx[k] * b[k];
+  row_solve(s.p_inv.data(), schur_rhs.data(), t);
+  return its;
+}
+
+void LineSolver::program(const Eigen::MatrixXd& g_s) {
+  store_conductances(g_s);
+  m_ = static_cast<int>(g_s.rows());
+  n_ = static_cast<int>(g_s.cols());
+  const int mn = m_ * n_;
+  {
+    std::lock_guard<std::mutex> lock(geff_mutex_);
+    geff_cache_.resize(0, 0);
+  }
+  g_cell_.assign(mn, 0.0);
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) g_cell_[i * n_ + j] = linear_cell_conductance(params_, g_(i, j));
+  if (!params_.is_linear()) return;  // Newton builds its systems per iteration
+  linear_.p_inv.assign(mn, 0.0);
+  linear_.q_diag.assign(mn, 0.0);
+  linear_.q_inv.assign(mn, 0.0);
+  linear_.cx.resize(mn);
+  linear_.cy.resize(mn);
+  for (int k = 0; k < mn; ++k) linear_.cx[k] = linear_.cy[k] = -g_cell_[k];
+  linear_.symmetric = true;
+  factor_rows(g_cell_.data(), linear_.p_inv.data());
+  factor_cols(g_cell_.data(), linear_.q_diag.data(), linear_.q_inv.data());
+}
+
+CircuitSolution LineSolver::solve(const Eigen::VectorXd& v_in) const {
+  check_input(v_in);
+  Workspace w(m_ * n_);
+  return params_.is_linear() ? solve_linear(v_in, w) : solve_newton(v_in, w);
+}
+
+CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const {
+  const int mn = m_ * n_;
+  std::vector<double> r_t(mn, 0.0), r_b(mn, 0.0), t(mn), b(mn);
+  for (int i = 0; i < m_; ++i) r_t[i * n_] = g_s_ * v_in(i);
+  CircuitSolution s;
+  s.linear_iterations = solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+  s.v_top.resize(m_, n_);
+  s.v_mid.resize(m_, n_);
+  s.v_bottom.resize(m_, n_);
+  s.cell_current.resize(m_, n_);
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) {
+      const int k = i * n_ + j;
+      const double ic = g_cell_[k] * (t[k] - b[k]);
+      s.v_top(i, j) = t[k];
+      s.v_bottom(i, j) = b[k];
+      s.v_mid(i, j) = t[k] - ic / g_(i, j);
+      s.cell_current(i, j) = ic;
+    }
+  s.column_current.resize(n_);
+  for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * b[(m_ - 1) * n_ + j];
+  return s;
+}
+
+CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const {
+  const int mn = m_ * n_;
+  const bool short_tr = transistor_.is_short();
+  std::vector<double> vt(mn, 0.0), vm(mn, 0.0), vb(mn, 0.0);
+  std::vector<double> ft(mn), fm(mn), fb(mn);
+  std::vector<double> gm(mn), ga(mn), gb(mn);  // memristor dI/dV, transistor dI/dV_M, dI/dV_B
+  std::vector<double> jtt(mn), jbb(mn), rt(mn), rb(mn), dt(mn), db(mn), dm(mn);
+  std::vector<double> tt(mn), tm(mn), tb(mn), tft(mn), tfm(mn), tfb(mn);
+  System sys;
+  sys.symmetric = false;
+  sys.p_inv.resize(mn);
+  sys.q_diag.resize(mn);
+  sys.q_inv.resize(mn);
+  sys.cx.resize(mn);
+  sys.cy.resize(mn);
+
+  // KCL residuals (sum of currents leaving each node); derivatives when `deriv`.
+  auto residual = [&](const std::vector<double>& t, const std::vector<double>& mid, const std::vector<double>& b,
+                      std::vector<double>& rT, std::vector<double>& rM, std::vector<double>& rB, bool deriv) {
+    double norm2 = 0;
+    for (int i = 0; i < m_; ++i)
+      for (int j = 0; j < n_; ++j) {
+        const int k = i * n_ + j;
+        const double tk = t[k], bk = b[k];
+        double ft_k = (j == 0 ? g_s_ * (tk - v_in(i)) : g_w_ * (tk - t[k - 1])) +
+                      (j + 1 < n_ ? g_w_ * (tk - t[k + 1]) : 0.0);
+        double fb_k = (i > 0 ? g_w_ * (bk - b[k - n_]) : 0.0) +
+                      (i + 1 < m_ ? g_w_ * (bk - b[k + n_]) : g_d_ * bk);
+        const double mk = short_tr ? bk : mid[k];
+        double im, dim;
+        memristor_.eval(g_(i, j), tk - mk, im, dim);
+        ft_k += im;
+        double fm_k = 0;
+        if (short_tr) {
+          fb_k -= im;
+          if (deriv) {
+            gm[k] = dim;
+            ga[k] = 0;
+            gb[k] = 0;
+          }
+        } else {
+          double it, dia, dib;
+          transistor_.eval(mk, bk, it, dia, dib);
+          fm_k = im - it;
+          fb_k -= it;
+          if (deriv) {
+            gm[k] = dim;
+            ga[k] = dia;
+            gb[k] = dib;
+          }
+        }
+        rT[k] = ft_k;
+        rM[k] = fm_k;
+        rB[k] = fb_k;
+        norm2 += ft_k * ft_k + fm_k * fm_k + fb_k * fb_k;
+      }
+    return std::sqrt(norm2);
+  };
+
+  const double v_scale = std::max(v_in.cwiseAbs().maxCoeff(), 1e-3);
+  double f_norm = residual(vt, vm, vb, ft, fm, fb, true);
+  double last_step = 0;
+  int inner_total = 0;
+  for (int it = 1; it <= options_.newton_max_iterations; ++it) {
+    // Condense the middle nodes into 2x2 cell Jacobians between T and B.
+    for (int k = 0; k < mn; ++k) {
+      if (short_tr) {
+        jtt[k] = gm[k];
+        jbb[k] = gm[k];
+        sys.cx[k] = -gm[k];
+        sys.cy[k] = -gm[k];
+        rt[k] = -ft[k];
+        rb[k] = -fb[k];
+      } else {
+        const double den = gm[k] + ga[k];
+        const double c = gm[k] / den;
+        jtt[k] = ga[k] * c;
+        jbb[k] = -gb[k] * c;
+        sys.cx[k] = gb[k] * c;
+        sys.cy[k] = -ga[k] * c;
+        rt[k] = -ft[k] + c * fm[k];
+        rb[k] = -fb[k] + (ga[k] / den) * fm[k];
+      }
+    }
+    factor_rows(jtt.data(), sys.p_inv.data());
+    factor_cols(jbb.data(), sys.q_diag.data(), sys.q_inv.data());
+    inner_total += solve_tb(sys, rt.data(), rb.data(), dt.data(), db.data(), w);
+    double dmax = 0;
+    for (int k = 0; k < mn; ++k) {
+      dm[k] = short_tr ? db[k] : (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
+      dmax = std::max({dmax, std::abs(dt[k]), std::abs(db[k]), std::abs(dm[k])});
+    }
+    if (!std::isfinite(dmax)) throw SolverError("Newton-Raphson (line solver) produced a non-finite update");
+    double scale = dmax > options_.max_step_v ? options_.max_step_v / dmax : 1.0;
+    double f_new = 0;
+    for (int ls = 0; ls < 20; ++ls) {
+      for (int k = 0; k < mn; ++k) {
+        tt[k] = vt[k] + scale * dt[k];
+        tm[k] = vm[k] + scale * dm[k];
+        tb[k] = vb[k] + scale * db[k];
+      }
+      f_new = residual(tt, tm, tb, tft, tfm, tfb, false);
+      if (f_new <= f_norm || scale * dmax < 1e-9) break;
+      scale *= 0.5;
+    }
+    vt.swap(tt);
+    vm.swap(tm);
+    vb.swap(tb);
+    last_step = scale * dmax;
+    f_norm = residual(vt, vm, vb, ft, fm, fb, true);
+    if (last_step <= options_.newton_tolerance * v_scale) {
+      CircuitSolution s;
+      s.newton_iterations = it;
+      s.linear_iterations = inner_total;
+      s.v_top.resize(m_, n_);
+      s.v_mid.resize(m_, n_);
+      s.v_bottom.resize(m_, n_);
+      s.cell_current.resize(m_, n_);
+      for (int i = 0; i < m_; ++i)
+        for (int j = 0; j < n_; ++j) {
+          const int k = i * n_ + j;
+          s.v_top(i, j) = vt[k];
+          s.v_bottom(i, j) = vb[k];
+          s.v_mid(i, j) = short_tr ? vb[k] : vm[k];
+          double im, d;
+          memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), im, d);
+          s.cell_current(i, j) = im;
+        }
+      s.column_current.resize(n_);
+      for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * vb[(m_ - 1) * n_ + j];
+      return s;
+    }
+  }
+  double fmax = 0;
+  for (int k = 0; k < mn; ++k) fmax = std::max({fmax, std::abs(ft[k]), std::abs(fm[k]), std::abs(fb[k])});
+  std::ostringstream os;
+  os << "Newton-Raphson (line solver) did not converge in " << options_.newton_max_iterations
+     << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual " << fmax
+     << " A";
+  throw SolverError(os.str());
+}
+
+Eigen::MatrixXd LineSolver::effective_matrix() const {
+  if (!params_.is_linear())
+    throw SolverError("the effective conductance matrix exists only for linear devices");
+  if (g_.size() == 0) throw InputError("crossbar solver used before program()");
+  std::lock_guard<std::mutex> lock(geff_mutex_);
+  if (geff_cache_.size() == 0) geff_cache_ = compute_effective_matrix();
+  return geff_cache_;
+}
+
+Eigen::MatrixXd LineSolver::compute_effective_matrix() const {
+  const int mn = m_ * n_;
+  Eigen::MatrixXd geff(m_, n_);
+  const int threads = resolve_threads(options_.threads);
+  const bool by_rows = m_ < n_;  // min(m, n) solves
+  const int count = by_rows ? m_ : n_;
+  const int nthreads = std::max(1, std::min(threads, count));
+  std::vector<Workspace> ws;
+  ws.reserve(nthreads);
+  for (int t = 0; t < nthreads; ++t) ws.emplace_back(mn);
+  parallel_for(nthreads, nthreads, [&](int tid) {
+    Workspace& w = ws[tid];
+    std::vector<double> r_t(mn), r_b(mn), t(mn), b(mn);
+    for (int c = tid; c < count; c += nthreads) {
+      std::fill(r_t.begin(), r_t.end(), 0.0);
+      std::fill(r_b.begin(), r_b.end(), 0.0);
+      if (by_rows) {
+        // Unit source on row c: row c of G_eff is g_d * b(m-1, :).
+        r_t[c * n_] = g_s_;
+        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+        for (int j = 0; j < n_; ++j) geff(c, j) = g_d_ * b[(m_ - 1) * n_ + j];
+      } else {
+        // Adjoint (reciprocity, symmetric K): unit current into B(m-1, c);
+        // G_eff(i, c) = g_s * g_d * t(i, 0).
+        r_b[(m_ - 1) * n_ + c] = 1.0;
+        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+        for (int i = 0; i < m_; ++i) geff(i, c) = g_s_ * g_d_ * t[i * n_];
+      }
+    }
+  });
+  return geff;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,61 @@
+#pragma once
+/// Configuration tree: compiled-in defaults (configs/default.yaml) merged with a user
+/// YAML file and `--set key=value` overrides. This is the only place that sees yaml-cpp;
+/// subsystems read typed values through it and validate them into plain structs.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+/// Text of configs/default.yaml (generated at build time).
+const char* default_config_yaml();
+
+class ConfigTree {
+ public:
+  /// Defaults only.
+  ConfigTree();
+  ~ConfigTree();
+  ConfigTree(const ConfigTree&);
+  ConfigTree& operator=(const ConfigTree&);
+
+  /// Defaults, then the YAML file at `path` (skipped when empty), then each override
+  /// "dotted.key=value" in order. Unknown keys and type mismatches throw InputError.
+  static ConfigTree load(const std::string& path, const std::vector<std::string>& overrides);
+
+  /// Merge a YAML document (text) on top; `origin` names it in error messages.
+  void merge_yaml_text(const std::string& text, const std::string& origin);
+  /// Apply one "dotted.key=value" override (value parsed as a YAML scalar or list).
+  void apply_override(const std::string& assignment);
+  /// Set one key to a YAML scalar text (used by sweeps).
+  void set(const std::string& key, const std::string& yaml_value);
+
+  bool has(const std::string& key) const;
+  double get_double(const std::string& key) const;
+  long long get_int(const std::string& key) const;
+  bool get_bool(const std::string& key) const;
+  std::string get_string(const std::string& key) const;
+  /// True if the value at `key` is a YAML sequence (a sweep over values).
+  bool is_list(const std::string& key) const;
+  /// Elements of a sequence value as YAML scalar texts (for sweeps).
+  std::vector<std::string> list_items(const std::string& key) const;
+  /// All leaf keys whose value is a list where the default is a scalar (sweeps).
+  std::vector<std::string> sweep_keys() const;
+
+  /// The effective configuration as YAML text (for reports).
+  std::string dump() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Validation helpers: throw InputError naming the key and the bad value.
+double require_positive(const ConfigTree& cfg, const std::string& key);
+double require_nonnegative(const ConfigTree& cfg, const std::string& key);
+std::string require_one_of(const ConfigTree& cfg, const std::string& key,
+                           const std::vector<std::string>& allowed);
+
+}  // namespace xbarsim
