@@ -16,3 +16,10 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 }
 
 }  // namespace xbarsim
+
+namespace xbarsim {
+std::vector<CommandInfo>& command_registry() {
+  static std::vector<CommandInfo> registry;
+  return registry;
+}
+}  // namespace xbarsim

@@ -8,6 +8,7 @@
 
 namespace xbarsim {
 
+namespace {
 int cmd_netlist(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
   const ConfigTree cfg = load_config(args);
@@ -27,5 +28,11 @@ int cmd_netlist(int argc, char** argv) {
   write_spice_netlist(out, params, g, v);
   return 0;
 }
+}  // namespace
+
+namespace {
+const CommandRegistrar kRegister{"netlist", cmd_netlist,
+                                 "netlist --conductances G.csv --inputs V.csv [--out NET.cir] [--config F] [--set k=v]...\n      the equivalent SPICE netlist; `ngspice -b NET.cir` prints the column currents"};
+}  // namespace
 
 }  // namespace xbarsim

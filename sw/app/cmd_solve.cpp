@@ -21,6 +21,7 @@ void warn_ranges(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen:
 }
 }  // namespace
 
+namespace {
 int cmd_solve(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
   const ConfigTree cfg = load_config(args);
@@ -75,5 +76,11 @@ int cmd_solve(int argc, char** argv) {
   }
   return 0;
 }
+}  // namespace
+
+namespace {
+const CommandRegistrar kRegister{"solve", cmd_solve,
+                                 "solve --conductances G.csv --inputs V.csv [--out I.csv] [--config F] [--set k=v]... [--json F]\n      column currents (A) of one crossbar for each input vector (one line of n per vector)"};
+}  // namespace
 
 }  // namespace xbarsim

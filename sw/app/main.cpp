@@ -8,26 +8,11 @@
 
 namespace {
 
-struct Subcommand {
-  const char* name;
-  xbarsim::Command run;
-  const char* help;
-};
-
-const Subcommand kCommands[] = {
-    {"solve", xbarsim::cmd_solve,
-     "solve --conductances G.csv --inputs V.csv [--out I.csv] [--config FILE] [--set k=v]... [--json F]\n"
-     "      column currents of one crossbar (m x n) for each input vector"},
-    {"netlist", xbarsim::cmd_netlist,
-     "netlist --conductances G.csv --inputs V.csv --out NET.cir [--config FILE] [--set k=v]...\n"
-     "      the equivalent SPICE netlist (ngspice -b NET.cir prints the column currents)"},
-};
-
 void usage(std::ostream& os) {
   os << "usage: xbarsim <command> [options]\n\ncommands:\n";
-  for (const auto& c : kCommands) os << "  " << c.help << "\n";
-  os << "\nCommon options: --config FILE (YAML, see configs/default.yaml), --set dotted.key=value\n"
-        "(repeatable), --json FILE, --csv FILE.\n";
+  for (const auto& c : xbarsim::command_registry()) os << "  " << c.usage << "\n";
+  os << "\nCommon options: --config FILE (YAML; every key is documented in configs/default.yaml),\n"
+        "--set dotted.key=value (repeatable), --json FILE, --csv FILE.\n";
 }
 
 }  // namespace
@@ -38,8 +23,8 @@ int main(int argc, char** argv) {
     usage(argc < 2 ? std::cerr : std::cout);
     return argc < 2 ? 2 : 0;
   }
-  for (const auto& c : kCommands) {
-    if (argv[1] != std::string(c.name)) continue;
+  for (const auto& c : xbarsim::command_registry()) {
+    if (c.name != argv[1]) continue;
     try {
       return c.run(argc - 2, argv + 2);
     } catch (const xbarsim::InputError& e) {
