@@ -56,7 +56,7 @@ const char* to_string(TransistorModel t);
 /// Options of the circuit solvers (configuration keys under `solver.`).
 struct SolverOptions {
   std::string method = "auto";  ///< auto | line | direct
-  double tolerance = 1e-13;     ///< relative residual of linear solves
+  double tolerance = 1e-12;     ///< relative preconditioned residual of linear solves
   int max_iterations = 2000;    ///< iterations of the structured solver per linear solve
   int newton_max_iterations = 60;
   double newton_tolerance = 1e-12;  ///< max |dV| / max |V_in| at convergence

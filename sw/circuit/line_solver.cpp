@@ -117,28 +117,28 @@ void LineSolver::schur_apply(const System& s, const double* x, double* y, Worksp
 }
 
 int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w) const {
+  // Preconditioned CG; stops when the residual in the Q^-1 norm, sqrt(r' Q^-1 r), has
+  // dropped by `tolerance`. That norm is well conditioned (Q^-1 S ~ I), unlike |r|_2,
+  // whose attainable floor is eps * cond(Q).
   const int mn = m_ * n_;
   double *r = w.r.data(), *z = w.z.data(), *p = w.p.data(), *q = w.q.data();
-  const double rhs_norm = std::sqrt(dot(rhs, rhs, mn));
   std::fill(x, x + mn, 0.0);
-  if (rhs_norm == 0) return 0;
   std::copy(rhs, rhs + mn, r);
   col_solve(s.q_inv.data(), r, z);
-  std::copy(z, z + mn, p);
   double rz = dot(r, z, mn);
-  const double target = options_.tolerance * rhs_norm;
+  if (rz == 0) return 0;
+  std::copy(z, z + mn, p);
+  const double target2 = options_.tolerance * options_.tolerance * rz;
   for (int it = 1; it <= options_.max_iterations; ++it) {
     schur_apply(s, p, q, w);
     const double alpha = rz / dot(p, q, mn);
-    double rr = 0;
     for (int k = 0; k < mn; ++k) {
       x[k] += alpha * p[k];
       r[k] -= alpha * q[k];
-      rr += r[k] * r[k];
     }
-    if (std::sqrt(rr) <= target) return it;
     col_solve(s.q_inv.data(), r, z);
     const double rz_new = dot(r, z, mn);
+    if (rz_new <= target2) return it;
     const double beta = rz_new / rz;
     rz = rz_new;
     for (int k = 0; k < mn; ++k) p[k] = z[k] + beta * p[k];
@@ -150,20 +150,25 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w)
 }
 
 int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& w) const {
+  // Left-preconditioned restarted GMRES on Q^-1 S x = Q^-1 rhs (Q^-1 S ~ I, so the
+  // preconditioned residual is a faithful measure of the error in x).
   const int mn = m_ * n_;
   const int R = kGmresRestart;
   double *r = w.r.data(), *z = w.z.data();
   std::fill(x, x + mn, 0.0);
-  const double rhs_norm = std::sqrt(dot(rhs, rhs, mn));
-  if (rhs_norm == 0) return 0;
-  const double target = options_.tolerance * rhs_norm;
+  col_solve(s.q_inv.data(), rhs, r);
+  const double b_norm = std::sqrt(dot(r, r, mn));
+  if (b_norm == 0) return 0;
+  const double target = options_.tolerance * b_norm;
   double h[kGmresRestart + 1][kGmresRestart];
   double cs[kGmresRestart], sn[kGmresRestart], g[kGmresRestart + 1], y[kGmresRestart];
   int total = 0;
-  std::copy(rhs, rhs + mn, r);
+  double prev_beta = 0;
   while (total < options_.max_iterations) {
     const double beta = std::sqrt(dot(r, r, mn));
     if (beta <= target) return total;
+    if (prev_beta > 0 && beta > 0.99 * prev_beta) break;  // stagnation
+    prev_beta = beta;
     double* v0 = w.v.data();
     for (int k = 0; k < mn; ++k) v0[k] = r[k] / beta;
     std::fill(g, g + R + 1, 0.0);
@@ -174,8 +179,8 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
       ++total;
       double* vk = w.v.data() + static_cast<size_t>(k) * mn;
       double* vn = w.v.data() + static_cast<size_t>(k + 1) * mn;
-      col_solve(s.q_inv.data(), vk, z);  // right preconditioning: S Q^-1 v
-      schur_apply(s, z, vn, w);
+      schur_apply(s, vk, z, w);
+      col_solve(s.q_inv.data(), z, vn);
       for (int i = 0; i <= k; ++i) {
         const double* vi = w.v.data() + static_cast<size_t>(i) * mn;
         h[i][k] = dot(vn, vi, mn);
@@ -207,21 +212,19 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
       for (int c = i + 1; c < k_used; ++c) t -= h[i][c] * y[c];
       y[i] = t / h[i][i];
     }
-    std::fill(r, r + mn, 0.0);
     for (int i = 0; i < k_used; ++i) {
       const double* vi = w.v.data() + static_cast<size_t>(i) * mn;
-      for (int q = 0; q < mn; ++q) r[q] += y[i] * vi[q];
+      for (int q = 0; q < mn; ++q) x[q] += y[i] * vi[q];
     }
-    col_solve(s.q_inv.data(), r, z);
-    for (int q = 0; q < mn; ++q) x[q] += z[q];
-    // True residual for the restart (and the final check).
+    if (done) return total;
+    // Restart from the true preconditioned residual.
     schur_apply(s, x, z, w);
-    for (int q = 0; q < mn; ++q) r[q] = rhs[q] - z[q];
-    if (done && std::sqrt(dot(r, r, mn)) <= 10 * target) return total;
+    for (int q = 0; q < mn; ++q) z[q] = rhs[q] - z[q];
+    col_solve(s.q_inv.data(), z, r);
   }
   std::ostringstream os;
-  os << "line solver (GMRES) did not reach relative residual " << options_.tolerance << " in "
-     << options_.max_iterations << " iterations (solver.max_iterations)";
+  os << "line solver (GMRES) did not reach relative residual " << options_.tolerance << " within "
+     << options_.max_iterations << " iterations (solver.max_iterations) or stagnated";
   throw SolverError(os.str());
 }
 

@@ -1,0 +1,81 @@
+// The xbarsim executable: exit codes and messages for good and bad input.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <sys/wait.h>
+
+namespace {
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(XBARSIM_BINARY) + " " + args + " 2>&1";
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+std::string file(const std::string& name, const std::string& text) {
+  const std::string path = "/tmp/xbarsim_cli_" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+}  // namespace
+
+TEST(Cli, SolveSingleCellMatchesOhmsLaw) {
+  const auto g = file("g1.csv", "5e-5\n");
+  const auto v = file("v1.csv", "0.2\n0.4\n");
+  const auto r = run("solve --conductances " + g + " --inputs " + v + " --set crossbar.r_wire=0.5");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const double i1 = 0.2 / (1 + 0.5 + 2e4 + 0.5 + 1), i2 = 0.4 / (1 + 0.5 + 2e4 + 0.5 + 1);
+  double a = 0, b = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str(), "%lf\n%lf", &a, &b), 2) << r.out;
+  EXPECT_NEAR(a, i1, 1e-12 * i1);
+  EXPECT_NEAR(b, i2, 1e-12 * i2);
+}
+
+TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
+  const auto g = file("g.csv", "5e-5,6e-5\n4e-5,3e-5\n");
+  const auto v3 = file("v3.csv", "0.1,0.2,0.3\n");
+  const auto v2 = file("v2.csv", "0.1,0.2\n");
+  const auto gneg = file("gneg.csv", "5e-5,-6e-5\n4e-5,3e-5\n");
+  const auto gtxt = file("gtxt.csv", "5e-5,abc\n4e-5,3e-5\n");
+  struct Bad {
+    std::string args, expect;
+  } cases[] = {
+      {"solve --conductances " + g + " --inputs " + v3, "3 voltages"},
+      {"solve --conductances " + gneg + " --inputs " + v2, "must be finite and > 0"},
+      {"solve --conductances " + gtxt + " --inputs " + v2, "'abc' is not a finite number"},
+      {"solve --conductances /nonexistent.csv --inputs " + v2, "cannot open '/nonexistent.csv'"},
+      {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.r_wier=1", "crossbar.r_wier"},
+      {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.r_wire=-1", "crossbar.r_wire"},
+      {"solve --conductances " + g + " --inputs " + v2 + " --config /nonexistent.yaml", "nonexistent.yaml"},
+      {"solve --inputs " + v2, "--conductances"},
+      {"solve --conductances " + g + " --inputs " + v2 + " --bogus 1", "unknown option"},
+      {"frobnicate", "unknown command"},
+  };
+  for (const auto& c : cases) {
+    const auto r = run(c.args);
+    EXPECT_NE(r.code, 0) << c.args;
+    EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("internal error"), std::string::npos) << r.out;
+  }
+}
+
+TEST(Cli, NetlistWritesSpice) {
+  const auto g = file("gn.csv", "5e-5,6e-5\n4e-5,3e-5\n");
+  const auto v = file("vn.csv", "0.1,0.2\n");
+  const auto r = run("netlist --conductances " + g + " --inputs " + v);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("vsense_1"), std::string::npos);
+  EXPECT_NE(r.out.find(".end"), std::string::npos);
+}

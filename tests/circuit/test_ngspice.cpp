@@ -1,0 +1,91 @@
+// xbarsim against ngspice (Debian package) on the same netlists: the independent reference.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "sw/circuit/crossbar_solver.h"
+#include "sw/circuit/spice_netlist.h"
+
+using namespace xbarsim;
+
+namespace {
+
+std::string run(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  pclose(p);
+  return out;
+}
+
+bool have_ngspice() { return run("command -v ngspice").find("ngspice") != std::string::npos; }
+
+Eigen::MatrixXd ngspice_currents(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::MatrixXd& v) {
+  const std::string path = "/tmp/xbarsim_ngspice_" + std::to_string(g.rows()) + "x" + std::to_string(g.cols()) +
+                           "_" + to_string(p.memristor.model) + "_" + to_string(p.transistor.model) + ".cir";
+  {
+    std::ofstream f(path);
+    write_spice_netlist(f, p, g, v);
+  }
+  const std::string out = run("ngspice -b " + path + " 2>&1");
+  std::remove(path.c_str());
+  return parse_ngspice_currents(out, static_cast<int>(v.rows()), static_cast<int>(g.cols()));
+}
+
+struct Case {
+  int m, n, vectors;
+  bool nonlinear;
+};
+
+}  // namespace
+
+class Ngspice : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Ngspice, ColumnCurrentsAgree) {
+  ASSERT_TRUE(have_ngspice()) << "ngspice is required as the circuit reference: run scripts/setup.sh "
+                                 "(apt-get install ngspice)";
+  const Case c = GetParam();
+  CrossbarParams p;
+  if (c.nonlinear) {
+    p.memristor.model = MemristorModel::Sinh;
+    p.transistor.model = TransistorModel::Level1;
+  }
+  std::mt19937_64 rng(1000 + c.m * 7 + c.n);
+  std::uniform_real_distribution<double> ug(p.g_min_s, p.g_max_s), uv(-0.4, 0.4);
+  Eigen::MatrixXd g(c.m, c.n), v(c.vectors, c.m);
+  for (int i = 0; i < c.m; ++i)
+    for (int j = 0; j < c.n; ++j) g(i, j) = ug(rng);
+  for (int k = 0; k < c.vectors; ++k)
+    for (int i = 0; i < c.m; ++i) v(k, i) = k == 0 ? std::abs(uv(rng)) : uv(rng);  // unipolar and bipolar
+  const Eigen::MatrixXd ref = ngspice_currents(p, g, v);
+  auto solver = make_crossbar_solver(p, SolverOptions{});
+  solver->program(g);
+  const Eigen::MatrixXd got = solver->column_currents(v);
+  const double tol = c.nonlinear ? 1e-4 : 1e-6;
+  double worst = 0;
+  for (int k = 0; k < c.vectors; ++k)
+    for (int j = 0; j < c.n; ++j) {
+      const double rel = std::abs(got(k, j) - ref(k, j)) / std::abs(ref(k, j));
+      worst = std::max(worst, rel);
+      EXPECT_LT(rel, tol) << "vector " << k << " column " << j << ": xbarsim " << got(k, j) << " ngspice "
+                          << ref(k, j);
+    }
+  RecordProperty("worst_relative_difference", std::to_string(worst));
+  std::cout << "[ ngspice ] " << c.m << "x" << c.n << (c.nonlinear ? " sinh+level1" : " linear")
+            << ": worst relative difference " << worst << "\n";
+}
+
+INSTANTIATE_TEST_SUITE_P(Sizes, Ngspice,
+                         ::testing::Values(Case{8, 4, 3, false}, Case{8, 4, 3, true}, Case{32, 32, 2, false},
+                                           Case{32, 32, 2, true}, Case{128, 64, 1, false},
+                                           Case{128, 64, 1, true}),
+                         [](const auto& info) {
+                           return std::to_string(info.param.m) + "x" + std::to_string(info.param.n) +
+                                  (info.param.nonlinear ? "_nonlinear" : "_linear");
+                         });
