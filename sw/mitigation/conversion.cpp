@@ -1,0 +1,179 @@
+#include "sw/mitigation/conversion.h"
+
+#include <cmath>
+#include <limits>
+
+#include "sw/circuit/device_models.h"
+
+namespace xbarsim {
+
+namespace {
+
+/// V_M such that the access transistor passes current `i` from M to B (closed forms of
+/// the level-1 equations); NaN when no V_M can (saturation limit or cutoff).
+double level1_mid_voltage(const TransistorParams& t, double vb, double i) {
+  const double kp = t.kp_a_per_v2;
+  if (i >= 0) {
+    const double vgst = t.vg_v - vb - t.vth_v;  // B is the source
+    if (vgst <= 0) return std::numeric_limits<double>::quiet_NaN();
+    const double disc = vgst * vgst - 2 * i / kp;  // triode: i = kp (vgst x - x^2/2)
+    if (disc < 0) return std::numeric_limits<double>::quiet_NaN();
+    return vb + (vgst - std::sqrt(disc));
+  }
+  const double c = t.vg_v - vb - t.vth_v;  // M is the source: always triode when c > 0
+  if (c <= 0) return std::numeric_limits<double>::quiet_NaN();
+  const double y = -c + std::sqrt(c * c + 2 * (-i) / kp);
+  return vb - y;
+}
+
+}  // namespace
+
+ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv) {
+  const int m = static_cast<int>(g.rows()), n = static_cast<int>(g.cols());
+  if (v_conv.size() != m) throw InputError("conversion signal must have one voltage per crossbar row");
+  ConversionResult r;
+  r.g_prime.resize(m, n);
+  // Target cell currents and the node voltages they imply.
+  Eigen::MatrixXd cur(m, n), vt(m, n), vb(m, n);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) cur(i, j) = v_conv(i) * g(i, j);
+  for (int i = 0; i < m; ++i) {
+    double suffix = cur.row(i).sum();  // current entering T(i,0) from the source
+    double v = v_conv(i) - (p.r_in_ohm + p.r_wire_ohm) * suffix;
+    for (int j = 0; j < n; ++j) {
+      if (j > 0) {
+        suffix -= cur(i, j - 1);
+        v -= p.r_wire_ohm * suffix;
+      }
+      vt(i, j) = v;
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    double prefix = cur.col(j).sum();  // current leaving B(m-1,j) toward ground
+    double v = (p.r_wire_ohm + p.r_out_ohm) * prefix;
+    for (int i = m - 1; i >= 0; --i) {
+      if (i < m - 1) {
+        prefix -= cur(i + 1, j);
+        v += p.r_wire_ohm * prefix;
+      }
+      vb(i, j) = v;
+    }
+  }
+  const double sinh_scale = p.memristor.v_read_v / std::sinh(p.memristor.k_per_v * p.memristor.v_read_v);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double c = cur(i, j);
+      if (c == 0) {
+        ++r.undetermined;
+        r.g_prime(i, j) = std::min(std::max(g(i, j), p.g_min_s), p.g_max_s);
+        continue;
+      }
+      double vm = vb(i, j);
+      if (p.transistor.model == TransistorModel::Linear) vm = vb(i, j) + c * p.transistor.r_on_ohm;
+      if (p.transistor.model == TransistorModel::Level1) vm = level1_mid_voltage(p.transistor, vb(i, j), c);
+      const double u = vt(i, j) - vm;
+      double gp = std::numeric_limits<double>::infinity();
+      if (std::isfinite(u) && u * c > 0)
+        gp = p.memristor.model == MemristorModel::Linear ? c / u : c / (sinh_scale * std::sinh(p.memristor.k_per_v * u));
+      if (!(gp <= p.g_max_s)) {
+        ++r.above_max;
+        gp = p.g_max_s;
+      } else if (gp < p.g_min_s) {
+        ++r.below_min;
+        gp = p.g_min_s;
+      }
+      r.g_prime(i, j) = gp;
+    }
+  return r;
+}
+
+namespace {
+
+/// Linear matrix conversion on cell conductances `c_target` for a linear crossbar.
+ConversionResult matrix_linear(const CrossbarParams& lin, const SolverOptions& o, const Eigen::MatrixXd& c_target,
+                               const Eigen::MatrixXd& c_start, const Eigen::MatrixXd& c_lo, const Eigen::MatrixXd& c_hi,
+                               const MatrixConversionOptions& mo) {
+  ConversionResult r;
+  Eigen::MatrixXd gp = c_start.cwiseMax(c_lo).cwiseMin(c_hi);
+  auto solver = make_crossbar_solver(lin, o);
+  const double scale = c_target.cwiseAbs().maxCoeff();
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd best_g = gp;
+  for (int it = 1; it <= mo.max_iterations; ++it) {
+    solver->program(gp);
+    const Eigen::MatrixXd geff = solver->effective_matrix();
+    const double res = (geff - c_target).cwiseAbs().maxCoeff() / scale;
+    r.iterations = it;
+    if (res < best) {
+      best = res;
+      best_g = gp;
+    }
+    if (res <= mo.tolerance) break;
+    const Eigen::MatrixXd next = gp.cwiseProduct(c_target.cwiseQuotient(geff)).cwiseMax(c_lo).cwiseMin(c_hi);
+    if ((next - gp).cwiseAbs().maxCoeff() <= 1e-15 * scale) break;  // bounded fixed point reached
+    gp = next;
+  }
+  r.g_prime = best_g;
+  r.residual = best;
+  return r;
+}
+
+}  // namespace
+
+ConversionResult convert_matrix(const CrossbarParams& p, const SolverOptions& o, const Eigen::MatrixXd& g,
+                                const Eigen::VectorXd& v_operating, const MatrixConversionOptions& mo) {
+  const int m = static_cast<int>(g.rows()), n = static_cast<int>(g.cols());
+  if (v_operating.size() != m) throw InputError("operating-point signal must have one voltage per crossbar row");
+  const Eigen::MatrixXd lo = Eigen::MatrixXd::Constant(m, n, p.g_min_s);
+  const Eigen::MatrixXd hi = Eigen::MatrixXd::Constant(m, n, p.g_max_s);
+  // Start from the signal conversion with a constant signal (exact where inputs are uniform).
+  const Eigen::VectorXd v_start = Eigen::VectorXd::Constant(m, 0.1 * p.v_in_max_v);
+  ConversionResult start = convert_signal(p, g, v_start);
+  ConversionResult r;
+  if (p.is_linear()) {
+    // A linear transistor is in series with the memristor: iterate on cell conductances.
+    CrossbarParams lin = p;
+    lin.transistor.model = TransistorModel::None;
+    auto cell = [&](const Eigen::MatrixXd& gm) {
+      return gm.unaryExpr([&](double x) { return linear_cell_conductance(p, x); }).eval();
+    };
+    auto uncell = [&](const Eigen::MatrixXd& c) {
+      if (p.transistor.model != TransistorModel::Linear) return c;
+      return c.unaryExpr([&](double x) { return 1.0 / (1.0 / x - p.transistor.r_on_ohm); }).eval();
+    };
+    r = matrix_linear(lin, o, g, cell(start.g_prime), cell(lo), cell(hi), mo);
+    r.g_prime = uncell(r.g_prime);
+  } else {
+    // Nonlinear devices: linearise around the operating signal with chord conductances
+    // kappa_ij = I_cell / (G'_ij * (V_T - V_B)), run the linear matrix conversion on the
+    // cell conductances, map back, and repeat (the chords move with G').
+    auto solver = make_crossbar_solver(p, o);
+    CrossbarParams lin = p;
+    lin.memristor.model = MemristorModel::Linear;
+    lin.transistor.model = TransistorModel::None;
+    Eigen::MatrixXd gp = start.g_prime;
+    for (int outer = 0; outer < 4; ++outer) {
+      solver->program(gp);
+      const CircuitSolution s = solver->solve(v_operating);
+      Eigen::MatrixXd kappa(m, n);
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < n; ++j) {
+          const double dv = s.v_top(i, j) - s.v_bottom(i, j);
+          kappa(i, j) = std::abs(dv) > 1e-12 ? s.cell_current(i, j) / (gp(i, j) * dv)
+                                             : linear_cell_conductance(p, gp(i, j)) / gp(i, j);
+        }
+      r = matrix_linear(lin, o, g, gp.cwiseProduct(kappa), lo.cwiseProduct(kappa), hi.cwiseProduct(kappa), mo);
+      gp = r.g_prime.cwiseQuotient(kappa).cwiseMax(lo).cwiseMin(hi);
+    }
+    r.g_prime = gp;
+  }
+  r.above_max = r.below_min = 0;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) {
+      if (r.g_prime(i, j) >= p.g_max_s * (1 - 1e-12)) ++r.above_max;
+      if (r.g_prime(i, j) <= p.g_min_s * (1 + 1e-12)) ++r.below_min;
+    }
+  return r;
+}
+
+}  // namespace xbarsim
