@@ -89,32 +89,59 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
 
 namespace {
 
-/// Linear matrix conversion on cell conductances `c_target` for a linear crossbar.
+/// Linear matrix conversion on cell conductances for a linear crossbar `lin`.
+/// Target T(:,j) = c_floor + beta_j (c_target(:,j) - c_floor), beta_j = 1 unless scaling.
 ConversionResult matrix_linear(const CrossbarParams& lin, const SolverOptions& o, const Eigen::MatrixXd& c_target,
                                const Eigen::MatrixXd& c_start, const Eigen::MatrixXd& c_lo, const Eigen::MatrixXd& c_hi,
-                               const MatrixConversionOptions& mo) {
+                               double c_floor, const MatrixConversionOptions& mo) {
+  const int m = static_cast<int>(c_target.rows()), n = static_cast<int>(c_target.cols());
   ConversionResult r;
+  Eigen::VectorXd beta = Eigen::VectorXd::Ones(n);
+  Eigen::MatrixXd target = c_target;
   Eigen::MatrixXd gp = c_start.cwiseMax(c_lo).cwiseMin(c_hi);
   auto solver = make_crossbar_solver(lin, o);
-  const double scale = c_target.cwiseAbs().maxCoeff();
   double best = std::numeric_limits<double>::infinity();
   Eigen::MatrixXd best_g = gp;
+  Eigen::VectorXd best_beta = beta;
   for (int it = 1; it <= mo.max_iterations; ++it) {
     solver->program(gp);
     const Eigen::MatrixXd geff = solver->effective_matrix();
-    const double res = (geff - c_target).cwiseAbs().maxCoeff() / scale;
+    const double res = (geff - target).cwiseAbs().maxCoeff() / target.cwiseAbs().maxCoeff();
     r.iterations = it;
     if (res < best) {
       best = res;
       best_g = gp;
+      best_beta = beta;
     }
     if (res <= mo.tolerance) break;
-    const Eigen::MatrixXd next = gp.cwiseProduct(c_target.cwiseQuotient(geff)).cwiseMax(c_lo).cwiseMin(c_hi);
-    if ((next - gp).cwiseAbs().maxCoeff() <= 1e-15 * scale) break;  // bounded fixed point reached
+    Eigen::MatrixXd desired = gp.cwiseProduct(target.cwiseQuotient(geff));
+    if (mo.column_scaling) {
+      // Per-column gain controller: keep the most demanding cell of each column just inside
+      // g_max. Decrease at once when a cell would clip; recover slowly when there is room.
+      for (int j = 0; j < n; ++j) {
+        double ratio = 0;
+        for (int i = 0; i < m; ++i) ratio = std::max(ratio, desired(i, j) / c_hi(i, j));
+        double b_new = beta(j);
+        if (ratio > 1.0)
+          b_new = beta(j) * 0.995 / ratio;
+        else if (ratio < 0.97 && beta(j) < 1.0)
+          b_new = std::min(1.0, beta(j) * std::sqrt(0.985 / ratio));
+        if (b_new == beta(j)) continue;
+        for (int i = 0; i < m; ++i) {
+          const double t = c_floor + b_new * (c_target(i, j) - c_floor);
+          desired(i, j) *= t / target(i, j);
+          target(i, j) = t;
+        }
+        beta(j) = b_new;
+      }
+    }
+    const Eigen::MatrixXd next = desired.cwiseMax(c_lo).cwiseMin(c_hi);
+    if ((next - gp).cwiseAbs().maxCoeff() <= 1e-15 * c_hi.maxCoeff()) break;  // bounded fixed point reached
     gp = next;
   }
   r.g_prime = best_g;
   r.residual = best;
+  r.column_gain = best_beta;
   return r;
 }
 
@@ -141,7 +168,7 @@ ConversionResult convert_matrix(const CrossbarParams& p, const SolverOptions& o,
       if (p.transistor.model != TransistorModel::Linear) return c;
       return c.unaryExpr([&](double x) { return 1.0 / (1.0 / x - p.transistor.r_on_ohm); }).eval();
     };
-    r = matrix_linear(lin, o, g, cell(start.g_prime), cell(lo), cell(hi), mo);
+    r = matrix_linear(lin, o, g, cell(start.g_prime), cell(lo), cell(hi), p.g_min_s, mo);
     r.g_prime = uncell(r.g_prime);
   } else {
     // Nonlinear devices: linearise around the operating signal with chord conductances
@@ -162,7 +189,8 @@ ConversionResult convert_matrix(const CrossbarParams& p, const SolverOptions& o,
           kappa(i, j) = std::abs(dv) > 1e-12 ? s.cell_current(i, j) / (gp(i, j) * dv)
                                              : linear_cell_conductance(p, gp(i, j)) / gp(i, j);
         }
-      r = matrix_linear(lin, o, g, gp.cwiseProduct(kappa), lo.cwiseProduct(kappa), hi.cwiseProduct(kappa), mo);
+      r = matrix_linear(lin, o, g, gp.cwiseProduct(kappa), lo.cwiseProduct(kappa), hi.cwiseProduct(kappa),
+                        p.g_min_s, mo);
       gp = r.g_prime.cwiseQuotient(kappa).cwiseMax(lo).cwiseMin(hi);
     }
     r.g_prime = gp;

@@ -16,7 +16,11 @@ struct ConversionResult {
   int below_min = 0;         ///< cells that needed G' < g_min
   int undetermined = 0;      ///< cells with zero conversion current (kept at G)
   int iterations = 0;        ///< matrix conversion: fixed-point iterations
-  double residual = 0;       ///< matrix conversion: max |G_eff(G') - G| / max G
+  double residual = 0;       ///< matrix conversion: max |G_eff(G') - T| / max T
+  /// Matrix conversion with column scaling: per-column gain beta_j of the realised target
+  /// T(:,j) = g_min + beta_j (G(:,j) - g_min). All ones otherwise. The digital recovery
+  /// divides the weight part of column j by beta_j (see WeightMapping).
+  Eigen::VectorXd column_gain;
   int out_of_range() const { return above_max + below_min; }
 };
 
@@ -31,15 +35,19 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
 
 /// Options of the matrix conversion.
 struct MatrixConversionOptions {
-  int max_iterations = 60;
-  double tolerance = 1e-10;  ///< stop when max |G_eff - G| / max G falls below this
+  int max_iterations = 80;
+  double tolerance = 1e-10;  ///< stop when max |G_eff - T| / max T falls below this
+  /// Allow a per-column gain beta_j <= 1 on the weight part of the target so that every
+  /// G' fits in [g_min, g_max] (IR drop needs G' > T; lowering the column's currents also
+  /// lowers its IR drop). The gain is exact and removed digitally; it costs signal range.
+  bool column_scaling = true;
 };
 
 /// Matrix conversion (beyond the paper): a single conversion signal is exact only for
 /// inputs proportional to it. For linear devices the crossbar is exactly I = V * G_eff(G'),
 /// so solve the inverse problem G_eff(G') = G for all inputs at once, with G' bounded to
 /// [g_min, g_max]: a projected multiplicative fixed-point iteration
-///   G' <- clip(G' .* G ./ G_eff(G')),
+///   G' <- clip(G' .* T ./ G_eff(G')),   T = G (or its column-scaled version, see options),
 /// started from the signal conversion with a constant signal. Each step costs one G_eff
 /// (min(m, n) structured solves). Where the bounds are active the result is the bounded
 /// fixed point and `residual` reports how far G_eff stays from G.

@@ -88,8 +88,33 @@ TEST(MatrixConversion, EffectiveMatrixMatchesTargetForAllInputs) {
     auto s = make_crossbar_solver(p, direct());
     s->program(r.g_prime);
     const Eigen::MatrixXd geff = s->effective_matrix();
+    EXPECT_EQ(r.column_gain, Eigen::VectorXd::Ones(n));  // feasible: no scaling needed
     EXPECT_LT((geff - g).cwiseAbs().maxCoeff() / g.maxCoeff(), 1e-8);
   }
+}
+
+TEST(MatrixConversion, ColumnScalingMakesInfeasibleTargetsExact) {
+  // 144 rows at the paper's parameters: some cells would need G' > g_max. With a per-column
+  // gain on the weight part, G_eff equals the scaled target exactly.
+  CrossbarParams p;
+  const int m = 144, n = 16;
+  const Eigen::MatrixXd g = random_g(m, n, p, 10);
+  MatrixConversionOptions mo;
+  mo.column_scaling = false;
+  const auto bounded = convert_matrix(p, SolverOptions{}, g, Eigen::VectorXd::Constant(m, 0.2), mo);
+  EXPECT_GT(bounded.above_max, 0);
+  EXPECT_GT(bounded.residual, 1e-3);
+  const auto scaled = convert_matrix(p, SolverOptions{}, g, Eigen::VectorXd::Constant(m, 0.2));
+  EXPECT_LT(scaled.column_gain.maxCoeff(), 1.0);
+  EXPECT_GT(scaled.column_gain.minCoeff(), 0.5);
+  Eigen::MatrixXd target(m, n);
+  for (int j = 0; j < n; ++j)
+    target.col(j) = (p.g_min_s + scaled.column_gain(j) * (g.col(j).array() - p.g_min_s)).matrix();
+  auto s = make_crossbar_solver(p, direct());
+  s->program(scaled.g_prime);
+  EXPECT_LT((s->effective_matrix() - target).cwiseAbs().maxCoeff() / target.maxCoeff(), 1e-8);
+  EXPECT_LE(scaled.g_prime.maxCoeff(), p.g_max_s);
+  EXPECT_GE(scaled.g_prime.minCoeff(), p.g_min_s);
 }
 
 TEST(MatrixConversion, NonlinearDevicesMatchAtTheOperatingPoint) {
