@@ -114,7 +114,9 @@ ConversionResult matrix_linear(const CrossbarParams& lin, const SolverOptions& o
       best_beta = beta;
     }
     if (res <= mo.tolerance) break;
-    Eigen::MatrixXd desired = gp.cwiseProduct(target.cwiseQuotient(geff));
+    // Over-relaxed multiplicative update: raising a cell also raises its column's IR drop,
+    // which the plain ratio ignores; an exponent 1 < omega < 2 compensates.
+    Eigen::MatrixXd desired = gp.cwiseProduct(target.cwiseQuotient(geff).array().pow(mo.relaxation).matrix());
     if (mo.column_scaling) {
       // Per-column gain controller: keep the most demanding cell of each column just inside
       // g_max. Decrease at once when a cell would clip; recover slowly when there is room.

@@ -35,8 +35,9 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
 
 /// Options of the matrix conversion.
 struct MatrixConversionOptions {
-  int max_iterations = 80;
-  double tolerance = 1e-10;  ///< stop when max |G_eff - T| / max T falls below this
+  int max_iterations = 60;
+  double tolerance = 1e-9;   ///< stop when max |G_eff - T| / max T falls below this
+  double relaxation = 1.5;   ///< exponent of the multiplicative update (0 < omega < 2)
   /// Allow a per-column gain beta_j <= 1 on the weight part of the target so that every
   /// G' fits in [g_min, g_max] (IR drop needs G' > T; lowering the column's currents also
   /// lowers its IR drop). The gain is exact and removed digitally; it costs signal range.
