@@ -1,0 +1,116 @@
+#pragma once
+/// One matrix-vector layer Y = X * W executed on resistive crossbars, with the paper's
+/// mapping (shift method or differential pairs), partitioning, conversion, programming
+/// noise, DAC/ADC quantization and calibration. SystemC-free; the SystemC modules call its
+/// stages (dac, analog, adc, recover) so both engines compute bit-identical results.
+#include <Eigen/Dense>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sw/analog/calibration.h"
+#include "sw/analog/partition.h"
+#include "sw/analog/quantizer.h"
+#include "sw/circuit/crossbar_solver.h"
+#include "sw/common/config.h"
+
+namespace xbarsim {
+
+enum class ConversionKind { None, Signal, Matrix };
+
+/// Everything that configures an analog layer (YAML sections crossbar, solver, mapping,
+/// conversion, calibration, converters, noise).
+struct AnalogConfig {
+  CrossbarParams xbar;
+  SolverOptions solver;
+  int max_rows = 0;  ///< 0 = unbounded
+  int max_cols = 0;
+  bool differential = false;  ///< mapping.negative = differential
+  bool analog_sum = false;    ///< mapping.sum_x = analog
+  std::string method = "conversion+calibration";
+  ConversionKind conversion = ConversionKind::Signal;
+  bool calibrate = true;
+  std::string conversion_signal = "constant";  ///< constant | max_input | mean_input
+  double conversion_amplitude = 0.1;           ///< fraction of v_in_max
+  bool optimize_amplitude = false;
+  bool column_scaling = true;
+  int conversion_max_iterations = 60;
+  int calibration_samples = 10;
+  std::string calibration_signal = "shuffled";  ///< random | random_decreasing | shuffled
+  uint64_t calibration_seed = 7;
+  int dac_bits = 0;  ///< 0 = none
+  int adc_bits = 0;
+  double adc_margin = 0.05;
+  double sigma_s = 0;  ///< programming noise (S)
+  uint64_t noise_seed = 11;
+
+  /// Sets method, conversion and calibrate from a method name; throws InputError naming `key`.
+  void set_method(const std::string& name, const std::string& key);
+};
+
+/// Reads and validates the sections above; the method comes from `method_key`.
+AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& method_key = "mitigation.method");
+
+/// Statistics of one programmed crossbar.
+struct CrossbarReport {
+  Block block;                 ///< rows/columns of W it holds
+  int physical_cols = 0;       ///< columns incl. differential pairs / sum column
+  int out_of_range_cells = 0;  ///< conversion wanted G' outside [g_min, g_max] (clipped)
+  double min_column_gain = 1;  ///< matrix conversion column scaling (1 = full range)
+  double conversion_amplitude = 0;  ///< constant-signal amplitude used (fraction of v_in_max)
+  double conversion_residual = 0;   ///< matrix conversion max |G_eff - T| / max T
+};
+
+class AnalogLayer {
+ public:
+  /// `w` is K x N (inputs x outputs). Inputs span [0, x_max] (or [-x_max, x_max] when
+  /// `signed_inputs`) and map to [0, v_in_max] volts. `salt` decorrelates the random
+  /// choices (noise, calibration picks) of different layers.
+  AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs, uint64_t salt = 0);
+  ~AnalogLayer();
+  AnalogLayer(AnalogLayer&&) noexcept;
+
+  /// Maps, converts, programs (with noise) every crossbar, sets ADC ranges and calibrates.
+  /// `calib` (C x K) holds real input vectors for calibration and range estimation; when
+  /// empty, calibration uses random vectors (50 % sparse).
+  void program(const Eigen::MatrixXd& calib);
+
+  /// Y (vectors x N) = the crossbar computation of X * W, all stages.
+  Eigen::MatrixXd forward(const Eigen::MatrixXd& x) const;
+
+  // Stages of forward(), in order (used by the SystemC modules).
+  Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;  ///< DAC-quantized inputs (input units)
+  Eigen::MatrixXd analog(int b, const Eigen::MatrixXd& xq) const;  ///< column currents (A) of crossbar b
+  Eigen::MatrixXd adc(int b, const Eigen::MatrixXd& currents) const;  ///< ADC-quantized currents
+  /// Partial output of crossbar b (vectors x block cols): shift/differential recovery with
+  /// sum(X), then calibration. The layer output is the sum over row blocks.
+  Eigen::MatrixXd recover(int b, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
+
+  int inputs() const { return static_cast<int>(w_.rows()); }
+  int outputs() const { return static_cast<int>(w_.cols()); }
+  int crossbars() const { return static_cast<int>(blocks_.size()); }
+  const Block& block(int b) const;
+  const std::vector<CrossbarReport>& reports() const { return reports_; }
+  double volts_per_unit() const { return alpha_; }
+  const AnalogConfig& config() const { return cfg_; }
+
+ private:
+  struct Crossbar;
+  Eigen::MatrixXd calibration_vectors(const Eigen::MatrixXd& calib) const;
+  Eigen::MatrixXd analog_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
+  Eigen::MatrixXd raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
+
+  AnalogConfig cfg_;
+  Eigen::MatrixXd w_;
+  double x_max_;
+  bool signed_;
+  uint64_t salt_;
+  double alpha_;  ///< V per input unit
+  Quantizer dac_q_;
+  std::vector<Block> blocks_;
+  std::vector<std::unique_ptr<Crossbar>> xbars_;
+  std::vector<CrossbarReport> reports_;
+};
+
+}  // namespace xbarsim
