@@ -1,0 +1,102 @@
+// Quantizers, partitioning, calibration fit and metrics against hand-computed values.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "sw/analog/calibration.h"
+#include "sw/analog/error_metrics.h"
+#include "sw/analog/partition.h"
+#include "sw/analog/quantizer.h"
+
+using namespace xbarsim;
+
+TEST(Quantizer, ThreeBitsOnZeroToPointFour) {
+  const Quantizer q{3, 0.0, 0.4};  // step 0.4/7
+  EXPECT_EQ(q.code(0.1), 2);       // 0.1 / 0.0571 = 1.75 -> 2
+  EXPECT_NEAR(q.apply(0.1), 0.8 / 7, 1e-15);
+  EXPECT_EQ(q.code(0.0285), 0);    // 0.499 steps
+  EXPECT_EQ(q.code(0.0286), 1);    // 0.5005 steps
+  EXPECT_EQ(q.code(0.5), 7);       // clipped high
+  EXPECT_EQ(q.code(-1.0), 0);      // clipped low
+  EXPECT_DOUBLE_EQ(q.apply(0.4), 0.4);
+}
+
+TEST(Quantizer, SignedRangeAndNone) {
+  const Quantizer q{2, -1.0, 1.0};  // levels -1, -1/3, 1/3, 1
+  EXPECT_NEAR(q.apply(-0.2), -1.0 / 3, 1e-15);
+  EXPECT_NEAR(q.apply(0.9), 1.0, 1e-15);
+  const Quantizer none{0, 0, 1};
+  EXPECT_EQ(none.apply(0.123456789), 0.123456789);
+  EXPECT_EQ(none.apply(7.0), 7.0);
+}
+
+TEST(Partition, BalancedBlocks) {
+  auto b = partition(576, 64, 64, 64);
+  ASSERT_EQ(b.size(), 9u);
+  for (const auto& x : b) {
+    EXPECT_EQ(x.rows, 64);
+    EXPECT_EQ(x.cols, 64);
+  }
+  b = partition(10, 5, 4, 0);
+  ASSERT_EQ(b.size(), 3u);
+  EXPECT_EQ(b[0].rows, 4);
+  EXPECT_EQ(b[1].rows, 3);
+  EXPECT_EQ(b[2].rows, 3);
+  EXPECT_EQ(b[2].row0, 7);
+  EXPECT_EQ(b[0].cols, 5);
+  EXPECT_EQ(partition(7, 3, 0, 0).size(), 1u);
+  EXPECT_EQ(partition(7, 9, 0, 4).size(), 3u);
+}
+
+TEST(Calibration, RecoversAnExactAffineMap) {
+  Eigen::MatrixXd actual(4, 2), ideal(4, 2);
+  actual << 1, 5, 2, 6, 3, 7, 4, 9;
+  ideal.col(0) = 2 * actual.col(0).array() + 3;
+  ideal.col(1) = -0.5 * actual.col(1).array() + 1;
+  const ColumnFit f = fit_columns(actual, ideal);
+  EXPECT_NEAR(f.gain(0), 2, 1e-12);
+  EXPECT_NEAR(f.offset(0), 3, 1e-12);
+  EXPECT_NEAR(f.gain(1), -0.5, 1e-12);
+  EXPECT_NEAR(f.offset(1), 1, 1e-12);
+  EXPECT_LT((f.apply(actual) - ideal).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Calibration, MatchesNormalEquations) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n(0, 1);
+  Eigen::MatrixXd actual(10, 3), ideal(10, 3);
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 3; ++j) {
+      actual(i, j) = n(rng);
+      ideal(i, j) = 1.5 * actual(i, j) + n(rng) * 0.1;
+    }
+  const ColumnFit f = fit_columns(actual, ideal);
+  for (int j = 0; j < 3; ++j) {
+    Eigen::MatrixXd a(10, 2);
+    a.col(0) = actual.col(j);
+    a.col(1).setOnes();
+    const Eigen::Vector2d coef = a.colPivHouseholderQr().solve(ideal.col(j));
+    EXPECT_NEAR(f.gain(j), coef(0), 1e-12);
+    EXPECT_NEAR(f.offset(j), coef(1), 1e-12);
+  }
+  // Constant column: unit gain, mean offset.
+  Eigen::MatrixXd c = Eigen::MatrixXd::Constant(3, 1, 2.0), t(3, 1);
+  t << 1, 2, 6;
+  const ColumnFit g = fit_columns(c, t);
+  EXPECT_EQ(g.gain(0), 1.0);
+  EXPECT_NEAR(g.offset(0), 1.0, 1e-15);
+}
+
+TEST(Metrics, PaperDefinitions) {
+  Eigen::MatrixXd ideal(3, 2), actual(3, 2);
+  ideal << 0, 10, 2, 10, 4, 10;  // column 1 constant: falls back to the largest range (4)
+  actual << 0.4, 10, 2, 9, 3.6, 10;
+  const ErrorStats s = relative_error(actual, ideal);
+  EXPECT_NEAR(s.column_mean(0), (0.1 + 0 + 0.1) / 3, 1e-15);
+  EXPECT_NEAR(s.column_worst(0), 0.1, 1e-15);
+  EXPECT_NEAR(s.column_worst(1), 0.25, 1e-15);
+  EXPECT_NEAR(s.mean_relative_error, (0.1 + 0.1 + 0.25) / 6, 1e-15);
+  EXPECT_NEAR(s.worst_relative_error, 0.25, 1e-15);
+  EXPECT_NEAR(s.bit_accuracy_worst(), std::log2(1 / 0.25 + 1), 1e-12);
+}
