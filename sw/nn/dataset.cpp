@@ -1,0 +1,148 @@
+#include "sw/nn/dataset.h"
+
+#include <zlib.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sys/stat.h>
+
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+namespace {
+
+bool exists(const std::string& p) {
+  struct stat st;
+  return stat(p.c_str(), &st) == 0;
+}
+
+std::vector<uint8_t> read_gz_or_plain(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw InputError("cannot open '" + path + "'");
+  std::vector<uint8_t> out;
+  uint8_t buf[1 << 16];
+  int n;
+  while ((n = gzread(f, buf, sizeof buf)) > 0) out.insert(out.end(), buf, buf + n);
+  const bool bad = n < 0;
+  gzclose(f);
+  if (bad) throw InputError("'" + path + "' is not a readable gzip/idx file");
+  return out;
+}
+
+uint32_t be32(const std::vector<uint8_t>& b, size_t at) {
+  return (uint32_t(b[at]) << 24) | (uint32_t(b[at + 1]) << 16) | (uint32_t(b[at + 2]) << 8) | uint32_t(b[at + 3]);
+}
+
+void clamp_range(int total, int& offset, int& count, const std::string& what) {
+  if (offset < 0 || offset >= total)
+    throw InputError(what + ": offset " + std::to_string(offset) + " is outside the " + std::to_string(total) +
+                     " images");
+  if (count < 0 || offset + count > total) count = total - offset;
+}
+
+}  // namespace
+
+void Dataset::preprocess(int index, const Preprocessing& p, float* out) const {
+  const int hw = shape.h * shape.w, n = shape.size();
+  const uint8_t* px = pixels.data() + static_cast<size_t>(index) * n;
+  for (int c = 0; c < shape.c; ++c) {
+    const double mean = p.mean.size() == 1 ? p.mean[0] : p.mean.at(c);
+    const double sd = p.std.size() == 1 ? p.std[0] : p.std.at(c);
+    for (int k = 0; k < hw; ++k) out[c * hw + k] = static_cast<float>((px[c * hw + k] * p.scale - mean) / sd);
+  }
+}
+
+Dataset load_cifar10(const std::string& file, int offset, int count) {
+  std::ifstream in(file, std::ios::binary | std::ios::ate);
+  if (!in) throw InputError("cannot open CIFAR-10 file '" + file + "'");
+  const long long size = in.tellg();
+  constexpr int kRecord = 1 + 3072;
+  if (size <= 0 || size % kRecord) throw InputError("'" + file + "' is not in the CIFAR-10 binary record format");
+  const int total = static_cast<int>(size / kRecord);
+  clamp_range(total, offset, count, file);
+  Dataset d;
+  d.name = "cifar10";
+  d.shape = {3, 32, 32};
+  d.pixels.resize(static_cast<size_t>(count) * 3072);
+  d.labels.resize(count);
+  in.seekg(static_cast<long long>(offset) * kRecord);
+  std::vector<uint8_t> rec(kRecord);
+  for (int k = 0; k < count; ++k) {
+    in.read(reinterpret_cast<char*>(rec.data()), kRecord);
+    if (!in) throw InputError("'" + file + "' ended early");
+    if (rec[0] > 9) throw InputError("'" + file + "': record " + std::to_string(offset + k) + " has label > 9");
+    d.labels[k] = rec[0];
+    std::copy(rec.begin() + 1, rec.end(), d.pixels.begin() + static_cast<size_t>(k) * 3072);
+  }
+  return d;
+}
+
+Dataset load_mnist(const std::string& images, const std::string& labels, int offset, int count) {
+  const auto im = read_gz_or_plain(images);
+  const auto lb = read_gz_or_plain(labels);
+  if (im.size() < 16 || be32(im, 0) != 2051) throw InputError("'" + images + "' is not an idx3 image file");
+  if (lb.size() < 8 || be32(lb, 0) != 2049) throw InputError("'" + labels + "' is not an idx1 label file");
+  const int total = static_cast<int>(be32(im, 4)), rows = static_cast<int>(be32(im, 8)),
+            cols = static_cast<int>(be32(im, 12));
+  if (static_cast<int>(be32(lb, 4)) != total) throw InputError("MNIST image and label counts differ");
+  if (im.size() < 16 + static_cast<size_t>(total) * rows * cols || lb.size() < 8 + static_cast<size_t>(total))
+    throw InputError("MNIST files are truncated");
+  clamp_range(total, offset, count, images);
+  Dataset d;
+  d.name = "mnist";
+  d.shape = {1, rows, cols};
+  const size_t n = static_cast<size_t>(rows) * cols;
+  d.pixels.assign(im.begin() + 16 + offset * n, im.begin() + 16 + (offset + count) * n);
+  d.labels.assign(lb.begin() + 8 + offset, lb.begin() + 8 + offset + count);
+  return d;
+}
+
+std::string resolve_data_dir(const ConfigTree& cfg) {
+  std::vector<std::string> tried;
+  const std::string configured = cfg.get_string("data.dir");
+  if (!configured.empty()) {
+    if (exists(configured)) return configured;
+    throw InputError("data directory '" + configured + "' (data.dir) does not exist");
+  }
+  if (const char* env = std::getenv("XBARSIM_DATA_DIR")) {
+    if (exists(env)) return env;
+    throw InputError(std::string("data directory '") + env + "' (XBARSIM_DATA_DIR) does not exist");
+  }
+  std::vector<std::string> candidates = {"../shared/data"};
+#ifdef XBARSIM_SOURCE_DIR
+  candidates.push_back(std::string(XBARSIM_SOURCE_DIR) + "/../shared/data");
+#endif
+  for (const auto& c : candidates) {
+    if (exists(c)) return c;
+    tried.push_back(c);
+  }
+  std::string list;
+  for (const auto& t : tried) list += " " + t;
+  throw InputError("no data directory found: set data.dir or XBARSIM_DATA_DIR (looked in:" + list + ")");
+}
+
+std::string resolve_models_dir(const ConfigTree& cfg) {
+  const std::string configured = cfg.get_string("data.models_dir");
+  if (!configured.empty()) return configured;
+  return resolve_data_dir(cfg) + "/../models";
+}
+
+Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset,
+                     int count) {
+  if (name == "cifar10") {
+    const std::string file = dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin");
+    if (!exists(file)) throw InputError("CIFAR-10 file not found: looked for '" + file + "'");
+    return load_cifar10(file, offset, count);
+  }
+  if (name == "mnist") {
+    const std::string im = dir + "/mnist/t10k-images-idx3-ubyte.gz", lb = dir + "/mnist/t10k-labels-idx1-ubyte.gz";
+    for (const auto& f : {im, lb})
+      if (!exists(f)) throw InputError("MNIST file not found: looked for '" + f + "'");
+    if (split == "calib") return load_mnist(im, lb, kMnistCalibrationStart + offset, count);
+    return load_mnist(im, lb, offset, count);
+  }
+  throw InputError("unknown dataset '" + name + "' (cifar10 or mnist)");
+}
+
+}  // namespace xbarsim

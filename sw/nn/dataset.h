@@ -1,0 +1,46 @@
+#pragma once
+/// Image datasets: CIFAR-10 binary records and MNIST idx (gzip), and where to find them.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sw/common/config.h"
+#include "sw/nn/model.h"
+
+namespace xbarsim {
+
+struct Dataset {
+  std::string name;
+  Shape shape;                  ///< C x H x W of one image
+  std::vector<uint8_t> pixels;  ///< count x (C*H*W), C planes row-major
+  std::vector<int> labels;
+  int count() const { return static_cast<int>(labels.size()); }
+  /// x = (pixel * scale - mean[c]) / std[c] into `out` (C*H*W floats).
+  void preprocess(int index, const Preprocessing& p, float* out) const;
+};
+
+/// CIFAR-10 binary file (1 label byte + 3072 bytes per record): records [offset, offset+count).
+/// count < 0 = to the end. Throws InputError with the path on a missing/short file.
+Dataset load_cifar10(const std::string& file, int offset = 0, int count = -1);
+
+/// MNIST idx3 images + idx1 labels, gzip-compressed or plain.
+Dataset load_mnist(const std::string& images, const std::string& labels, int offset = 0, int count = -1);
+
+/// The data directory: config `data.dir`, else $XBARSIM_DATA_DIR, else the first existing of
+/// ./../shared/data, ../shared/data beside the source tree. Throws InputError listing every
+/// place it looked when none exists.
+std::string resolve_data_dir(const ConfigTree& cfg);
+
+/// The models directory: `data.models_dir`, else <data dir>/../models.
+std::string resolve_models_dir(const ConfigTree& cfg);
+
+/// Images of a named dataset ("cifar10" or "mnist") in `data_dir`; `split` is "test" or
+/// "calib". CIFAR-10 calibration images are calib_batch.bin (training images). MNIST ships
+/// no training images here, so its calibration split is test images 9000-9999, which
+/// callers must then exclude from evaluation (see kMnistCalibrationStart).
+constexpr int kMnistCalibrationStart = 9000;
+
+Dataset load_dataset(const std::string& name, const std::string& data_dir, const std::string& split, int offset,
+                     int count);
+
+}  // namespace xbarsim

@@ -1,0 +1,75 @@
+#pragma once
+/// A CNN as a straight-line program over per-image activations (C x H x W, float32),
+/// imported from ONNX. Conv and Gemm/MatMul are "linear layers" whose multiply can be
+/// executed by a backend (software GEMM or crossbars); everything else runs digitally.
+#include <Eigen/Dense>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace xbarsim {
+
+/// Shape of one image's activation; vectors are C x 1 x 1.
+struct Shape {
+  int c = 0, h = 1, w = 1;
+  int size() const { return c * h * w; }
+  bool operator==(const Shape& o) const { return c == o.c && h == o.h && w == o.w; }
+};
+
+/// A convolution (or fully connected layer as a 1x1 convolution on a 1x1 input).
+/// `weight` is K x c_out with K = k_h*k_w*c_in in the dense-mapping row order
+///   r = (kx * k_h + ky) * c_in + c
+/// (window column-major, channels innermost), the order the shift-register buffer feeds.
+struct LinearLayer {
+  std::string name;
+  bool is_conv = true;
+  int c_in = 0, c_out = 0, k_h = 1, k_w = 1;
+  int stride_h = 1, stride_w = 1;
+  int pad_t = 0, pad_l = 0, pad_b = 0, pad_r = 0;
+  Shape in, out;
+  Eigen::MatrixXf weight;  ///< K x c_out
+  Eigen::VectorXf bias;    ///< c_out (zeros when absent)
+  int rows() const { return k_h * k_w * c_in; }
+  int iterations() const { return out.h * out.w; }  ///< output pixels (dense mapping)
+};
+
+enum class OpKind { Linear, Relu, Add, MaxPool, AvgPool, GlobalAvgPool, Flatten, Slice, Pad, Affine };
+
+struct Op {
+  OpKind kind = OpKind::Relu;
+  std::string name;      ///< ONNX node name
+  std::vector<int> in;   ///< value ids
+  int out = -1;          ///< value id
+  int linear = -1;       ///< index into Model::linear (Linear)
+  int k_h = 1, k_w = 1, s_h = 1, s_w = 1, p_t = 0, p_l = 0, p_b = 0, p_r = 0;  ///< pooling
+  int start[3] = {0, 0, 0}, step[3] = {1, 1, 1};   ///< Slice over (C, H, W)
+  int pad_lo[3] = {0, 0, 0}, pad_hi[3] = {0, 0, 0};  ///< Pad over (C, H, W)
+  float pad_value = 0;
+  Eigen::VectorXf scale, shift;  ///< Affine (BatchNormalization): y = x * scale[c] + shift[c]
+};
+
+/// Input preprocessing from the model's metadata_props: x = (pixel * scale - mean[c]) / std[c].
+struct Preprocessing {
+  double scale = 1.0 / 255;
+  std::vector<double> mean{0.0}, std{1.0};
+};
+
+struct Model {
+  std::string path;
+  Shape input;
+  std::vector<Shape> values;  ///< shape of every value; value 0 is the input
+  std::vector<Op> ops;        ///< topological order
+  std::vector<LinearLayer> linear;
+  int output = -1;
+  Preprocessing pre;
+  std::string dataset;             ///< metadata "dataset"
+  double reference_accuracy = -1;  ///< metadata "software_accuracy_test_batch"
+  std::map<std::string, std::string> metadata;
+};
+
+/// Loads an ONNX model (opset 13 ops listed in the README). Any other op or attribute
+/// value throws InputError naming the node and op. `input` gives C,H,W when the model's
+/// input has symbolic dimensions (0 = take them from the model).
+Model load_onnx_model(const std::string& path, Shape input = Shape{0, 0, 0});
+
+}  // namespace xbarsim

@@ -1,0 +1,50 @@
+#pragma once
+/// Per-image execution of a Model with a pluggable backend for the linear layers.
+#include <Eigen/Dense>
+#include <vector>
+
+#include "sw/nn/model.h"
+
+namespace xbarsim {
+
+/// Row-major float matrix: one im2col row (one iteration's input vector) is contiguous.
+using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// Executes the multiply of the linear layers (Conv/Gemm) of a model.
+class LinearBackend {
+ public:
+  virtual ~LinearBackend() = default;
+  /// `cols`: iterations x K (one image's im2col matrix, dense-mapping row order);
+  /// `out`: iterations x c_out, without the bias (added digitally by the caller).
+  virtual void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const = 0;
+};
+
+/// Exact float32 software GEMM.
+class SoftwareBackend : public LinearBackend {
+ public:
+  explicit SoftwareBackend(const Model& m) : model_(m) {}
+  void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override {
+    out.noalias() = cols * model_.linear[layer].weight;
+  }
+
+ private:
+  const Model& model_;
+};
+
+/// im2col of one image (C x H x W, row-major) for layer L: one row per output pixel
+/// (row-major over out_h x out_w), columns in the order r = (kx*k_h + ky)*c_in + c;
+/// padding taps are zero.
+void im2col(const LinearLayer& L, const float* chw, RowMatrixXf& cols);
+
+/// What one image's pass recorded: every linear layer's input (im2col) and output (with
+/// bias; iterations x c_out).
+struct LayerTrace {
+  std::vector<RowMatrixXf> inputs;
+  std::vector<Eigen::MatrixXf> outputs;
+};
+
+/// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
+Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend,
+                          LayerTrace* trace = nullptr);
+
+}  // namespace xbarsim
