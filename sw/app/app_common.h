@@ -15,6 +15,29 @@ ConfigTree load_config(const CliArgs& args);
 /// Writes a JSON report (pretty-printed) to `path`; throws InputError if it cannot.
 void write_json(const std::string& path, const nlohmann::json& j);
 
+/// Sweeps: every combination (cartesian product) of the values of the keys given as lists;
+/// one empty combination when nothing sweeps.
+std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations(const ConfigTree& cfg);
+
+/// Short label "key=value ..." of a combination (last key component only), or "default".
+std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo);
+
+/// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.
+class ProgressBar {
+ public:
+  ProgressBar(int total, std::string label);
+  ~ProgressBar();
+  void update(int done);
+  void finish();
+
+ private:
+  int total_;
+  std::string label_;
+  bool tty_;
+  double start_, last_ = -1;
+  bool finished_ = false;
+};
+
 /// A subcommand entry point: receives the arguments after the subcommand name.
 using CommandFn = int (*)(int argc, char** argv);
 

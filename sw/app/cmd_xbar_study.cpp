@@ -91,26 +91,10 @@ StudyResult run_study(const ConfigTree& cfg) {
   return r;
 }
 
-/// All combinations of the sweep keys' values (cartesian product).
-std::vector<std::vector<std::pair<std::string, std::string>>> combinations(const ConfigTree& cfg) {
-  std::vector<std::vector<std::pair<std::string, std::string>>> out(1);
-  for (const auto& key : cfg.sweep_keys()) {
-    std::vector<std::vector<std::pair<std::string, std::string>>> next;
-    for (const auto& combo : out)
-      for (const auto& v : cfg.list_items(key)) {
-        auto c = combo;
-        c.emplace_back(key, v);
-        next.push_back(c);
-      }
-    out.swap(next);
-  }
-  return out;
-}
-
 int cmd_xbar_study(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {});
   const ConfigTree base = load_config(args);
-  const auto combos = combinations(base);
+  const auto combos = sweep_combinations(base);
   nlohmann::json all = nlohmann::json::array();
   std::ofstream csv;
   if (args.has("--csv")) {
@@ -126,12 +110,8 @@ int cmd_xbar_study(int argc, char** argv) {
   int run = 0;
   for (const auto& combo : combos) {
     ConfigTree cfg = base;
-    std::string label;
-    for (const auto& kv : combo) {
-      cfg.set(kv.first, kv.second);
-      label += (label.empty() ? "" : " ") + kv.first.substr(kv.first.find('.') + 1) + "=" + kv.second;
-    }
-    if (label.empty()) label = "default";
+    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
+    const std::string label = sweep_label(combo);
     if (combos.size() > 1) std::fprintf(stderr, "[%d/%zu] %s\n", run + 1, combos.size(), label.c_str());
     StudyResult r = run_study(cfg);
     nlohmann::json& j = r.json;

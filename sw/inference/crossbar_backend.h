@@ -1,0 +1,44 @@
+#pragma once
+/// Runs every linear layer (Conv/Gemm) of a model on crossbars through AnalogLayer
+/// (dense mapping: the im2col rows are the crossbar input vectors, one per iteration).
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "sw/analog/analog_layer.h"
+#include "sw/nn/dataset.h"
+#include "sw/nn/network.h"
+
+namespace xbarsim {
+
+/// Per-layer input ranges and calibration vectors gathered from software activations.
+struct LayerStatistics {
+  double x_max = 0;          ///< largest |input| over the calibration images
+  bool signed_inputs = false;
+  Eigen::MatrixXd samples;   ///< up to `max_samples` im2col rows (real inputs)
+  Eigen::VectorXd out_lo, out_hi;  ///< per output channel: range of the software outputs
+};
+
+class CrossbarBackend : public LinearBackend {
+ public:
+  CrossbarBackend(const Model& m, const AnalogConfig& cfg);
+
+  /// Runs the software model on the calibration images, then maps, converts and
+  /// calibrates every layer. `progress(done, total)` is called per programmed layer.
+  void program(const Dataset& calib, int max_samples = 2048,
+               const std::function<void(int, int)>& progress = nullptr);
+
+  void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override;
+
+  const AnalogLayer& layer(int l) const { return layers_.at(l); }
+  const LayerStatistics& statistics(int l) const { return stats_.at(l); }
+  int layers() const { return static_cast<int>(layers_.size()); }
+
+ private:
+  const Model& model_;
+  AnalogConfig cfg_;
+  std::vector<AnalogLayer> layers_;
+  std::vector<LayerStatistics> stats_;
+};
+
+}  // namespace xbarsim
