@@ -5,6 +5,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <type_traits>
 
 #include "sw/analog/error_metrics.h"
 #include "sw/analog/synthetic.h"
@@ -83,7 +84,8 @@ struct AnalogLayer::Crossbar {
   Eigen::VectorXd beta;
   Eigen::MatrixXd g_prog;
   std::unique_ptr<CrossbarSolver> solver;
-  Eigen::MatrixXd geff;
+  Eigen::MatrixXd geff_d;  ///< alpha * G_eff (A per input unit), linear devices
+  Eigen::MatrixXf geff_f;  ///< the same in float for network inference
   Eigen::VectorXd adc_lo, adc_hi;
   ColumnFit fit;
 };
@@ -201,11 +203,14 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     auto install = [&](const Eigen::MatrixXd& gp) {
       xb->g_prog = gp;
       xb->solver->program(gp);
-      if (p.is_linear()) xb->geff = xb->solver->effective_matrix();
+      if (p.is_linear()) {
+        xb->geff_d = alpha_ * xb->solver->effective_matrix();
+        xb->geff_f = xb->geff_d.cast<float>();
+      }
     };
     // Error of the un-calibrated, un-quantized partial output on the calibration set.
     auto cal_error = [&]() {
-      return relative_error(raw_partial_of(*xb, analog_of(*xb, cal), cal), ideal_partial).mean_relative_error;
+      return relative_error(raw_partial_of(*xb, currents_of(*xb, cal), cal), ideal_partial).mean_relative_error;
     };
 
     if (cfg_.conversion == ConversionKind::None) {
@@ -258,7 +263,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     x.adc_lo = Eigen::VectorXd::Zero(x.pcols);
     x.adc_hi = Eigen::VectorXd::Zero(x.pcols);
     if (cfg_.adc_bits > 0) {
-      const Eigen::MatrixXd cur = analog(idx, range_x);
+      const Eigen::MatrixXd cur = currents_of(x, range_x);
       for (int c = 0; c < x.pcols; ++c) {
         const double lo = cur.col(c).minCoeff(), hi = cur.col(c).maxCoeff();
         const double pad = std::max(cfg_.adc_margin * (hi - lo), 1e-12 * std::max(std::abs(hi), 1e-12));
@@ -267,7 +272,11 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
       }
     }
     x.fit = identity_fit(blk.cols);
-    if (cfg_.calibrate) x.fit = fit_columns(raw_partial_of(x, adc(idx, analog(idx, cal)), cal), ideal_partial);
+    if (cfg_.calibrate) {
+      Mat<double> cur = currents_of(x, cal);
+      adc_inplace<double>(idx, cur);
+      x.fit = fit_columns(raw_partial_of(x, cur, cal), ideal_partial);
+    }
     reports_.push_back(rep);
   }
 }
@@ -277,65 +286,152 @@ Eigen::MatrixXd AnalogLayer::dac(const Eigen::MatrixXd& x) const {
   return x.unaryExpr([this](double v) { return dac_q_.apply(v); });
 }
 
-Eigen::MatrixXd AnalogLayer::analog(int b, const Eigen::MatrixXd& xq) const { return analog_of(*xbars_.at(b), xq); }
-
-Eigen::MatrixXd AnalogLayer::analog_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
-  const Eigen::MatrixXd v = alpha_ * xq.middleCols(x.blk.row0, x.blk.rows);
-  if (cfg_.xbar.is_linear()) return v * x.geff;
-  return x.solver->column_currents(v);
-}
-
-Eigen::MatrixXd AnalogLayer::adc(int b, const Eigen::MatrixXd& currents) const {
-  if (cfg_.adc_bits <= 0) return currents;
-  const Crossbar& x = *xbars_.at(b);
-  Eigen::MatrixXd out(currents.rows(), currents.cols());
-  for (Eigen::Index c = 0; c < currents.cols(); ++c) {
-    const Quantizer q{cfg_.adc_bits, x.adc_lo(c), x.adc_hi(c)};
-    for (Eigen::Index a = 0; a < currents.rows(); ++a) out(a, c) = q.apply(currents(a, c));
-  }
-  return out;
+Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
+  Mat<double> cur;
+  analog_of<double>(x, xq, cur);
+  return cur;
 }
 
 Eigen::MatrixXd AnalogLayer::raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq,
                                             const Eigen::MatrixXd& xq) const {
-  const double gmin = cfg_.xbar.g_min_s;
-  Eigen::VectorXd sum_x = xq.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
-  if (cfg_.analog_sum) {
-    const int c = x.pcols - 1;  // I/alpha = (g_min + beta s a_sum) sum(X)
-    sum_x = iq.col(c) / (alpha_ * (gmin + x.beta(c) * x.s * x.a_sum));
-  }
-  Eigen::MatrixXd out(iq.rows(), x.blk.cols);
-  auto weight_part = [&](int c) -> Eigen::VectorXd {
-    return ((iq.col(c) / alpha_ - gmin * sum_x) / (x.beta(c) * x.s)).eval();
-  };
-  for (int j = 0; j < x.blk.cols; ++j) {
-    if (cfg_.differential)
-      out.col(j) = weight_part(2 * j) - weight_part(2 * j + 1);
+  Mat<double> y = Mat<double>::Zero(iq.rows(), x.blk.cols);
+  recover_of<double>(x, iq, xq, y, 0, false);
+  return y;
+}
+
+template <typename S>
+void AnalogLayer::dac_inplace(RowMat<S>& x) const {
+  if (!dac_q_.enabled()) return;
+  S* d = x.data();
+  for (Eigen::Index k = 0; k < x.size(); ++k) d[k] = static_cast<S>(dac_q_.apply(d[k]));
+}
+
+template <typename S>
+void AnalogLayer::analog(int b, const RowMat<S>& xq, Mat<S>& currents) const {
+  analog_of<S>(*xbars_.at(b), xq, currents);
+}
+
+template <typename S>
+void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const {
+  if (cfg_.xbar.is_linear()) {
+    // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
+    if constexpr (std::is_same_v<S, float>)
+      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_f;
     else
-      out.col(j) = weight_part(j) + x.w_lo * sum_x;
+      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_d;
+    return;
   }
-  return out;
+  const Eigen::MatrixXd v = alpha_ * xq.middleCols(x.blk.row0, x.blk.rows).template cast<double>();
+  currents = x.solver->column_currents(v).template cast<S>();
 }
 
-Eigen::MatrixXd AnalogLayer::recover(int b, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const {
+template <typename S>
+void AnalogLayer::adc_inplace(int b, Mat<S>& currents) const {
+  if (cfg_.adc_bits <= 0) return;
   const Crossbar& x = *xbars_.at(b);
-  return x.fit.apply(raw_partial_of(x, iq, xq));
+  for (Eigen::Index c = 0; c < currents.cols(); ++c) {
+    const Quantizer q{cfg_.adc_bits, x.adc_lo(c), x.adc_hi(c)};
+    S* col = currents.col(c).data();
+    for (Eigen::Index a = 0; a < currents.rows(); ++a) col[a] = static_cast<S>(q.apply(col[a]));
+  }
 }
 
-Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
+template <typename S>
+void AnalogLayer::recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated) const {
+  const Crossbar& x = *xbars_.at(b);
+  recover_of<S>(x, iq, xq, y, x.blk.col0, calibrated);
+}
+
+template <typename S, typename XQ>
+static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, int rows) {
+  return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
+}
+
+template <typename S>
+void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
+                             bool calibrated) const {
+  const Eigen::Index n = iq.rows();
+  const S gmin = static_cast<S>(cfg_.xbar.g_min_s);
+  const S inv_alpha = static_cast<S>(1.0 / alpha_);
+  Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x;
+  if (cfg_.analog_sum) {  // I_sum / alpha = (g_min + beta s a_sum) * sum(X)
+    const int c = x.pcols - 1;
+    sum_x = iq.col(c) * static_cast<S>(1.0 / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s * x.a_sum)));
+  } else {
+    sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
+  }
+  const S* sx = sum_x.data();
+  const S w_lo = static_cast<S>(x.w_lo);
+  for (int j = 0; j < x.blk.cols; ++j) {
+    const S gain = calibrated ? static_cast<S>(x.fit.gain(j)) : S(1);
+    const S off = calibrated ? static_cast<S>(x.fit.offset(j)) : S(0);
+    S* out = y.col(y_col0 + j).data();
+    if (cfg_.differential) {
+      const S kp = static_cast<S>(1.0 / (x.beta(2 * j) * x.s)), km = static_cast<S>(1.0 / (x.beta(2 * j + 1) * x.s));
+      const S* ip = iq.col(2 * j).data();
+      const S* im = iq.col(2 * j + 1).data();
+      for (Eigen::Index r = 0; r < n; ++r) {
+        const S p = (ip[r] * inv_alpha - gmin * sx[r]) * kp - (im[r] * inv_alpha - gmin * sx[r]) * km;
+        out[r] += gain * p + off;
+      }
+    } else {
+      const S k = static_cast<S>(1.0 / (x.beta(j) * x.s));
+      const S* ic = iq.col(j).data();
+      for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ((ic[r] * inv_alpha - gmin * sx[r]) * k + w_lo * sx[r]) + off;
+    }
+  }
+}
+
+template <typename S>
+void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y) const {
   if (x.cols() != w_.rows()) {
     std::ostringstream os;
     os << "analog layer: input vectors have " << x.cols() << " values, the layer expects " << w_.rows();
     throw InputError(os.str());
   }
   if (xbars_.empty()) throw InputError("analog layer used before program()");
-  const Eigen::MatrixXd xq = dac(x);
-  Eigen::MatrixXd y = Eigen::MatrixXd::Zero(x.rows(), w_.cols());
-  for (int b = 0; b < crossbars(); ++b) {
-    const Block& blk = blocks_[b];
-    y.middleCols(blk.col0, blk.cols) += recover(b, adc(b, analog(b, xq)), xq);
+  RowMat<S> xq_buf;
+  const RowMat<S>* xq = &x;
+  if (dac_q_.enabled()) {
+    xq_buf = x;
+    dac_inplace<S>(xq_buf);
+    xq = &xq_buf;
   }
+  y.setZero(x.rows(), w_.cols());
+  Mat<S> cur;
+  for (int b = 0; b < crossbars(); ++b) {
+    analog<S>(b, *xq, cur);
+    adc_inplace<S>(b, cur);
+    recover_add<S>(b, cur, *xq, y);
+  }
+}
+
+Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
+  const RowMat<double> xr = x;
+  Mat<double> y;
+  forward<double>(xr, y);
   return y;
 }
+
+Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
+  RowMat<double> xq = x;
+  dac_inplace<double>(xq);
+  Mat<double> cur;
+  analog<double>(b, xq, cur);
+  adc_inplace<double>(b, cur);
+  Mat<double> y = Mat<double>::Zero(x.rows(), blocks_.at(b).cols);
+  recover_of<double>(*xbars_.at(b), cur, xq, y, 0, true);
+  return y;
+}
+
+#define XBARSIM_INSTANTIATE(S)                                                                                  \
+  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&) const;                                     \
+  template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                                                \
+  template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;                                 \
+  template void AnalogLayer::adc_inplace<S>(int, Mat<S>&) const;                                              \
+  template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;
+XBARSIM_INSTANTIATE(float)
+XBARSIM_INSTANTIATE(double)
+#undef XBARSIM_INSTANTIATE
 
 }  // namespace xbarsim

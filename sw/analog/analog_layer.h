@@ -76,16 +76,32 @@ class AnalogLayer {
   /// empty, calibration uses random vectors (50 % sparse).
   void program(const Eigen::MatrixXd& calib);
 
-  /// Y (vectors x N) = the crossbar computation of X * W, all stages.
-  Eigen::MatrixXd forward(const Eigen::MatrixXd& x) const;
+  template <typename S>
+  using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
+  /// Input vectors, one per row (row-major so that one iteration's vector is contiguous).
+  template <typename S>
+  using RowMat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-  // Stages of forward(), in order (used by the SystemC modules).
-  Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;  ///< DAC-quantized inputs (input units)
-  Eigen::MatrixXd analog(int b, const Eigen::MatrixXd& xq) const;  ///< column currents (A) of crossbar b
-  Eigen::MatrixXd adc(int b, const Eigen::MatrixXd& currents) const;  ///< ADC-quantized currents
-  /// Partial output of crossbar b (vectors x block cols): shift/differential recovery with
-  /// sum(X), then calibration. The layer output is the sum over row blocks.
-  Eigen::MatrixXd recover(int b, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
+  /// Y (vectors x N) = the crossbar computation of X * W, all stages (double precision).
+  Eigen::MatrixXd forward(const Eigen::MatrixXd& x) const;
+  /// Recovered, calibrated partial output of crossbar b (vectors x block cols), double.
+  Eigen::MatrixXd partial(int b, const Eigen::MatrixXd& x) const;
+
+  // The stages of forward(), in order; float (network inference) and double (studies).
+  // forward() is exactly their composition, so callers composing them (the SystemC
+  // modules) compute bit-identical results.
+  template <typename S>
+  void forward(const RowMat<S>& x, Mat<S>& y) const;
+  template <typename S>
+  void dac_inplace(RowMat<S>& x) const;  ///< DAC quantization (input units)
+  template <typename S>
+  void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
+  template <typename S>
+  void adc_inplace(int b, Mat<S>& currents) const;  ///< ADC quantization
+  /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), then
+  /// calibration when `calibrated`) into columns [col0, col0 + cols) of y.
+  template <typename S>
+  void recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated = true) const;
 
   int inputs() const { return static_cast<int>(w_.rows()); }
   int outputs() const { return static_cast<int>(w_.cols()); }
@@ -98,7 +114,14 @@ class AnalogLayer {
  private:
   struct Crossbar;
   Eigen::MatrixXd calibration_vectors(const Eigen::MatrixXd& calib) const;
-  Eigen::MatrixXd analog_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
+  template <typename S>
+  void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
+  template <typename S>
+  void recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
+                  bool calibrated) const;
+  /// Double-precision helpers used while programming.
+  Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;
+  Eigen::MatrixXd currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
   Eigen::MatrixXd raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
 
   AnalogConfig cfg_;

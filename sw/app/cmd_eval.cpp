@@ -83,6 +83,7 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
   parallel_for(threads, threads, [&](int t) {
     SoftwareBackend sw(model);
     LayerTrace sw_trace, xb_trace;
+    sw_trace.record_inputs = xb_trace.record_inputs = false;
     std::vector<float> x(model.input.size());
     for (int k = t; k < images; k += threads) {
       test.preprocess(k, model.pre, x.data());

@@ -61,7 +61,6 @@ StudyResult run_study(const ConfigTree& cfg) {
   int oor = 0, cells = 0, adcs = 0;
   double min_gain = 1;
   j["crossbars"] = nlohmann::json::array();
-  const Eigen::MatrixXd xq = layer.dac(x);
   for (int b = 0; b < layer.crossbars(); ++b) {
     const CrossbarReport& rep = layer.reports()[b];
     const Block& blk = rep.block;
@@ -69,7 +68,7 @@ StudyResult run_study(const ConfigTree& cfg) {
     cells += blk.rows * rep.physical_cols;
     adcs += (rep.physical_cols + 127) / 128;
     min_gain = std::min(min_gain, rep.min_column_gain);
-    const Eigen::MatrixXd part = layer.recover(b, layer.adc(b, layer.analog(b, xq)), xq);
+    const Eigen::MatrixXd part = layer.partial(b, x);
     const ErrorStats ps = relative_error(part, x.middleCols(blk.row0, blk.rows) * w.block(blk.row0, blk.col0, blk.rows, blk.cols));
     j["crossbars"].push_back({{"row0", blk.row0}, {"rows", blk.rows}, {"col0", blk.col0}, {"cols", blk.cols},
                               {"physical_cols", rep.physical_cols}, {"out_of_range_cells", rep.out_of_range_cells},

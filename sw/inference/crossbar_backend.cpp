@@ -82,7 +82,7 @@ void CrossbarBackend::program(const Dataset& calib, int max_samples,
 }
 
 void CrossbarBackend::multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const {
-  out = layers_.at(layer).forward(cols.cast<double>()).cast<float>();
+  layers_.at(layer).forward<float>(cols, out);
 }
 
 }  // namespace xbarsim

@@ -56,7 +56,7 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
         for (int c = 0; c < L.c_out; ++c)
           for (int p = 0; p < pixels; ++p) y[static_cast<size_t>(c) * pixels + p] = prod(p, c) + L.bias(c);
         if (trace) {
-          trace->inputs[op.linear] = cols;
+          if (trace->record_inputs) trace->inputs[op.linear] = cols;
           trace->outputs[op.linear] = prod.rowwise() + L.bias.transpose();
         }
         break;

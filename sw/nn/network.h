@@ -39,6 +39,7 @@ void im2col(const LinearLayer& L, const float* chw, RowMatrixXf& cols);
 /// What one image's pass recorded: every linear layer's input (im2col) and output (with
 /// bias; iterations x c_out).
 struct LayerTrace {
+  bool record_inputs = true;  ///< false: outputs only (saves one im2col copy per layer)
   std::vector<RowMatrixXf> inputs;
   std::vector<Eigen::MatrixXf> outputs;
 };
