@@ -50,6 +50,9 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.max_cols = parse_max_size(cfg, "mapping.max_cols");
   c.differential = require_one_of(cfg, "mapping.negative", {"shift", "differential"}) == "differential";
   c.analog_sum = require_one_of(cfg, "mapping.sum_x", {"digital", "analog"}) == "analog";
+  c.g_headroom = require_nonnegative(cfg, "mapping.g_headroom");
+  if (c.g_headroom >= 1 || c.xbar.g_max_s * (1 - c.g_headroom) <= c.xbar.g_min_s)
+    throw InputError("configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");
   c.set_method(cfg.get_string(method_key), method_key);
   c.conversion_signal = require_one_of(cfg, "conversion.signal", {"constant", "max_input", "mean_input"});
   if (cfg.get_string("conversion.amplitude") == "optimize") {
@@ -153,7 +156,8 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     const Block& blk = blocks_[b];
     xb->blk = blk;
     const Eigen::MatrixXd wb = w_.block(blk.row0, blk.col0, blk.rows, blk.cols);
-    const double g_span = p.g_max_s - p.g_min_s;
+    // Conductance span for weights; the headroom above it is left for conversion.
+    const double g_span = p.g_max_s * (1 - cfg_.g_headroom) - p.g_min_s;
     // Weights -> non-negative matrix A -> G = g_min + s * A.
     if (cfg_.differential) {
       const double wmax = std::max(wb.cwiseAbs().maxCoeff(), 1e-300);

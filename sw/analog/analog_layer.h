@@ -28,6 +28,7 @@ struct AnalogConfig {
   int max_cols = 0;
   bool differential = false;  ///< mapping.negative = differential
   bool analog_sum = false;    ///< mapping.sum_x = analog
+  double g_headroom = 0;      ///< mapping.g_headroom: weights map to [g_min, g_max (1 - headroom)]
   std::string method = "conversion+calibration";
   ConversionKind conversion = ConversionKind::Signal;
   bool calibrate = true;
