@@ -1,6 +1,4 @@
 // xbarsim eval: accuracy of a whole network on crossbars, with per-layer error propagation.
-#include <sys/stat.h>
-
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -8,33 +6,12 @@
 #include <mutex>
 
 #include "sw/app/app_common.h"
+#include "sw/app/model_source.h"
 #include "sw/inference/crossbar_backend.h"
 
 namespace xbarsim {
 
 namespace {
-
-bool file_exists(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0;
-}
-
-/// --model as given, else <models dir>/<name>(.onnx).
-std::string find_model(const std::string& given, const ConfigTree& cfg) {
-  if (file_exists(given)) return given;
-  std::vector<std::string> tried{given};
-  try {
-    const std::string dir = resolve_models_dir(cfg);
-    for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
-      if (file_exists(c)) return c;
-      tried.push_back(c);
-    }
-  } catch (const InputError&) {
-  }
-  std::string list;
-  for (const auto& t : tried) list += " " + t;
-  throw InputError("model '" + given + "' not found (looked at:" + list + ")");
-}
 
 struct LayerTally {
   double sum = 0, worst = 0;
@@ -189,7 +166,7 @@ int cmd_eval(int argc, char** argv) {
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
-  const Model model = load_onnx_model(find_model(args.require("--model"), base));
+  const Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   const std::string dataset = args.has("--dataset") ? args.get("--dataset") : model.dataset;
   if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
   const std::string dir = resolve_data_dir(base);

@@ -1,0 +1,54 @@
+#include "sw/app/model_source.h"
+
+#include <sys/stat.h>
+
+#include "sw/nn/dataset.h"
+#include "sw/nn/presets.h"
+
+namespace xbarsim {
+
+namespace {
+bool file_exists(const std::string& p) {
+  struct stat st;
+  return stat(p.c_str(), &st) == 0;
+}
+}  // namespace
+
+std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
+  if (file_exists(given)) return given;
+  std::vector<std::string> tried{given};
+  try {
+    const std::string dir = resolve_models_dir(cfg);
+    for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
+      if (file_exists(c)) return c;
+      tried.push_back(c);
+    }
+  } catch (const InputError&) {
+  }
+  std::string list;
+  for (const auto& t : tried) list += " " + t;
+  throw InputError("model '" + given + "' not found (looked at:" + list + ")");
+}
+
+Model model_from_args(const CliArgs& args, const ConfigTree& cfg) {
+  if (args.has("--model") == args.has("--preset")) throw InputError("give exactly one of --model and --preset");
+  Shape in{0, 0, 0};
+  if (args.has("--input-size")) {
+    if (args.has("--preset")) throw InputError("--input-size applies to --model (presets have fixed inputs)");
+    int h = 0, w = 0;
+    char extra;
+    if (std::sscanf(args.get("--input-size").c_str(), "%d,%d%c", &h, &w, &extra) != 2 || h < 1 || w < 1)
+      throw InputError("--input-size expects H,W (positive integers), got '" + args.get("--input-size") + "'");
+    in = {-1, h, w};
+  }
+  if (args.has("--preset")) return make_preset(args.get("--preset"), 1);
+  const std::string path = find_model_file(args.get("--model"), cfg);
+  if (in.h > 0) {
+    const Model probe = load_onnx_model(path);
+    in.c = probe.input.c;
+    return load_onnx_model(path, in);
+  }
+  return load_onnx_model(path);
+}
+
+}  // namespace xbarsim
