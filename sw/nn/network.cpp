@@ -32,6 +32,12 @@ void im2col(const LinearLayer& L, const float* chw, RowMatrixXf& cols) {
     }
 }
 
+void LinearBackend::multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
+                                        Eigen::MatrixXf& out) const {
+  im2col(L, chw, scratch);
+  multiply(layer, scratch, out);
+}
+
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend, LayerTrace* trace) {
   std::vector<std::vector<float>> v(m.values.size());
   v[0].assign(input, input + m.input.size());
@@ -49,14 +55,18 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
     switch (op.kind) {
       case OpKind::Linear: {
         const LinearLayer& L = m.linear[op.linear];
-        im2col(L, x.data(), cols);
-        backend.multiply(op.linear, cols, prod);
+        if (trace && trace->record_inputs) {
+          im2col(L, x.data(), cols);
+          trace->inputs[op.linear] = cols;
+          backend.multiply(op.linear, cols, prod);
+        } else {
+          backend.multiply_activation(op.linear, L, x.data(), cols, prod);
+        }
         y.resize(out.size());
         const int pixels = out.h * out.w;
         for (int c = 0; c < L.c_out; ++c)
           for (int p = 0; p < pixels; ++p) y[static_cast<size_t>(c) * pixels + p] = prod(p, c) + L.bias(c);
         if (trace) {
-          if (trace->record_inputs) trace->inputs[op.linear] = cols;
           trace->outputs[op.linear] = prod.rowwise() + L.bias.transpose();
         }
         break;

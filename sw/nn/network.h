@@ -17,6 +17,11 @@ class LinearBackend {
   /// `cols`: iterations x K (one image's im2col matrix, dense-mapping row order);
   /// `out`: iterations x c_out, without the bias (added digitally by the caller).
   virtual void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const = 0;
+  /// Called by run_image with the layer's input activation (C x H x W). The default builds
+  /// the im2col matrix in `scratch` and calls multiply(); a backend that builds the input
+  /// vectors itself (the SystemC platform's shift registers) overrides it.
+  virtual void multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
+                                   Eigen::MatrixXf& out) const;
 };
 
 /// Exact float32 software GEMM.

@@ -1,0 +1,63 @@
+#pragma once
+/// Column ADCs of a tile: currents -> codes (converters.adc_bits over ranges set at
+/// calibration). `adcs_per_crossbar` converters are shared over a crossbar's columns, so
+/// one iteration takes ceil(columns / adcs) conversions at `rate_gsps` each; partitions
+/// convert in parallel.
+#include <algorithm>
+#include <cmath>
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/LayerJob.h"
+
+namespace xbarsim {
+
+class Adc : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<Adc> xbar2adc{"xbar2adc"};
+  tlm_utils::simple_initiator_socket<Adc> adc2acc{"adc2acc"};
+
+  /// `adcs_per_crossbar` = 0: one ADC per `columns_per_adc` columns (component library rule).
+  Adc(sc_core::sc_module_name name, int adcs_per_crossbar, int columns_per_adc, double rate_gsps)
+      : sc_module(name), adcs_(adcs_per_crossbar), columns_per_adc_(columns_per_adc), rate_gsps_(rate_gsps) {
+    xbar2adc.register_b_transport(this, &Adc::b_transport);
+  }
+  long long conversions() const { return conversions_; }
+
+  /// ADCs serving a crossbar of `columns` columns.
+  int adcs_for(int columns) const {
+    return adcs_ > 0 ? adcs_ : std::max(1, (columns + columns_per_adc_ - 1) / columns_per_adc_);
+  }
+  /// Time of one iteration's conversions on a crossbar of `columns` columns (ns).
+  double iteration_ns(int columns) const {
+    const int a = adcs_for(columns);
+    return std::ceil(static_cast<double>(columns) / a) / rate_gsps_;
+  }
+
+ private:
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job || static_cast<int>(job->currents.size()) != job->analog->crossbars()) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    double slowest = 0;
+    for (int b = 0; b < job->analog->crossbars(); ++b) {
+      job->analog->adc_inplace<float>(b, job->currents[b]);
+      const int cols = static_cast<int>(job->currents[b].cols());
+      slowest = std::max(slowest, iteration_ns(cols));
+      job->adc_conversions += static_cast<long long>(job->iterations()) * cols;
+      conversions_ += static_cast<long long>(job->iterations()) * cols;
+    }
+    job->stage_ns[kAdc].assign(job->iterations(), slowest);
+    if (job->detailed) delay += sc_core::sc_time(slowest, sc_core::SC_NS);
+    adc2acc->b_transport(p, delay);
+  }
+  int adcs_, columns_per_adc_;
+  double rate_gsps_;
+  long long conversions_ = 0;
+};
+
+}  // namespace xbarsim

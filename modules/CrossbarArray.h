@@ -1,0 +1,44 @@
+#pragma once
+/// The crossbar arrays of a tile (all partitions of one layer, operated in parallel):
+/// programmed conductances G' and their column currents for each iteration's input
+/// voltages, from the circuit solver (exact effective matrix for linear devices, a Newton
+/// solve per vector for nonlinear ones). `settle_ns` per iteration.
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/LayerJob.h"
+
+namespace xbarsim {
+
+class CrossbarArray : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<CrossbarArray> dac2xbar{"dac2xbar"};
+  tlm_utils::simple_initiator_socket<CrossbarArray> xbar2adc{"xbar2adc"};
+
+  CrossbarArray(sc_core::sc_module_name name, double settle_ns) : sc_module(name), settle_ns_(settle_ns) {
+    dac2xbar.register_b_transport(this, &CrossbarArray::b_transport);
+  }
+  long long evaluations() const { return evaluations_; }
+
+ private:
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    const int nb = job->analog->crossbars();
+    job->currents.resize(nb);
+    for (int b = 0; b < nb; ++b) job->analog->analog<float>(b, job->xq, job->currents[b]);
+    evaluations_ += static_cast<long long>(job->iterations()) * nb;
+    job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_);
+    if (job->detailed) delay += sc_core::sc_time(settle_ns_, sc_core::SC_NS);
+    xbar2adc->b_transport(p, delay);
+  }
+  double settle_ns_;
+  long long evaluations_ = 0;
+};
+
+}  // namespace xbarsim

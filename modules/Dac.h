@@ -1,0 +1,43 @@
+#pragma once
+/// Row DACs of a tile: input codes -> voltages. Functionally the AnalogLayer's DAC stage
+/// (quantization to converters.dac_bits over the layer's input range); one conversion per
+/// crossbar row and iteration, `latency_ns` per iteration.
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/LayerJob.h"
+
+namespace xbarsim {
+
+class Dac : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<Dac> sr2dac{"sr2dac"};
+  tlm_utils::simple_initiator_socket<Dac> dac2xbar{"dac2xbar"};
+
+  Dac(sc_core::sc_module_name name, double latency_ns) : sc_module(name), latency_ns_(latency_ns) {
+    sr2dac.register_b_transport(this, &Dac::b_transport);
+  }
+  long long conversions() const { return conversions_; }
+
+ private:
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job || job->xq.rows() != job->iterations()) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    job->analog->dac_inplace<float>(job->xq);
+    const long long n = static_cast<long long>(job->xq.rows()) * job->xq.cols();
+    job->dac_conversions += n;
+    conversions_ += n;
+    job->stage_ns[kDac].assign(job->iterations(), latency_ns_);
+    if (job->detailed) delay += sc_core::sc_time(latency_ns_, sc_core::SC_NS);
+    dac2xbar->b_transport(p, delay);
+  }
+  double latency_ns_;
+  long long conversions_ = 0;
+};
+
+}  // namespace xbarsim

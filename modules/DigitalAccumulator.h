@@ -1,0 +1,42 @@
+#pragma once
+/// Digital back end of a tile: sum(X) for the shift correction, the calibration gain and
+/// offset of every column, and the sum of partial results of row-partitioned crossbars.
+/// Ends the datapath: answers the transaction.
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/LayerJob.h"
+
+namespace xbarsim {
+
+class DigitalAccumulator : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<DigitalAccumulator> adc2acc{"adc2acc"};
+
+  DigitalAccumulator(sc_core::sc_module_name name, double latency_ns) : sc_module(name), latency_ns_(latency_ns) {
+    adc2acc.register_b_transport(this, &DigitalAccumulator::b_transport);
+  }
+  long long accumulations() const { return accumulations_; }
+
+ private:
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job || static_cast<int>(job->currents.size()) != job->analog->crossbars()) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    job->y.setZero(job->iterations(), job->analog->outputs());
+    for (int b = 0; b < job->analog->crossbars(); ++b) job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
+    const long long n = static_cast<long long>(job->y.size()) * job->analog->crossbars();
+    job->accumulations += n;
+    accumulations_ += n;
+    job->stage_ns[kAccumulate].assign(job->iterations(), latency_ns_);
+    if (job->detailed) delay += sc_core::sc_time(latency_ns_, sc_core::SC_NS);
+    p.set_response_status(tlm::TLM_OK_RESPONSE);
+  }
+  double latency_ns_;
+  long long accumulations_ = 0;
+};
+
+}  // namespace xbarsim

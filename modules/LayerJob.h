@@ -1,0 +1,52 @@
+#pragma once
+/// The work item carried by the tile datapath's TLM transactions: one image's pass through
+/// one linear layer. The generic payload's data pointer points to it; each module reads
+/// what the previous one produced, adds its own results, counters and per-iteration stage
+/// times, and annotates its latency on the transaction's delay (loosely timed).
+#include <tlm>
+#include <vector>
+
+#include "sw/analog/analog_layer.h"
+#include "sw/nn/model.h"
+
+namespace xbarsim {
+
+/// Pipeline stages of a tile, in datapath order.
+enum Stage { kShift = 0, kDac, kCrossbar, kAdc, kAccumulate, kStages };
+
+struct LayerJob {
+  const LinearLayer* layer = nullptr;
+  const AnalogLayer* analog = nullptr;
+  const float* activation = nullptr;  ///< C x H x W input of the layer
+  bool detailed = true;               ///< timing mode
+  int replication = 1;
+
+  AnalogLayer::RowMat<float> xq;           ///< iterations x K: shift-register contents, then DAC codes
+  std::vector<Eigen::MatrixXf> currents;   ///< per crossbar: iterations x physical columns
+  Eigen::MatrixXf y;                       ///< iterations x c_out (without bias)
+
+  std::vector<double> stage_ns[kStages];   ///< per-iteration latency of each stage (detailed mode)
+  long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
+
+  int iterations() const { return layer->out.h * layer->out.w; }
+};
+
+/// Points a generic payload at a job (write command, the job as data).
+inline void attach(tlm::tlm_generic_payload& p, LayerJob& job, sc_dt::uint64 address) {
+  p.set_command(tlm::TLM_WRITE_COMMAND);
+  p.set_address(address);
+  p.set_data_ptr(reinterpret_cast<unsigned char*>(&job));
+  p.set_data_length(sizeof(LayerJob));
+  p.set_streaming_width(sizeof(LayerJob));
+  p.set_byte_enable_ptr(nullptr);
+  p.set_dmi_allowed(false);
+  p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+}
+
+/// The job a payload carries, or nullptr when it is malformed.
+inline LayerJob* job_of(tlm::tlm_generic_payload& p) {
+  if (p.get_command() != tlm::TLM_WRITE_COMMAND || p.get_data_length() != sizeof(LayerJob)) return nullptr;
+  return reinterpret_cast<LayerJob*>(p.get_data_ptr());
+}
+
+}  // namespace xbarsim

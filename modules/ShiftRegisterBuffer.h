@@ -1,0 +1,89 @@
+#pragma once
+/// Input shift register of a tile (dense mapping): holds the unrolled convolution window in
+/// the dense-mapping order r = (kx*k_h + ky)*c_in + c and, as the window moves right by the
+/// stride, shifts out the oldest window columns and shifts in only the new ones
+/// (stride*k_h*c_in entries); a new output row (or a stride wider than the kernel) refills
+/// the whole window. Counts the entries shifted in and the refills.
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/LayerJob.h"
+
+namespace xbarsim {
+
+class ShiftRegisterBuffer : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<ShiftRegisterBuffer> ctrl2sr{"ctrl2sr"};
+  tlm_utils::simple_initiator_socket<ShiftRegisterBuffer> sr2dac{"sr2dac"};
+
+  ShiftRegisterBuffer(sc_core::sc_module_name name, double clock_ns, int entries_per_cycle)
+      : sc_module(name), clock_ns_(clock_ns), entries_per_cycle_(entries_per_cycle) {
+    ctrl2sr.register_b_transport(this, &ShiftRegisterBuffer::b_transport);
+  }
+
+  long long shifted_entries() const { return shifted_; }
+  long long refills() const { return refills_; }
+
+  /// Fills job.xq with the register contents of every iteration (pure function, no timing).
+  static void fill(LayerJob& job) {
+    const LinearLayer& L = *job.layer;
+    const int K = L.rows(), n = job.iterations(), col = L.k_h * L.c_in;
+    const int H = L.in.h, W = L.in.w;
+    job.xq.resize(n, K);
+    job.stage_ns[kShift].assign(n, 0.0);
+    std::vector<float> reg(K, 0.0f);
+    auto load_column = [&](float* dst, int oy, int x) {
+      for (int ky = 0; ky < L.k_h; ++ky) {
+        const int y = oy * L.stride_h - L.pad_t + ky;
+        const bool inside = y >= 0 && y < H && x >= 0 && x < W;
+        for (int c = 0; c < L.c_in; ++c)
+          dst[ky * L.c_in + c] = inside ? job.activation[(static_cast<size_t>(c) * H + y) * W + x] : 0.0f;
+      }
+    };
+    for (int oy = 0; oy < L.out.h; ++oy)
+      for (int ox = 0; ox < L.out.w; ++ox) {
+        int shifted;
+        if (ox == 0 || L.stride_w >= L.k_w) {  // (re)load the whole window
+          for (int kx = 0; kx < L.k_w; ++kx) load_column(reg.data() + kx * col, oy, kx - L.pad_l + ox * L.stride_w);
+          shifted = K;
+          ++job.refills;
+        } else {  // shift by the stride: drop the oldest columns, append the new ones
+          const int s = L.stride_w;
+          std::move(reg.begin() + s * col, reg.end(), reg.begin());
+          for (int q = 0; q < s; ++q) {
+            const int kx = L.k_w - s + q;
+            load_column(reg.data() + kx * col, oy, ox * L.stride_w - L.pad_l + kx);
+          }
+          shifted = s * col;
+        }
+        const int it = oy * L.out.w + ox;
+        std::copy(reg.begin(), reg.end(), job.xq.row(it).data());
+        job.shifted_entries += shifted;
+        job.stage_ns[kShift][it] = shifted;  // entries; converted to time by the module
+      }
+  }
+
+ private:
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    const long long before_s = job->shifted_entries, before_r = job->refills;
+    fill(*job);
+    for (double& t : job->stage_ns[kShift]) t = std::ceil(t / entries_per_cycle_) * clock_ns_;
+    shifted_ += job->shifted_entries - before_s;
+    refills_ += job->refills - before_r;
+    if (job->detailed) delay += sc_core::sc_time(job->stage_ns[kShift].front(), sc_core::SC_NS);
+    sr2dac->b_transport(p, delay);
+  }
+
+  double clock_ns_;
+  int entries_per_cycle_;
+  long long shifted_ = 0, refills_ = 0;
+};
+
+}  // namespace xbarsim

@@ -1,0 +1,96 @@
+#pragma once
+/// A tile: the datapath of one layer's crossbars, ShiftRegisterBuffer -> Dac ->
+/// CrossbarArray -> Adc -> DigitalAccumulator, behind one target socket. The modules
+/// annotate the latency of the first iteration (pipeline fill); the tile adds the
+/// steady state: sum over later iterations of the slowest stage rounded up to clock
+/// cycles (detailed), or one clock cycle per iteration (ideal, the paper's estimate).
+#include <memory>
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <tlm_utils/simple_target_socket.h>
+
+#include "modules/Adc.h"
+#include "modules/CrossbarArray.h"
+#include "modules/Dac.h"
+#include "modules/DigitalAccumulator.h"
+#include "modules/ShiftRegisterBuffer.h"
+#include "platform/PlatformConfig.h"
+
+namespace xbarsim {
+
+class Tile : public sc_core::sc_module {
+ public:
+  tlm_utils::simple_target_socket<Tile> noc2tile{"noc2tile"};
+
+  Tile(sc_core::sc_module_name name, const PlatformConfig& c)
+      : sc_module(name),
+        cfg_(c),
+        sr_("sr", c.clock_ns(), c.shift_entries_per_cycle),
+        dac_("dac", c.dac_latency_ns),
+        xbar_("xbar", c.crossbar_settle_ns),
+        adc_("adc", c.adcs_per_crossbar, c.adc_columns_per_unit, c.adc_rate_gsps),
+        acc_("acc", c.accumulator_latency_ns) {
+    noc2tile.register_b_transport(this, &Tile::b_transport);
+    tile2sr.bind(sr_.ctrl2sr);
+    sr_.sr2dac.bind(dac_.sr2dac);
+    dac_.dac2xbar.bind(xbar_.dac2xbar);
+    xbar_.xbar2adc.bind(adc_.xbar2adc);
+    adc_.adc2acc.bind(acc_.adc2acc);
+  }
+
+  long long iterations() const { return iterations_; }
+  long long cycles() const { return cycles_; }
+  const ShiftRegisterBuffer& shift_register() const { return sr_; }
+  const Dac& dac() const { return dac_; }
+  const Adc& adc() const { return adc_; }
+  const CrossbarArray& crossbars() const { return xbar_; }
+  const DigitalAccumulator& accumulator() const { return acc_; }
+
+ private:
+  tlm_utils::simple_initiator_socket<Tile> tile2sr{"tile2sr"};
+
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    LayerJob* job = job_of(p);
+    if (!job) {
+      p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
+      return;
+    }
+    const sc_core::sc_time start = delay;
+    tile2sr->b_transport(p, delay);
+    if (p.get_response_status() != tlm::TLM_OK_RESPONSE) return;
+    const double clk = cfg_.clock_ns();
+    const int n = job->iterations();
+    const int r = std::max(1, job->replication);
+    const long long per_copy = (n + r - 1) / r;
+    double steady_ns;
+    if (job->detailed) {
+      // Initiation interval of iteration k: its slowest stage, in whole clock cycles.
+      double sum = 0;
+      for (int k = 1; k < n; ++k) {
+        double worst = 0;
+        for (int s = 0; s < kStages; ++s) worst = std::max(worst, job->stage_ns[s][k]);
+        sum += std::ceil(worst / clk - 1e-9) * clk;
+      }
+      steady_ns = sum / r;
+      // The fill already annotated by the modules is rounded up to whole cycles too.
+      const double fill = (delay - start).to_seconds() * 1e9;
+      delay = start + sc_core::sc_time(std::ceil(fill / clk - 1e-9) * clk, sc_core::SC_NS);
+    } else {
+      steady_ns = per_copy * clk;
+    }
+    delay += sc_core::sc_time(steady_ns, sc_core::SC_NS);
+    iterations_ += n;
+    cycles_ += std::llround((delay - start).to_seconds() * 1e9 / clk);
+  }
+
+  PlatformConfig cfg_;
+  ShiftRegisterBuffer sr_;
+  Dac dac_;
+  CrossbarArray xbar_;
+  Adc adc_;
+  DigitalAccumulator acc_;
+  long long iterations_ = 0, cycles_ = 0;
+};
+
+}  // namespace xbarsim
