@@ -45,7 +45,7 @@ class Adc : public sc_core::sc_module {
     }
     double slowest = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) {
-      job->analog->adc_inplace<float>(b, job->currents[b]);
+      job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
       const int cols = static_cast<int>(job->currents[b].cols());
       slowest = std::max(slowest, iteration_ns(cols));
       job->adc_conversions += static_cast<long long>(job->iterations()) * cols;

@@ -72,6 +72,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.dac_bits = parse_bits(cfg, "converters.dac_bits");
   c.adc_bits = parse_bits(cfg, "converters.adc_bits");
   c.adc_margin = require_nonnegative(cfg, "converters.adc_margin");
+  c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");
   c.sigma_s = require_nonnegative(cfg, "noise.sigma_us") * 1e-6;
   c.noise_seed = static_cast<uint64_t>(cfg.get_int("noise.seed"));
   return c;
@@ -90,6 +91,7 @@ struct AnalogLayer::Crossbar {
   Eigen::MatrixXd geff_d;  ///< alpha * G_eff (A per input unit), linear devices
   Eigen::MatrixXf geff_f;  ///< the same in float for network inference
   Eigen::VectorXd adc_lo, adc_hi;
+  Eigen::VectorXd adc_offset;  ///< per physical column: offset current per unit sum(X) removed before the ADC
   ColumnFit fit;
 };
 
@@ -263,12 +265,23 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     xbars_.push_back(std::move(xb));
     const int idx = static_cast<int>(xbars_.size()) - 1;
     Crossbar& x = *xbars_.back();
-    // ADC ranges from the currents of the range-estimation vectors.
+    // Offset subtraction before the ADC: the shift current (g_min - beta s w_lo) sum(X)
+    // of each column, mirrored from the sum(X) reference, so the ADC range spans the
+    // weight part only.
+    x.adc_offset = Eigen::VectorXd::Zero(x.pcols);
+    if (cfg_.adc_offset_subtraction)
+      for (int c = 0; c < x.pcols; ++c) {
+        if (cfg_.analog_sum && c == x.pcols - 1) continue;  // the reference column itself
+        x.adc_offset(c) = alpha_ * (p.g_min_s - (cfg_.differential ? 0.0 : x.beta(c) * x.s * x.w_lo));
+      }
+    // ADC ranges from the (offset-subtracted) currents of the range-estimation vectors.
     x.adc_lo = Eigen::VectorXd::Zero(x.pcols);
     x.adc_hi = Eigen::VectorXd::Zero(x.pcols);
     if (cfg_.adc_bits > 0) {
-      const Eigen::MatrixXd cur = currents_of(x, range_x);
+      Eigen::MatrixXd cur = currents_of(x, range_x);
+      const Eigen::VectorXd sx = range_x.middleCols(blk.row0, blk.rows).rowwise().sum();
       for (int c = 0; c < x.pcols; ++c) {
+        cur.col(c) -= x.adc_offset(c) * sx;
         const double lo = cur.col(c).minCoeff(), hi = cur.col(c).maxCoeff();
         const double pad = std::max(cfg_.adc_margin * (hi - lo), 1e-12 * std::max(std::abs(hi), 1e-12));
         x.adc_lo(c) = lo - pad;
@@ -278,7 +291,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     x.fit = identity_fit(blk.cols);
     if (cfg_.calibrate) {
       Mat<double> cur = currents_of(x, cal);
-      adc_inplace<double>(idx, cur);
+      adc_inplace<double>(idx, cur, cal);
       x.fit = fit_columns(raw_partial_of(x, cur, cal), ideal_partial);
     }
     reports_.push_back(rep);
@@ -301,6 +314,11 @@ Eigen::MatrixXd AnalogLayer::raw_partial_of(const Crossbar& x, const Eigen::Matr
   Mat<double> y = Mat<double>::Zero(iq.rows(), x.blk.cols);
   recover_of<double>(x, iq, xq, y, 0, false);
   return y;
+}
+
+template <typename S, typename XQ>
+static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, int rows) {
+  return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
 }
 
 template <typename S>
@@ -330,13 +348,18 @@ void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& curr
 }
 
 template <typename S>
-void AnalogLayer::adc_inplace(int b, Mat<S>& currents) const {
+void AnalogLayer::adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) const {
   if (cfg_.adc_bits <= 0) return;
   const Crossbar& x = *xbars_.at(b);
+  const Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
   for (Eigen::Index c = 0; c < currents.cols(); ++c) {
     const Quantizer q{cfg_.adc_bits, x.adc_lo(c), x.adc_hi(c)};
+    const S k = static_cast<S>(x.adc_offset(c));
     S* col = currents.col(c).data();
-    for (Eigen::Index a = 0; a < currents.rows(); ++a) col[a] = static_cast<S>(q.apply(col[a]));
+    for (Eigen::Index a = 0; a < currents.rows(); ++a) {
+      const S offset = k * sum_x(a);
+      col[a] = static_cast<S>(q.apply(col[a] - offset)) + offset;
+    }
   }
 }
 
@@ -344,11 +367,6 @@ template <typename S>
 void AnalogLayer::recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated) const {
   const Crossbar& x = *xbars_.at(b);
   recover_of<S>(x, iq, xq, y, x.blk.col0, calibrated);
-}
-
-template <typename S, typename XQ>
-static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, int rows) {
-  return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
 }
 
 template <typename S>
@@ -405,7 +423,7 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y) const {
   Mat<S> cur;
   for (int b = 0; b < crossbars(); ++b) {
     analog<S>(b, *xq, cur);
-    adc_inplace<S>(b, cur);
+    adc_inplace<S>(b, cur, *xq);
     recover_add<S>(b, cur, *xq, y);
   }
 }
@@ -422,7 +440,7 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   dac_inplace<double>(xq);
   Mat<double> cur;
   analog<double>(b, xq, cur);
-  adc_inplace<double>(b, cur);
+  adc_inplace<double>(b, cur, xq);
   Mat<double> y = Mat<double>::Zero(x.rows(), blocks_.at(b).cols);
   recover_of<double>(*xbars_.at(b), cur, xq, y, 0, true);
   return y;
@@ -432,7 +450,7 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&) const;                                     \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                                                \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;                                 \
-  template void AnalogLayer::adc_inplace<S>(int, Mat<S>&) const;                                              \
+  template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const;                            \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;
 XBARSIM_INSTANTIATE(float)
 XBARSIM_INSTANTIATE(double)

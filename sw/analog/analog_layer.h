@@ -43,6 +43,7 @@ struct AnalogConfig {
   int dac_bits = 0;  ///< 0 = none
   int adc_bits = 0;
   double adc_margin = 0.05;
+  bool adc_offset_subtraction = true;  ///< subtract the sum(X) shift current before the ADC
   double sigma_s = 0;  ///< programming noise (S)
   uint64_t noise_seed = 11;
 
@@ -98,7 +99,7 @@ class AnalogLayer {
   template <typename S>
   void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
   template <typename S>
-  void adc_inplace(int b, Mat<S>& currents) const;  ///< ADC quantization
+  void adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) const;  ///< ADC quantization
   /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), then
   /// calibration when `calibrated`) into columns [col0, col0 + cols) of y.
   template <typename S>
