@@ -1,11 +1,22 @@
 #!/usr/bin/env bash
-# The default main job: the paper's largest crossbar (576 x 64, paper parameters) solved
-# with the full parasitic circuit for 10 random input vectors (50 % sparse, 0..0.4 V).
+# xbarsim's main job on the default configuration (configs/default.yaml):
+#  - with the shared data (../shared or $XBARSIM_DATA_DIR): ResNet-20 on CIFAR-10 with the
+#    full parasitic circuit (accuracy and per-layer error propagation), then the SystemC
+#    accelerator on a few images (timing, power, area, energy, accuracy);
+#  - without data: the SystemC accelerator on the built-in ResNet-20 topology.
+# Reports go to ${XBARSIM_OUT:-out}/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${XBARSIM_OUT:-out}
 mkdir -p "$OUT"
-awk -v m=576 -v n=64 'BEGIN{srand(1); for(i=0;i<m;i++){l=""; for(j=0;j<n;j++) l=l (j?",":"") (1/300e3+rand()*(1/15e3-1/300e3)); print l}}' > "$OUT/g576x64.csv"
-awk -v m=576 -v k=10 'BEGIN{srand(2); for(a=0;a<k;a++){l=""; for(i=0;i<m;i++) l=l (i?",":"") (rand()<0.5?0:0.4*rand()); print l}}' > "$OUT/v576.csv"
-build/sw/xbarsim solve --conductances "$OUT/g576x64.csv" --inputs "$OUT/v576.csv" --out "$OUT/i576x64.csv" "$@"
-echo "column currents written to $OUT/i576x64.csv"
+X=build/sw/xbarsim
+DATA=${XBARSIM_DATA_DIR:-../shared/data}
+if [ -d "$DATA/cifar10" ] && [ -d "$DATA/../models" ]; then
+  "$X" eval --model resnet20_cifar10 --images "${XBARSIM_IMAGES:-all}" --json "$OUT/eval_resnet20.json" \
+    --csv "$OUT/eval_resnet20_layers.csv" "$@"
+  "$X" simulate --model resnet20_cifar10 --dataset cifar10 --images 10 --json "$OUT/simulate_resnet20.json" "$@"
+else
+  echo "main job: no data directory ($DATA); simulating the built-in ResNet-20 topology with random weights"
+  "$X" simulate --preset resnet20 --json "$OUT/simulate_resnet20.json" "$@"
+fi
+echo "reports written to $OUT/"

@@ -57,6 +57,8 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.conversion_signal = require_one_of(cfg, "conversion.signal", {"constant", "max_input", "mean_input"});
   if (cfg.get_string("conversion.amplitude") == "optimize") {
     c.optimize_amplitude = true;
+  } else if (cfg.get_string("conversion.amplitude") == "paper") {
+    c.paper_amplitudes = true;
   } else {
     c.conversion_amplitude = require_positive(cfg, "conversion.amplitude");
     if (c.conversion_amplitude > 1)
@@ -222,7 +224,10 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     if (cfg_.conversion == ConversionKind::None) {
       install(g_target);
     } else if (cfg_.conversion == ConversionKind::Signal) {
-      std::vector<double> amps = {cfg_.conversion_amplitude};
+      // The paper's per-size amplitudes (its Tables: 0.1 up to 144 rows, 0.05 up to 288,
+      // 0.01 up to 576, 0.001 beyond).
+      const double paper_amp = blk.rows <= 150 ? 0.1 : blk.rows <= 300 ? 0.05 : blk.rows <= 600 ? 0.01 : 0.001;
+      std::vector<double> amps = {cfg_.paper_amplitudes ? paper_amp : cfg_.conversion_amplitude};
       if (cfg_.optimize_amplitude && cfg_.conversion_signal == "constant")
         amps = {1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
       double best = std::numeric_limits<double>::infinity();

@@ -35,6 +35,7 @@ struct AnalogConfig {
   std::string conversion_signal = "constant";  ///< constant | max_input | mean_input
   double conversion_amplitude = 0.1;           ///< fraction of v_in_max
   bool optimize_amplitude = false;
+  bool paper_amplitudes = false;  ///< conversion.amplitude = paper: per crossbar size as in the paper
   bool column_scaling = true;
   int conversion_max_iterations = 60;
   int calibration_samples = 10;
