@@ -66,6 +66,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   }
   c.column_scaling = cfg.get_bool("conversion.column_scaling");
   c.conversion_max_iterations = static_cast<int>(cfg.get_int("conversion.max_iterations"));
+  c.conversion_tolerance = require_positive(cfg, "conversion.tolerance");
   if (c.conversion_max_iterations < 1) throw InputError("configuration key 'conversion.max_iterations' must be >= 1");
   c.calibration_samples = static_cast<int>(cfg.get_int("calibration.samples"));
   if (c.calibration_samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
@@ -103,7 +104,8 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
   alpha_ = cfg.xbar.v_in_max_v / x_max;
-  dac_q_ = Quantizer{cfg.dac_bits, signed_inputs ? -x_max : 0.0, x_max};
+  // Signed inputs: sign-magnitude, so that 0 is exactly a DAC level.
+  dac_q_ = Quantizer{signed_inputs ? std::max(cfg.dac_bits - 1, cfg.dac_bits > 0 ? 1 : 0) : cfg.dac_bits, 0.0, x_max};
   blocks_ = partition(static_cast<int>(w.rows()), static_cast<int>(w.cols()), cfg.max_rows, cfg.max_cols);
 }
 
@@ -135,6 +137,11 @@ Eigen::MatrixXd AnalogLayer::calibration_vectors(const Eigen::MatrixXd& calib) c
   if (cfg_.calibration_signal == "random_decreasing")
     for (int a = 0; a < count; ++a) out.row(a) /= (a + 1);
   return out;
+}
+
+void AnalogLayer::program(const Eigen::MatrixXd& calib, const SolverOptions& solver) {
+  cfg_.solver = solver;
+  program(calib);
 }
 
 void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
@@ -249,6 +256,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
       MatrixConversionOptions mo;
       mo.column_scaling = cfg_.column_scaling;
       mo.max_iterations = cfg_.conversion_max_iterations;
+      mo.tolerance = cfg_.conversion_tolerance;
       const Eigen::VectorXd v_op =
           cal_b.rows() ? Eigen::VectorXd(alpha_ * cal_b.cwiseAbs().colwise().mean().transpose())
                        : Eigen::VectorXd::Constant(blk.rows, 0.1 * p.v_in_max_v);
@@ -304,8 +312,20 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
 }
 
 Eigen::MatrixXd AnalogLayer::dac(const Eigen::MatrixXd& x) const {
-  if (!dac_q_.enabled()) return x;
-  return x.unaryExpr([this](double v) { return dac_q_.apply(v); });
+  Eigen::MatrixXd out = x;
+  dac_values<double>(out.data(), out.size());
+  return out;
+}
+
+template <typename S>
+void AnalogLayer::dac_values(S* d, Eigen::Index n) const {
+  if (!dac_q_.enabled()) return;
+  const FastQuantizer q(dac_q_);
+  if (signed_) {
+    for (Eigen::Index k = 0; k < n; ++k) d[k] = static_cast<S>(d[k] < 0 ? -q.apply(-d[k]) : q.apply(d[k]));
+  } else {
+    for (Eigen::Index k = 0; k < n; ++k) d[k] = static_cast<S>(q.apply(d[k]));
+  }
 }
 
 Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
@@ -328,9 +348,7 @@ static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, in
 
 template <typename S>
 void AnalogLayer::dac_inplace(RowMat<S>& x) const {
-  if (!dac_q_.enabled()) return;
-  S* d = x.data();
-  for (Eigen::Index k = 0; k < x.size(); ++k) d[k] = static_cast<S>(dac_q_.apply(d[k]));
+  dac_values<S>(x.data(), x.size());
 }
 
 template <typename S>
@@ -358,7 +376,7 @@ void AnalogLayer::adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) cons
   const Crossbar& x = *xbars_.at(b);
   const Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
   for (Eigen::Index c = 0; c < currents.cols(); ++c) {
-    const Quantizer q{cfg_.adc_bits, x.adc_lo(c), x.adc_hi(c)};
+    const FastQuantizer q(Quantizer{cfg_.adc_bits, x.adc_lo(c), x.adc_hi(c)});
     const S k = static_cast<S>(x.adc_offset(c));
     S* col = currents.col(c).data();
     for (Eigen::Index a = 0; a < currents.rows(); ++a) {
@@ -410,7 +428,7 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
 }
 
 template <typename S>
-void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y) const {
+void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   if (x.cols() != w_.rows()) {
     std::ostringstream os;
     os << "analog layer: input vectors have " << x.cols() << " values, the layer expects " << w_.rows();
@@ -419,7 +437,7 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y) const {
   if (xbars_.empty()) throw InputError("analog layer used before program()");
   RowMat<S> xq_buf;
   const RowMat<S>* xq = &x;
-  if (dac_q_.enabled()) {
+  if (dac_q_.enabled() && !quantized) {
     xq_buf = x;
     dac_inplace<S>(xq_buf);
     xq = &xq_buf;
@@ -452,7 +470,8 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
 }
 
 #define XBARSIM_INSTANTIATE(S)                                                                                  \
-  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&) const;                                     \
+  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;                               \
+  template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                                           \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                                                \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;                                 \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const;                            \

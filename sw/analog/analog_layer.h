@@ -38,6 +38,7 @@ struct AnalogConfig {
   bool paper_amplitudes = false;  ///< conversion.amplitude = paper: per crossbar size as in the paper
   bool column_scaling = true;
   int conversion_max_iterations = 60;
+  double conversion_tolerance = 1e-9;  ///< matrix conversion: max |G_eff - T| / max T
   int calibration_samples = 10;
   std::string calibration_signal = "shuffled";  ///< random | random_decreasing | shuffled
   uint64_t calibration_seed = 7;
@@ -78,6 +79,8 @@ class AnalogLayer {
   /// `calib` (C x K) holds real input vectors for calibration and range estimation; when
   /// empty, calibration uses random vectors (50 % sparse).
   void program(const Eigen::MatrixXd& calib);
+  /// The same with other solver options (e.g. one thread when layers program in parallel).
+  void program(const Eigen::MatrixXd& calib, const SolverOptions& solver);
 
   template <typename S>
   using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
@@ -93,8 +96,14 @@ class AnalogLayer {
   // The stages of forward(), in order; float (network inference) and double (studies).
   // forward() is exactly their composition, so callers composing them (the SystemC
   // modules) compute bit-identical results.
+  /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
   template <typename S>
-  void forward(const RowMat<S>& x, Mat<S>& y) const;
+  void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
+  /// DAC quantization of n values in place. Unsigned inputs: 2^bits levels on [0, x_max];
+  /// signed: sign and bits-1 magnitude bits (zero is a level, so quantizing activations
+  /// before or after im2col gives identical vectors).
+  template <typename S>
+  void dac_values(S* data, Eigen::Index n) const;
   template <typename S>
   void dac_inplace(RowMat<S>& x) const;  ///< DAC quantization (input units)
   template <typename S>

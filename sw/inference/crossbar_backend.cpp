@@ -1,6 +1,8 @@
 #include "sw/inference/crossbar_backend.h"
 
 #include <limits>
+#include <algorithm>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -72,13 +74,41 @@ void CrossbarBackend::program(const Dataset& calib, int max_samples,
   }
   layers_.clear();
   layers_.reserve(L);
-  for (int l = 0; l < L; ++l) {
-    const LinearLayer& lin = model_.linear[l];
-    layers_.emplace_back(cfg_, lin.weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
+  for (int l = 0; l < L; ++l)
+    layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
                          static_cast<uint64_t>(l + 1));
-    layers_.back().program(stats_[l].samples);
-    if (progress) progress(l + 1, L);
+  // Layers are independent: program them on all threads (largest first), each serially.
+  AnalogConfig serial = cfg_;
+  serial.solver.threads = 1;
+  std::vector<int> order(L);
+  for (int l = 0; l < L; ++l) order[l] = l;
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return model_.linear[a].rows() * model_.linear[a].c_out > model_.linear[b].rows() * model_.linear[b].c_out;
+  });
+  std::mutex mu;
+  int done = 0;
+  const int workers = resolve_threads(cfg_.solver.threads);
+  parallel_for(L, workers, [&](int k) {
+    const int l = order[k];
+    layers_[l].program(stats_[l].samples, serial.solver);
+    std::lock_guard<std::mutex> lock(mu);
+    if (progress) progress(++done, L);
+  });
+}
+
+void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
+                                          Eigen::MatrixXf& out) const {
+  const AnalogLayer& a = layers_.at(layer);
+  if (a.config().dac_bits <= 0) {
+    im2col(L, chw, scratch);
+    a.forward<float>(scratch, out);
+    return;
   }
+  thread_local std::vector<float> q;
+  q.assign(chw, chw + L.in.size());
+  a.dac_values<float>(q.data(), static_cast<Eigen::Index>(q.size()));
+  im2col(L, q.data(), scratch);
+  a.forward<float>(scratch, out, /*quantized=*/true);
 }
 
 void CrossbarBackend::multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const {

@@ -29,6 +29,9 @@ class CrossbarBackend : public LinearBackend {
                const std::function<void(int, int)>& progress = nullptr);
 
   void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override;
+  /// Quantizes the activation once (DAC codes; zero padding stays zero), then im2col.
+  void multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
+                           Eigen::MatrixXf& out) const override;
 
   const AnalogLayer& layer(int l) const { return layers_.at(l); }
   const LayerStatistics& statistics(int l) const { return stats_.at(l); }

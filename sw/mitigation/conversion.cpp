@@ -7,6 +7,9 @@
 
 namespace xbarsim {
 
+ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv,
+                                     bool clip);
+
 namespace {
 
 /// V_M such that the access transistor passes current `i` from M to B (closed forms of
@@ -29,6 +32,11 @@ double level1_mid_voltage(const TransistorParams& t, double vb, double i) {
 }  // namespace
 
 ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv) {
+  return convert_signal_impl(p, g, v_conv, true);
+}
+
+ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv,
+                                     bool clip) {
   const int m = static_cast<int>(g.rows()), n = static_cast<int>(g.cols());
   if (v_conv.size() != m) throw InputError("conversion signal must have one voltage per crossbar row");
   ConversionResult r;
@@ -77,10 +85,10 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
         gp = p.memristor.model == MemristorModel::Linear ? c / u : c / (sinh_scale * std::sinh(p.memristor.k_per_v * u));
       if (!(gp <= p.g_max_s)) {
         ++r.above_max;
-        gp = p.g_max_s;
+        if (clip) gp = p.g_max_s;
       } else if (gp < p.g_min_s) {
         ++r.below_min;
-        gp = p.g_min_s;
+        if (clip) gp = p.g_min_s;
       }
       r.g_prime(i, j) = gp;
     }
@@ -93,11 +101,14 @@ namespace {
 /// Target T(:,j) = c_floor + beta_j (c_target(:,j) - c_floor), beta_j = 1 unless scaling.
 ConversionResult matrix_linear(const CrossbarParams& lin, const SolverOptions& o, const Eigen::MatrixXd& c_target,
                                const Eigen::MatrixXd& c_start, const Eigen::MatrixXd& c_lo, const Eigen::MatrixXd& c_hi,
-                               double c_floor, const MatrixConversionOptions& mo) {
+                               double c_floor, const MatrixConversionOptions& mo,
+                               const Eigen::VectorXd& beta_start = Eigen::VectorXd()) {
   const int m = static_cast<int>(c_target.rows()), n = static_cast<int>(c_target.cols());
   ConversionResult r;
-  Eigen::VectorXd beta = Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd beta = beta_start.size() == n ? beta_start : Eigen::VectorXd::Ones(n);
   Eigen::MatrixXd target = c_target;
+  for (int j = 0; j < n; ++j)
+    target.col(j) = (c_floor + beta(j) * (c_target.col(j).array() - c_floor)).matrix();
   Eigen::MatrixXd gp = c_start.cwiseMax(c_lo).cwiseMin(c_hi);
   auto solver = make_crossbar_solver(lin, o);
   double best = std::numeric_limits<double>::infinity();
@@ -170,7 +181,30 @@ ConversionResult convert_matrix(const CrossbarParams& p, const SolverOptions& o,
       if (p.transistor.model != TransistorModel::Linear) return c;
       return c.unaryExpr([&](double x) { return 1.0 / (1.0 / x - p.transistor.r_on_ohm); }).eval();
     };
-    r = matrix_linear(lin, o, g, cell(start.g_prime), cell(lo), cell(hi), p.g_min_s, mo);
+    Eigen::MatrixXd g_start = start.g_prime;
+    Eigen::VectorXd beta0 = Eigen::VectorXd::Ones(n);
+    if (mo.column_scaling && start.above_max > 0) {
+      // Cheap first guess of the column gains: signal conversions (O(mn) each) of the scaled
+      // targets, adjusting each column until its most demanding cell fits g_max.
+      for (int round = 0; round < 40; ++round) {
+        Eigen::MatrixXd t = g;
+        for (int j = 0; j < n; ++j) t.col(j) = (p.g_min_s + beta0(j) * (g.col(j).array() - p.g_min_s)).matrix();
+        const ConversionResult raw = convert_signal_impl(p, t, v_start, false);
+        bool done = true;
+        for (int j = 0; j < n; ++j) {
+          double worst = 0;
+          for (int i = 0; i < m; ++i) worst = std::max(worst, raw.g_prime(i, j) / p.g_max_s);
+          if (!std::isfinite(worst)) worst = 10;
+          if (worst > 0.99 || worst < 0.9) {
+            beta0(j) = std::min(1.0, beta0(j) * std::pow(0.95 / worst, 0.8));
+            done = false;
+          }
+        }
+        g_start = raw.g_prime.cwiseMax(lo).cwiseMin(hi);
+        if (done) break;
+      }
+    }
+    r = matrix_linear(lin, o, g, cell(g_start), cell(lo), cell(hi), p.g_min_s, mo, beta0);
     r.g_prime = uncell(r.g_prime);
   } else {
     // Nonlinear devices: linearise around the operating signal with chord conductances
