@@ -1,0 +1,94 @@
+// End-to-end runs of eval and simulate through the executable.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+namespace {
+
+int run(const std::string& args, std::string* out = nullptr) {
+  const std::string cmd = std::string(XBARSIM_BINARY) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf;
+  std::string text;
+  while (fgets(buf.data(), buf.size(), p)) text += buf.data();
+  const int st = pclose(p);
+  if (out) *out = text;
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+nlohmann::json read_json(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+bool have_data() {
+  struct stat st;
+  const char* env = std::getenv("XBARSIM_DATA_DIR");
+  return stat(env ? env : "../shared/data", &st) == 0 ||
+         stat((std::string(XBARSIM_SOURCE_DIR) + "/../shared/data").c_str(), &st) == 0;
+}
+
+}  // namespace
+
+TEST(EvalCommand, IdealCrossbarReproducesSoftware) {
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  // Negligible parasitics, no converters, no mitigation: the analog path must reproduce
+  // the software network (an independent check of mapping and recovery on real layers).
+  const std::string json = "/tmp/xbarsim_eval_ideal.json";
+  std::string out;
+  ASSERT_EQ(run("eval --model lenet_mnist --images 300 --set crossbar.r_wire=1e-9 --set crossbar.r_in=1e-9 "
+                "--set crossbar.r_out=1e-9 --set converters.dac_bits=none --set converters.adc_bits=none "
+                "--set mitigation.method=none --set mapping.max_rows=unbounded --set mapping.max_cols=unbounded "
+                "--json " + json,
+                &out),
+            0)
+      << out;
+  const auto j = read_json(json);
+  EXPECT_EQ(j["images"], 300);
+  EXPECT_EQ(j["crossbar_accuracy"], j["software_accuracy"]);
+  ASSERT_EQ(j["layers"].size(), 4u);
+  for (const auto& l : j["layers"]) {
+    EXPECT_LT(l["mean_relative_error"].get<double>(), 1e-5) << l["name"];
+    EXPECT_LT(l["worst_relative_error"].get<double>(), 1e-3) << l["name"];
+  }
+}
+
+TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
+  std::string out;
+  EXPECT_NE(run("eval --model no_such_model", &out), 0);
+  EXPECT_NE(out.find("no_such_model"), std::string::npos) << out;
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; rest skipped";
+  const std::string json = "/tmp/xbarsim_eval_default.json";
+  ASSERT_EQ(run("eval --model resnet20_cifar10 --images 50 --json " + json, &out), 0) << out;
+  const auto j = read_json(json);
+  for (const char* k : {"software_accuracy", "crossbar_accuracy", "images", "layers"}) EXPECT_TRUE(j.contains(k)) << k;
+  ASSERT_EQ(j["layers"].size(), 20u);
+  for (const auto& l : j["layers"])
+    for (const char* k : {"name", "rows", "cols", "mean_relative_error", "worst_relative_error"})
+      EXPECT_TRUE(l.contains(k)) << k;
+}
+
+TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
+  const std::string json = "/tmp/xbarsim_simulate.json";
+  std::string out;
+  ASSERT_EQ(run("simulate --preset resnet20 --timing ideal --json " + json, &out), 0) << out;
+  const auto j = read_json(json);
+  for (const char* k : {"clock_mhz", "iterations_total", "cycles_total", "latency_us", "throughput_images_per_s",
+                        "power_mw", "area_mm2", "energy_uj_per_image", "layers"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["iterations_total"], 9089);
+  long long cycles = 0;
+  for (const auto& l : j["layers"]) {
+    EXPECT_EQ(l["cycles"], l["iterations"]) << l["name"];  // ideal: one clock cycle per iteration
+    cycles += l["cycles"].get<long long>();
+  }
+  EXPECT_EQ(cycles, 9089);
+  EXPECT_GE(j["cycles_total"].get<long long>(), 9089);  // plus input/output transfers
+  EXPECT_NE(run("simulate --preset resnet99", &out), 0);
+  EXPECT_NE(out.find("resnet99"), std::string::npos);
+}
