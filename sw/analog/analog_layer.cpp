@@ -13,18 +13,6 @@
 
 namespace xbarsim {
 
-namespace {
-
-int parse_max_size(const ConfigTree& cfg, const std::string& key) {
-  const std::string s = cfg.get_string(key);
-  if (s == "unbounded") return 0;
-  const long long v = cfg.get_int(key);
-  if (v < 1) throw InputError("configuration key '" + key + "' must be >= 1 or 'unbounded', got '" + s + "'");
-  return static_cast<int>(v);
-}
-
-}  // namespace
-
 void AnalogConfig::set_method(const std::string& name, const std::string& key) {
   static const char* kMethods[] = {"none", "calibration", "conversion", "conversion+calibration",
                                    "matrix-conversion", "matrix-conversion+calibration"};
@@ -46,8 +34,8 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   AnalogConfig c;
   c.xbar = parse_crossbar_params(cfg);
   c.solver = parse_solver_options(cfg);
-  c.max_rows = parse_max_size(cfg, "mapping.max_rows");
-  c.max_cols = parse_max_size(cfg, "mapping.max_cols");
+  c.max_rows = require_size_or_unbounded(cfg, "mapping.max_rows");
+  c.max_cols = require_size_or_unbounded(cfg, "mapping.max_cols");
   c.differential = require_one_of(cfg, "mapping.negative", {"shift", "differential"}) == "differential";
   c.analog_sum = require_one_of(cfg, "mapping.sum_x", {"digital", "analog"}) == "analog";
   c.g_headroom = require_nonnegative(cfg, "mapping.g_headroom");

@@ -291,4 +291,13 @@ std::string require_one_of(const ConfigTree& cfg, const std::string& key, const 
   throw InputError("configuration key '" + key + "': '" + v + "' is not one of: " + list);
 }
 
+int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key) {
+  const std::string s = cfg.get_string(key);
+  if (s == "unbounded") return 0;
+  const long long v = cfg.get_int(key);
+  if (v < 1 || v > (1 << 30))
+    throw InputError("configuration key '" + key + "' must be >= 1 or 'unbounded', got '" + s + "'");
+  return static_cast<int>(v);
+}
+
 }  // namespace xbarsim

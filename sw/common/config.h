@@ -57,5 +57,7 @@ double require_positive(const ConfigTree& cfg, const std::string& key);
 double require_nonnegative(const ConfigTree& cfg, const std::string& key);
 std::string require_one_of(const ConfigTree& cfg, const std::string& key,
                            const std::vector<std::string>& allowed);
+/// A size that may be the word `unbounded` (returned as 0); otherwise an integer >= 1.
+int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key);
 
 }  // namespace xbarsim

@@ -5,13 +5,6 @@
 namespace xbarsim {
 
 namespace {
-int parse_size(const ConfigTree& cfg, const std::string& key) {
-  const std::string s = cfg.get_string(key);
-  if (s == "unbounded") return 0;
-  const long long v = cfg.get_int(key);
-  if (v < 1) throw InputError("configuration key '" + key + "' must be >= 1 or 'unbounded', got '" + s + "'");
-  return static_cast<int>(v);
-}
 int parse_bits_key(const ConfigTree& cfg, const std::string& key) {
   const long long v = cfg.get_int(key);
   if (v < 1 || v > 24) throw InputError("configuration key '" + key + "' must be 1..24");
@@ -22,8 +15,8 @@ long long ceil_div(long long a, long long b) { return (a + b - 1) / b; }
 
 HardwareSettings parse_hardware_settings(const ConfigTree& cfg) {
   HardwareSettings hw;
-  hw.max_rows = parse_size(cfg, "mapping.max_rows");
-  hw.max_cols = parse_size(cfg, "mapping.max_cols");
+  hw.max_rows = require_size_or_unbounded(cfg, "mapping.max_rows");
+  hw.max_cols = require_size_or_unbounded(cfg, "mapping.max_cols");
   hw.adc_bits = parse_bits_key(cfg, "components.adc_bits");
   hw.dac_bits = parse_bits_key(cfg, "components.dac_bits");
   return hw;
