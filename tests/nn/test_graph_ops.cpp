@@ -182,3 +182,52 @@ TEST(Graph, UnsupportedOpNamesNodeAndOp) {
   EXPECT_THROW(load_onnx_model(save(m2, 1, 2, 2, "y", "bad2")), InputError);
   EXPECT_THROW(load_onnx_model("/nonexistent.onnx"), InputError);
 }
+
+#include "sw/nn/toeplitz.h"
+
+TEST(Mapping, DenseAndToeplitzMatchDirectConvolution) {
+  // Dense mapping (im2col rows x unrolled kernel columns) and sparse (Toeplitz) mapping of
+  // the same kernel, against a direct convolution loop.
+  const int C = 3, H = 6, W = 7, O = 5, K = 3;
+  for (int pad : {0, 1})
+    for (int stride : {1, 2}) {
+      LinearLayer L;
+      L.c_in = C;
+      L.c_out = O;
+      L.k_h = L.k_w = K;
+      L.stride_h = L.stride_w = stride;
+      L.pad_t = L.pad_l = L.pad_b = L.pad_r = pad;
+      L.in = {C, H, W};
+      L.out = {O, (H + 2 * pad - K) / stride + 1, (W + 2 * pad - K) / stride + 1};
+      const auto w = randv(O * C * K * K, 11);  // OIHW
+      L.weight.resize(L.rows(), O);
+      for (int o = 0; o < O; ++o)
+        for (int c = 0; c < C; ++c)
+          for (int ky = 0; ky < K; ++ky)
+            for (int kx = 0; kx < K; ++kx) L.weight((kx * K + ky) * C + c, o) = w[((o * C + c) * K + ky) * K + kx];
+      const auto x = randv(C * H * W, 12);
+      RowMatrixXf cols;
+      im2col(L, x.data(), cols);
+      const Eigen::MatrixXf dense = cols * L.weight;  // pixels x O
+      const Eigen::SparseMatrix<float> T = toeplitz_matrix(L);
+      ASSERT_EQ(T.rows(), C * H * W);
+      ASSERT_EQ(T.cols(), L.out.h * L.out.w * O);
+      const Eigen::RowVectorXf sparse = Eigen::Map<const Eigen::RowVectorXf>(x.data(), C * H * W) * T;
+      for (int o = 0; o < O; ++o)
+        for (int oy = 0; oy < L.out.h; ++oy)
+          for (int ox = 0; ox < L.out.w; ++ox) {
+            double s = 0;
+            for (int c = 0; c < C; ++c)
+              for (int ky = 0; ky < K; ++ky)
+                for (int kx = 0; kx < K; ++kx) {
+                  const int iy = oy * stride - pad + ky, ix = ox * stride - pad + kx;
+                  if (iy >= 0 && iy < H && ix >= 0 && ix < W)
+                    s += w[((o * C + c) * K + ky) * K + kx] * x[(c * H + iy) * W + ix];
+                }
+            const int p = oy * L.out.w + ox;
+            EXPECT_NEAR(dense(p, o), s, 1e-4);
+            EXPECT_NEAR(sparse(p * O + o), s, 1e-4);
+          }
+      if (pad == 0) EXPECT_EQ(toeplitz_matrix(L, true).cols(), T.cols());
+    }
+}
