@@ -198,6 +198,11 @@ int cmd_eval(int argc, char** argv) {
                      std::to_string(model.input.h) + "x" + std::to_string(model.input.w));
 
   const auto combos = sweep_combinations(base);
+  for (const auto& combo : combos) {  // validate every run before any output
+    ConfigTree cfg = base;
+    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
+    parse_analog_config(cfg);
+  }
   std::ofstream csv;
   if (args.has("--csv")) {
     csv.open(args.get("--csv"));

@@ -94,6 +94,12 @@ int cmd_xbar_study(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {});
   const ConfigTree base = load_config(args);
   const auto combos = sweep_combinations(base);
+  for (const auto& combo : combos) {  // validate every run before any output
+    ConfigTree cfg = base;
+    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
+    parse_analog_config(cfg, "study.method");
+    require_one_of(cfg, "study.kernel", {"gaussian", "bimodal", "ternary"});
+  }
   nlohmann::json all = nlohmann::json::array();
   std::ofstream csv;
   if (args.has("--csv")) {
