@@ -52,6 +52,23 @@ std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& 
   return label.empty() ? "default" : label;
 }
 
+SweepCsv::SweepCsv(const std::string& path, const std::vector<std::pair<std::string, std::string>>& first_combo,
+                   const std::string& columns) {
+  if (path.empty()) return;
+  out_.open(path);
+  if (!out_) throw InputError("cannot write '" + path + "'");
+  out_.precision(12);
+  out_ << "run";
+  for (const auto& kv : first_combo) out_ << "," << kv.first;
+  out_ << "," << columns << "\n";
+}
+
+std::ostream& SweepCsv::row(int run, const std::vector<std::pair<std::string, std::string>>& combo) {
+  out_ << run;
+  for (const auto& kv : combo) out_ << "," << kv.second;
+  return out_;
+}
+
 namespace {
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();

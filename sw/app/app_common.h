@@ -1,6 +1,7 @@
 #pragma once
 /// Helpers shared by the xbarsim subcommands, and the subcommand registry.
 #include <nlohmann/json.hpp>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,20 @@ std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations
 
 /// Short label "key=value ..." of a combination (last key component only), or "default".
 std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo);
+
+/// A CSV file whose rows start with the run index and the run's sweep values.
+class SweepCsv {
+ public:
+  /// Opens `path` (nothing when empty) and writes the header: run, the sweep keys, `columns`.
+  SweepCsv(const std::string& path, const std::vector<std::pair<std::string, std::string>>& first_combo,
+           const std::string& columns);
+  bool enabled() const { return out_.is_open(); }
+  /// Starts a row for `run` / `combo`; the caller appends ",..." fields and a newline.
+  std::ostream& row(int run, const std::vector<std::pair<std::string, std::string>>& combo);
+
+ private:
+  std::ofstream out_;
+};
 
 /// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.
 class ProgressBar {

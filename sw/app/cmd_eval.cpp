@@ -203,14 +203,7 @@ int cmd_eval(int argc, char** argv) {
     for (const auto& kv : combo) cfg.set(kv.first, kv.second);
     parse_analog_config(cfg);
   }
-  std::ofstream csv;
-  if (args.has("--csv")) {
-    csv.open(args.get("--csv"));
-    if (!csv) throw InputError("cannot write '" + args.get("--csv") + "'");
-    csv << "run";
-    for (const auto& kv : combos.front()) csv << "," << kv.first;
-    csv << ",layer,name,rows,cols,crossbars,mean_relative_error,worst_relative_error\n";
-  }
+  SweepCsv csv(args.get("--csv"), combos.front(), "layer,name,rows,cols,crossbars,mean_relative_error,worst_relative_error");
   nlohmann::json all = nlohmann::json::array();
   std::printf("%-44s %7s %9s %9s %8s %7s %9s\n", "run", "images", "software", "crossbar", "xbars", "oor", "img/s");
   int run = 0;
@@ -232,12 +225,8 @@ int cmd_eval(int argc, char** argv) {
                     l["cols"].get<int>(), l["crossbars"].get<int>(), 100 * l["mean_relative_error"].get<double>(),
                     100 * l["worst_relative_error"].get<double>());
     }
-    if (csv.is_open())
-      for (const auto& row : r.csv_rows) {
-        csv << run;
-        for (const auto& kv : combo) csv << "," << kv.second;
-        csv << "," << row << "\n";
-      }
+    if (csv.enabled())
+      for (const auto& row : r.csv_rows) csv.row(run, combo) << "," << row << "\n";
     all.push_back(r.json);
     ++run;
   }

@@ -101,15 +101,7 @@ int cmd_xbar_study(int argc, char** argv) {
     require_one_of(cfg, "study.kernel", {"gaussian", "bimodal", "ternary"});
   }
   nlohmann::json all = nlohmann::json::array();
-  std::ofstream csv;
-  if (args.has("--csv")) {
-    csv.open(args.get("--csv"));
-    if (!csv) throw InputError("cannot write '" + args.get("--csv") + "'");
-    csv << "run";
-    for (const auto& kv : combos.front()) csv << "," << kv.first;
-    csv << ",vector,column,ideal,actual\n";
-    csv.precision(12);
-  }
+  SweepCsv csv(args.get("--csv"), combos.front(), "vector,column,ideal,actual");
   std::printf("%-40s %8s %9s %11s %11s %7s %7s %9s %6s\n", "run", "xbars", "oor_cells", "mean_RE_%", "worst_RE_%",
               "bits_m", "bits_w", "min_gain", "time_s");
   int run = 0;
@@ -127,13 +119,10 @@ int cmd_xbar_study(int argc, char** argv) {
                 j["bit_accuracy_worst"].get<double>(), j["min_column_gain"].get<double>(),
                 j["program_time_s"].get<double>() + j["evaluate_time_s"].get<double>());
     std::fflush(stdout);
-    if (csv.is_open())
+    if (csv.enabled())
       for (Eigen::Index a = 0; a < r.ideal.rows(); ++a)
-        for (Eigen::Index c = 0; c < r.ideal.cols(); ++c) {
-          csv << run;
-          for (const auto& kv : combo) csv << "," << kv.second;
-          csv << "," << a << "," << c << "," << r.ideal(a, c) << "," << r.actual(a, c) << "\n";
-        }
+        for (Eigen::Index c = 0; c < r.ideal.cols(); ++c)
+          csv.row(run, combo) << "," << a << "," << c << "," << r.ideal(a, c) << "," << r.actual(a, c) << "\n";
     all.push_back(j);
     ++run;
   }

@@ -5,26 +5,13 @@
 
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/nodal_solver.h"
+#include "tests/circuit/random_crossbar.h"
 
 using namespace xbarsim;
+using xbarsim::test::random_g;
+using xbarsim::test::random_v;
 
 namespace {
-Eigen::MatrixXd random_g(int m, int n, const CrossbarParams& p, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(p.g_min_s, p.g_max_s);
-  Eigen::MatrixXd g(m, n);
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < n; ++j) g(i, j) = u(rng);
-  return g;
-}
-Eigen::MatrixXd random_v(int k, int m, double lo, double hi, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(lo, hi);
-  Eigen::MatrixXd v(k, m);
-  for (int a = 0; a < k; ++a)
-    for (int i = 0; i < m; ++i) v(a, i) = u(rng);
-  return v;
-}
 double max_rel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
 }

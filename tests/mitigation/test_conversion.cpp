@@ -4,18 +4,12 @@
 #include <random>
 
 #include "sw/mitigation/conversion.h"
+#include "tests/circuit/random_crossbar.h"
 
 using namespace xbarsim;
+using xbarsim::test::random_g;
 
 namespace {
-Eigen::MatrixXd random_g(int m, int n, const CrossbarParams& p, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(p.g_min_s, p.g_max_s);
-  Eigen::MatrixXd g(m, n);
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < n; ++j) g(i, j) = u(rng);
-  return g;
-}
 SolverOptions direct() {
   SolverOptions o;
   o.method = "direct";

@@ -228,6 +228,8 @@ TEST(Mapping, DenseAndToeplitzMatchDirectConvolution) {
             EXPECT_NEAR(dense(p, o), s, 1e-4);
             EXPECT_NEAR(sparse(p * O + o), s, 1e-4);
           }
-      if (pad == 0) EXPECT_EQ(toeplitz_matrix(L, true).cols(), T.cols());
+      if (pad == 0) {
+        EXPECT_EQ(toeplitz_matrix(L, true).cols(), T.cols());
+      }
     }
 }
