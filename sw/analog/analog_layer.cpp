@@ -140,11 +140,13 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   // Vectors for ADC range estimation: the real inputs (at most 2048) and the calibration set.
   Eigen::MatrixXd range_x;
   {
-    const Eigen::Index take = std::min<Eigen::Index>(calib_in.rows(), 2048);
+    // Nonlinear devices need a Newton solve per vector: estimate ranges on fewer vectors.
+    const Eigen::Index cap = cfg_.xbar.is_linear() ? 2048 : 128;
+    const Eigen::Index take = std::min<Eigen::Index>(calib_in.rows(), cap);
     range_x.resize(take + cal.rows(), w_.rows());
     std::mt19937_64 rng(salt_ + 17);
     for (Eigen::Index a = 0; a < take; ++a)
-      range_x.row(a) = calib_in.row(calib_in.rows() <= 2048 ? a : static_cast<Eigen::Index>(rng() % calib_in.rows()));
+      range_x.row(a) = calib_in.row(calib_in.rows() <= cap ? a : static_cast<Eigen::Index>(rng() % calib_in.rows()));
     range_x.bottomRows(cal.rows()) = cal;
     range_x = dac(range_x);
   }
