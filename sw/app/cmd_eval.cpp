@@ -166,7 +166,8 @@ int cmd_eval(int argc, char** argv) {
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
-  const Model model = load_onnx_model(find_model_file(args.require("--model"), base));
+  Model model = load_onnx_model(find_model_file(args.require("--model"), base));
+  apply_preprocessing_overrides(base, model.pre, model.input.c);
   const std::string dataset = args.has("--dataset") ? args.get("--dataset") : model.dataset;
   if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
   const std::string dir = resolve_data_dir(base);

@@ -11,6 +11,8 @@ namespace xbarsim {
 namespace {
 int cmd_netlist(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
+  if (args.has("--json") || args.has("--csv"))
+    throw InputError("netlist writes a SPICE netlist (--out); --json and --csv do not apply");
   const ConfigTree cfg = load_config(args);
   const CrossbarParams params = parse_crossbar_params(cfg);
   const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"));

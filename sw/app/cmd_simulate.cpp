@@ -38,7 +38,8 @@ int cmd_simulate(int argc, char** argv) {
   if (!cfg.sweep_keys().empty())
     throw InputError("simulate runs one configuration per process (SystemC elaborates once); '" +
                      cfg.sweep_keys().front() + "' is a list");
-  const Model model = model_from_args(args, cfg);
+  Model model = model_from_args(args, cfg);
+  apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const AnalogConfig ac = parse_analog_config(cfg);
   const ComponentLibrary lib = load_component_library(cfg);
   const PlatformConfig pc = parse_platform_config(cfg, lib.adc_columns_per_unit);

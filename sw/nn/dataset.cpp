@@ -122,6 +122,25 @@ std::string resolve_data_dir(const ConfigTree& cfg) {
   throw InputError("no data directory found: set data.dir or XBARSIM_DATA_DIR (looked in:" + list + ")");
 }
 
+void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels) {
+  const std::string origin = "configuration";
+  const std::string scale = cfg.get_string("preprocessing.scale"), mean = cfg.get_string("preprocessing.mean"),
+                    sd = cfg.get_string("preprocessing.std");
+  if (!scale.empty()) pre.scale = parse_number_list(scale, "preprocessing.scale", origin).at(0);
+  if (!mean.empty()) pre.mean = parse_number_list(mean, "preprocessing.mean", origin);
+  if (!sd.empty()) pre.std = parse_number_list(sd, "preprocessing.std", origin);
+  auto check = [&](const std::vector<double>& v, const char* key) {
+    if (v.size() != 1 && static_cast<int>(v.size()) != channels)
+      throw InputError(std::string("'") + key + "' needs 1 or " + std::to_string(channels) + " values, got " +
+                       std::to_string(v.size()));
+  };
+  check(pre.mean, "preprocessing.mean");
+  check(pre.std, "preprocessing.std");
+  for (double v : pre.std)
+    if (!(v > 0)) throw InputError("'preprocessing.std' values must be > 0");
+  if (!(pre.scale > 0)) throw InputError("'preprocessing.scale' must be > 0");
+}
+
 std::string resolve_models_dir(const ConfigTree& cfg) {
   const std::string configured = cfg.get_string("data.models_dir");
   if (!configured.empty()) return configured;

@@ -31,6 +31,10 @@ Dataset load_mnist(const std::string& images, const std::string& labels, int off
 /// place it looked when none exists.
 std::string resolve_data_dir(const ConfigTree& cfg);
 
+/// Applies the `preprocessing.` overrides (scale, mean, std; "" = keep the model's metadata)
+/// and checks that mean/std have 1 or `channels` entries and std > 0.
+void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels);
+
 /// The models directory: `data.models_dir`, else <data dir>/../models.
 std::string resolve_models_dir(const ConfigTree& cfg);
 

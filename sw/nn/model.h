@@ -72,4 +72,8 @@ struct Model {
 /// input has symbolic dimensions (0 = take them from the model).
 Model load_onnx_model(const std::string& path, Shape input = Shape{0, 0, 0});
 
+/// Comma-separated numbers, each possibly a fraction "a/b" (e.g. "1/255"); errors name
+/// `origin` and `key`.
+std::vector<double> parse_number_list(const std::string& s, const std::string& key, const std::string& origin);
+
 }  // namespace xbarsim

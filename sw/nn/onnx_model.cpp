@@ -411,7 +411,9 @@ class Loader {
   std::map<std::string, int> ids_;
 };
 
-std::vector<double> parse_list(const std::string& s, const std::string& key, const std::string& path) {
+}  // namespace
+
+std::vector<double> parse_number_list(const std::string& s, const std::string& key, const std::string& path) {
   std::vector<double> out;
   std::stringstream ss(s);
   std::string item;
@@ -421,13 +423,11 @@ std::vector<double> parse_list(const std::string& s, const std::string& key, con
       out.push_back(slash == std::string::npos ? std::stod(item)
                                                : std::stod(item.substr(0, slash)) / std::stod(item.substr(slash + 1)));
     } catch (const std::exception&) {
-      throw InputError(path + ": metadata '" + key + "' has a non-numeric entry '" + item + "'");
+      throw InputError(path + ": '" + key + "' has a non-numeric entry '" + item + "'");
     }
   }
   return out;
 }
-
-}  // namespace
 
 Model load_onnx_model(const std::string& path, Shape input) {
   std::ifstream in(path, std::ios::binary);
@@ -439,9 +439,9 @@ Model load_onnx_model(const std::string& path, Shape input) {
   Loader(proto, path, model).run(input);
   for (const auto& p : proto.metadata_props()) model.metadata[p.key()] = p.value();
   auto meta = [&](const char* k) { return model.metadata.count(k) ? model.metadata[k] : std::string(); };
-  if (!meta("input_scale").empty()) model.pre.scale = parse_list(meta("input_scale"), "input_scale", path).at(0);
-  if (!meta("input_mean").empty()) model.pre.mean = parse_list(meta("input_mean"), "input_mean", path);
-  if (!meta("input_std").empty()) model.pre.std = parse_list(meta("input_std"), "input_std", path);
+  if (!meta("input_scale").empty()) model.pre.scale = parse_number_list(meta("input_scale"), "input_scale", path).at(0);
+  if (!meta("input_mean").empty()) model.pre.mean = parse_number_list(meta("input_mean"), "input_mean", path);
+  if (!meta("input_std").empty()) model.pre.std = parse_number_list(meta("input_std"), "input_std", path);
   model.dataset = meta("dataset");
   if (!meta("software_accuracy_test_batch").empty())
     model.reference_accuracy = std::stod(meta("software_accuracy_test_batch"));
