@@ -2,9 +2,11 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 namespace xbarsim {
 
@@ -41,6 +43,32 @@ double number(const YAML::Node& root, const std::string& sec, const std::string&
   }
 }
 
+/// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
+int integer(const YAML::Node& root, const std::string& sec, const std::string& key, const std::string& origin) {
+  const double v = number(root, sec, key, origin);
+  if (v != std::floor(v) || v > (1 << 30))
+    throw InputError(origin + ": '" + sec + "." + key + "' must be a positive integer, got '" +
+                     root[sec][key].Scalar() + "'");
+  return static_cast<int>(v);
+}
+
+/// Rejects keys of section `sec` outside `allowed` (a misspelt scaling rule would
+/// otherwise fall back to the default silently).
+void only_keys(const YAML::Node& root, const std::string& sec, const std::vector<std::string>& allowed,
+               const std::string& origin) {
+  const YAML::Node n = root[sec];
+  if (!n) throw InputError(origin + ": missing section '" + sec + "'");
+  if (!n.IsMap()) throw InputError(origin + ": section '" + sec + "' must be a map of keys");
+  for (auto it = n.begin(); it != n.end(); ++it) {
+    const std::string k = it->first.as<std::string>();
+    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw InputError(origin + ": unknown key '" + sec + "." + k + "' (" + list + ")");
+    }
+  }
+}
+
 Scaling scaling(const YAML::Node& root, const std::string& sec, const std::string& key, const std::string& origin) {
   const YAML::Node n = root[sec] ? root[sec][key] : YAML::Node();
   if (!n) return Scaling::Exponential;
@@ -55,7 +83,7 @@ ConverterSpec converter(const YAML::Node& root, const std::string& sec, const st
   ConverterSpec c;
   c.power_mw = number(root, sec, "power_mw", origin);
   c.area_mm2 = number(root, sec, "area_mm2", origin);
-  c.reference_bits = static_cast<int>(number(root, sec, "reference_bits", origin));
+  c.reference_bits = integer(root, sec, "reference_bits", origin);
   c.power_scaling = scaling(root, sec, "power_scaling", origin);
   c.area_scaling = scaling(root, sec, "area_scaling", origin);
   return c;
@@ -75,11 +103,19 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     if (k != "adc" && k != "dac" && k != "cell" && k != "accumulator")
       throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator)");
   }
+  const std::vector<std::string> converter_keys{"power_mw", "area_mm2", "reference_bits", "power_scaling",
+                                                "area_scaling"};
+  std::vector<std::string> adc_keys = converter_keys;
+  adc_keys.insert(adc_keys.end(), {"columns_per_unit", "sample_rate_gsps"});
+  only_keys(root, "adc", adc_keys, origin);
+  only_keys(root, "dac", converter_keys, origin);
+  only_keys(root, "cell", {"power_mw", "area_mm2"}, origin);
+  only_keys(root, "accumulator", {"power_mw", "area_mm2"}, origin);
   ComponentLibrary lib;
   lib.source = origin;
   lib.adc = converter(root, "adc", origin);
   lib.dac = converter(root, "dac", origin);
-  lib.adc_columns_per_unit = static_cast<int>(number(root, "adc", "columns_per_unit", origin));
+  lib.adc_columns_per_unit = integer(root, "adc", "columns_per_unit", origin);
   lib.adc_sample_rate_gsps = number(root, "adc", "sample_rate_gsps", origin);
   lib.cell_power_mw = number(root, "cell", "power_mw", origin);
   lib.cell_area_mm2 = number(root, "cell", "area_mm2", origin);
@@ -90,13 +126,24 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
 
 ComponentLibrary load_component_library(const ConfigTree& cfg) {
   const std::string path = cfg.get_string("components.library");
-  if (path.empty())
-    return parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
-  std::ifstream in(path);
-  if (!in) throw InputError("cannot open component library '" + path + "' (components.library)");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_component_library(ss.str(), path);
+  ComponentLibrary lib;
+  if (path.empty()) {
+    lib = parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
+  } else {
+    std::ifstream in(path);
+    if (!in) throw InputError("cannot open component library '" + path + "' (components.library)");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    lib = parse_component_library(ss.str(), path);
+  }
+  const long long share = cfg.get_int("components.adc_columns_per_adc");
+  if (share < 0 || share > (1 << 30))
+    throw InputError(
+        "configuration key 'components.adc_columns_per_adc' must be >= 0 (0 = the library's "
+        "adc.columns_per_unit), got '" +
+        cfg.get_string("components.adc_columns_per_adc") + "'");
+  if (share > 0) lib.adc_columns_per_unit = static_cast<int>(share);
+  return lib;
 }
 
 }  // namespace xbarsim

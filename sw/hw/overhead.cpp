@@ -7,7 +7,8 @@ namespace xbarsim {
 namespace {
 int parse_bits_key(const ConfigTree& cfg, const std::string& key) {
   const long long v = cfg.get_int(key);
-  if (v < 1 || v > 24) throw InputError("configuration key '" + key + "' must be 1..24");
+  if (v < 1 || v > 24)
+    throw InputError("configuration key '" + key + "' must be 1..24 bits, got '" + cfg.get_string(key) + "'");
   return static_cast<int>(v);
 }
 long long ceil_div(long long a, long long b) { return (a + b - 1) / b; }
@@ -50,8 +51,8 @@ MappingCost mapping_cost(long long rows, long long cols, long long cells_used, l
   c.crossbars = pr * pc;
   // Balanced column blocks: (cols % pc) blocks of ceil(cols/pc), the rest floor.
   const long long big = cols % pc, small = pc - big, cb = cols / pc;
-  const long long adcs_per_row_block = big * ceil_div(cb + 1, lib.adc_columns_per_unit) +
-                                       small * ceil_div(std::max(cb, 1LL), lib.adc_columns_per_unit);
+  const long long adcs_per_row_block =
+      big * ceil_div(cb + 1, lib.adc_columns_per_unit) + small * ceil_div(std::max(cb, 1LL), lib.adc_columns_per_unit);
   c.adcs = pr * adcs_per_row_block;
   c.dacs = rows * pc;
   const long long phys_rows = hw.max_rows ? hw.max_rows : rows;
@@ -59,8 +60,8 @@ MappingCost mapping_cost(long long rows, long long cols, long long cells_used, l
   c.cells_present = c.crossbars * phys_rows * phys_cols;
   c.xbar_power_mw = c.cells_present * lib.cell_power_mw;
   c.xbar_area_mm2 = c.cells_present * lib.cell_area_mm2;
-  c.total_power_mw = c.xbar_power_mw + c.adcs * lib.adc.power_at(hw.adc_bits) +
-                     c.dacs * lib.dac.power_at(hw.dac_bits) + c.crossbars * lib.accumulator_power_mw;
+  c.total_power_mw = c.xbar_power_mw + c.adcs * lib.adc.power_at(hw.adc_bits) + c.dacs * lib.dac.power_at(hw.dac_bits) +
+                     c.crossbars * lib.accumulator_power_mw;
   c.total_area_mm2 = c.xbar_area_mm2 + c.adcs * lib.adc.area_at(hw.adc_bits) + c.dacs * lib.dac.area_at(hw.dac_bits) +
                      c.crossbars * lib.accumulator_area_mm2;
   return c;
