@@ -7,23 +7,17 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.clock_mhz = require_positive(cfg, "platform.clock_mhz");
   c.detailed = require_one_of(cfg, "platform.timing", {"ideal", "detailed"}) == "detailed";
   c.pipelined = require_one_of(cfg, "platform.schedule", {"sequential", "pipelined"}) == "pipelined";
-  auto positive_int = [&](const char* key) {
-    const long long v = cfg.get_int(key);
-    if (v < 1) throw InputError(std::string("configuration key '") + key + "' must be >= 1");
-    return static_cast<int>(v);
-  };
-  c.replication = positive_int("platform.replication");
-  c.adcs_per_crossbar = static_cast<int>(cfg.get_int("platform.adcs_per_crossbar"));
-  if (c.adcs_per_crossbar < 0) throw InputError("configuration key 'platform.adcs_per_crossbar' must be >= 0");
+  c.replication = cfg.get_int32("platform.replication");
+  c.adcs_per_crossbar = cfg.get_int32("platform.adcs_per_crossbar");
   c.adc_columns_per_unit = adc_columns_per_unit;
   c.adc_rate_gsps = require_positive(cfg, "platform.adc_rate_gsps");
   c.dac_latency_ns = require_nonnegative(cfg, "platform.dac_latency_ns");
   c.crossbar_settle_ns = require_nonnegative(cfg, "platform.crossbar_settle_ns");
   c.accumulator_latency_ns = require_nonnegative(cfg, "platform.accumulator_latency_ns");
-  c.shift_entries_per_cycle = positive_int("platform.shift_entries_per_cycle");
-  c.io_words_per_cycle = positive_int("platform.io_words_per_cycle");
+  c.shift_entries_per_cycle = cfg.get_int32("platform.shift_entries_per_cycle");
+  c.io_words_per_cycle = cfg.get_int32("platform.io_words_per_cycle");
   c.quantum_ns = require_positive(cfg, "platform.quantum_ns");
-  c.images = positive_int("platform.images");
+  c.images = cfg.get_int32("platform.images");
   return c;
 }
 

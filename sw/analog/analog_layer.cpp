@@ -53,10 +53,10 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
       throw InputError("configuration key 'conversion.amplitude' is a fraction of crossbar.v_in_max (0 < a <= 1)");
   }
   c.column_scaling = cfg.get_bool("conversion.column_scaling");
-  c.conversion_max_iterations = static_cast<int>(cfg.get_int("conversion.max_iterations"));
+  c.conversion_max_iterations = cfg.get_int32("conversion.max_iterations");
   c.conversion_tolerance = require_positive(cfg, "conversion.tolerance");
   if (c.conversion_max_iterations < 1) throw InputError("configuration key 'conversion.max_iterations' must be >= 1");
-  c.calibration_samples = static_cast<int>(cfg.get_int("calibration.samples"));
+  c.calibration_samples = cfg.get_int32("calibration.samples");
   if (c.calibration_samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.calibration_signal = require_one_of(cfg, "calibration.signal", {"random", "random_decreasing", "shuffled"});
   c.calibration_seed = static_cast<uint64_t>(cfg.get_int("calibration.seed"));

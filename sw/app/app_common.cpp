@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <climits>
 #include <cstdio>
 #include <fstream>
 
@@ -12,11 +13,22 @@ namespace xbarsim {
 
 ConfigTree load_config(const CliArgs& args) { return ConfigTree::load(args.get("--config"), args.sets()); }
 
-void write_json(const std::string& path, const nlohmann::json& j) {
-  std::ofstream out(path);
-  if (!out) throw InputError("cannot write '" + path + "'");
-  out << j.dump(2) << "\n";
-  if (!out) throw InputError("error while writing '" + path + "'");
+void write_json(const std::string& path, const nlohmann::json& j) { write_text_file(path, j.dump(2) + "\n"); }
+
+void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags) {
+  std::vector<std::string> inputs, outputs;
+  for (const auto& kv : args.values()) {
+    bool is_output = false;
+    for (const auto& f : output_flags) is_output = is_output || kv.first == f;
+    (is_output ? outputs : inputs).push_back(kv.second);
+  }
+  for (const auto& f : output_flags) {
+    if (!args.has(f)) continue;
+    check_output_path(args.get(f), f, inputs);
+    int same = 0;
+    for (const auto& o : outputs) same += o == args.get(f);
+    if (same > 1) throw InputError(f + " '" + args.get(f) + "' is also named by another output option");
+  }
 }
 
 }  // namespace xbarsim
@@ -31,6 +43,17 @@ std::vector<CommandInfo>& command_registry() {
 namespace xbarsim {
 
 std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations(const ConfigTree& cfg) {
+  const unsigned long long points = cfg.sweep_points();
+  const long long limit = cfg.get_int("limits.max_sweep_points");
+  if (points > static_cast<unsigned long long>(limit)) {
+    std::string keys;
+    for (const auto& k : cfg.sweep_keys()) keys += (keys.empty() ? "" : ", ") + k;
+    throw InputError("the sweep over " + keys + " has " +
+                     (points == ULLONG_MAX ? std::string("more than 1.8e19") : std::to_string(points)) +
+                     " points, more than limits.max_sweep_points = " + std::to_string(limit) +
+                     " (raise it to run this sweep)");
+  }
+  if (points > 1) std::fprintf(stderr, "sweep: %llu points\n", points);
   std::vector<std::vector<std::pair<std::string, std::string>>> out(1);
   for (const auto& key : cfg.sweep_keys()) {
     std::vector<std::vector<std::pair<std::string, std::string>>> next;
@@ -45,6 +68,23 @@ std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations
   return out;
 }
 
+ConfigTree sweep_point(const ConfigTree& base, const std::vector<std::pair<std::string, std::string>>& combo) {
+  ConfigTree cfg = base;
+  for (const auto& kv : combo) cfg.set(kv.first, kv.second);
+  return cfg;
+}
+
+void for_each_sweep_point(const ConfigTree& base,
+                          const std::vector<std::vector<std::pair<std::string, std::string>>>& combos,
+                          const std::function<void(const ConfigTree&)>& f) {
+  ProgressBar bar(static_cast<int>(combos.size()), "checking sweep points");
+  int done = 0;
+  for (const auto& combo : combos) {
+    f(sweep_point(base, combo));
+    if (combos.size() > 100) bar.update(++done);
+  }
+}
+
 std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo) {
   std::string label;
   for (const auto& kv : combo)
@@ -55,18 +95,19 @@ std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& 
 SweepCsv::SweepCsv(const std::string& path, const std::vector<std::pair<std::string, std::string>>& first_combo,
                    const std::string& columns) {
   if (path.empty()) return;
-  out_.open(path);
-  if (!out_) throw InputError("cannot write '" + path + "'");
-  out_.precision(12);
-  out_ << "run";
-  for (const auto& kv : first_combo) out_ << "," << kv.first;
-  out_ << "," << columns << "\n";
+  out_ = std::make_unique<OutputFile>(path);
+  std::ostream& os = out_->stream();
+  os.precision(12);
+  os << "run";
+  for (const auto& kv : first_combo) os << "," << kv.first;
+  os << "," << columns << "\n";
 }
 
 std::ostream& SweepCsv::row(int run, const std::vector<std::pair<std::string, std::string>>& combo) {
-  out_ << run;
-  for (const auto& kv : combo) out_ << "," << kv.second;
-  return out_;
+  std::ostream& os = out_->stream();
+  os << run;
+  for (const auto& kv : combo) os << "," << kv.second;
+  return os;
 }
 
 namespace {

@@ -2,23 +2,40 @@
 /// Helpers shared by the xbarsim subcommands, and the subcommand registry.
 #include <nlohmann/json.hpp>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "sw/common/cli_args.h"
 #include "sw/common/config.h"
+#include "sw/common/output_file.h"
 
 namespace xbarsim {
 
 /// Configuration from --config (optional) and the --set overrides.
 ConfigTree load_config(const CliArgs& args);
 
-/// Writes a JSON report (pretty-printed) to `path`; throws InputError if it cannot.
+/// Writes a JSON report (pretty-printed) to `path` (atomically, checked); throws InputError.
 void write_json(const std::string& path, const nlohmann::json& j);
+
+/// Checks, before any work, every output flag of `output_flags` that was given: writable,
+/// not a directory, distinct from each other and from every input (the values of all other
+/// flags that name existing files). Throws InputError naming the flag and the path.
+void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags);
 
 /// Sweeps: every combination (cartesian product) of the values of the keys given as lists;
 /// one empty combination when nothing sweeps.
 std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations(const ConfigTree& cfg);
+
+/// The configuration of one sweep point: `base` with the combination's values set.
+ConfigTree sweep_point(const ConfigTree& base, const std::vector<std::pair<std::string, std::string>>& combo);
+
+/// Calls `f` with each point's configuration in order (a progress bar on long sweeps);
+/// commands use it to validate every point before running any.
+void for_each_sweep_point(const ConfigTree& base,
+                          const std::vector<std::vector<std::pair<std::string, std::string>>>& combos,
+                          const std::function<void(const ConfigTree&)>& f);
 
 /// Short label "key=value ..." of a combination (last key component only), or "default".
 std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo);
@@ -29,12 +46,16 @@ class SweepCsv {
   /// Opens `path` (nothing when empty) and writes the header: run, the sweep keys, `columns`.
   SweepCsv(const std::string& path, const std::vector<std::pair<std::string, std::string>>& first_combo,
            const std::string& columns);
-  bool enabled() const { return out_.is_open(); }
+  bool enabled() const { return out_ != nullptr; }
   /// Starts a row for `run` / `combo`; the caller appends ",..." fields and a newline.
   std::ostream& row(int run, const std::vector<std::pair<std::string, std::string>>& combo);
+  /// Completes the file (until then it is a temporary file beside the target).
+  void commit() {
+    if (out_) out_->commit();
+  }
 
  private:
-  std::ofstream out_;
+  std::unique_ptr<OutputFile> out_;
 };
 
 /// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.

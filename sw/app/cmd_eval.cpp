@@ -18,6 +18,22 @@ struct LayerTally {
   long long count = 0;
 };
 
+/// Relative errors of one image's layer output (crossbar vs software), each normalised by
+/// the output channel's calibration range.
+LayerTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
+  LayerTally ty;
+  for (Eigen::Index col = 0; col < s.cols(); ++col) {
+    const double range = std::max(st.out_hi(col) - st.out_lo(col), 1e-30);
+    for (Eigen::Index r = 0; r < s.rows(); ++r) {
+      const double e = std::abs(static_cast<double>(c(r, col)) - s(r, col)) / range;
+      ty.sum += e;
+      ty.worst = std::max(ty.worst, e);
+    }
+  }
+  ty.count = s.size();
+  return ty;
+}
+
 struct EvalResult {
   nlohmann::json json;
   std::vector<std::string> csv_rows;
@@ -30,19 +46,18 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
   CrossbarBackend xb(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming " + label);
-    const long long samples = cfg.get_int("eval.calibration_samples");
+    const int samples = cfg.get_int32("eval.calibration_samples");
     if (samples < ac.calibration_samples)
       throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
-    xb.program(calib, static_cast<int>(samples), [&](int d, int) { bar.update(d); });
+    xb.program(calib, samples, [&](int d, int) { bar.update(d); });
   }
   const auto t1 = std::chrono::steady_clock::now();
   int images = test.count();
   std::string note;
   if (!ac.xbar.is_linear()) {
-    const long long nl = cfg.get_int("eval.nonlinear_images");
-    if (nl < 1) throw InputError("configuration key 'eval.nonlinear_images' must be >= 1");
+    const int nl = cfg.get_int32("eval.nonlinear_images");
     if (nl < images) {
-      images = static_cast<int>(nl);
+      images = nl;
       note = "nonlinear devices: every crossbar input vector is a Newton circuit solve; evaluated on the first " +
              std::to_string(images) + " images only (eval.nonlinear_images)";
       std::cerr << "xbarsim eval: " << note << "\n";
@@ -50,8 +65,10 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
   }
   const int L = static_cast<int>(model.linear.size());
   const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), images));
-  std::vector<std::vector<LayerTally>> tallies(threads, std::vector<LayerTally>(L));
-  std::vector<int> sw_correct(threads, 0), xb_correct(threads, 0);
+  // Per image and layer: sum and worst of the relative errors; reduced in image order after
+  // the parallel loop, so the figures do not depend on the number of threads.
+  std::vector<LayerTally> tallies(static_cast<size_t>(images) * L);
+  std::vector<char> sw_correct(images, 0), xb_correct(images, 0);
   std::mutex progress_mu;
   int done = 0;
   ProgressBar bar(images, "evaluating  " + label);
@@ -67,23 +84,10 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
       Eigen::Index a, b;
       run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
       run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
-      sw_correct[t] += a == test.labels[k];
-      xb_correct[t] += b == test.labels[k];
-      for (int l = 0; l < L; ++l) {
-        const LayerStatistics& st = xb.statistics(l);
-        const Eigen::MatrixXf& s = sw_trace.outputs[l];
-        const Eigen::MatrixXf& c = xb_trace.outputs[l];
-        LayerTally& ty = tallies[t][l];
-        for (Eigen::Index col = 0; col < s.cols(); ++col) {
-          const double range = std::max(st.out_hi(col) - st.out_lo(col), 1e-30);
-          for (Eigen::Index r = 0; r < s.rows(); ++r) {
-            const double e = std::abs(static_cast<double>(c(r, col)) - s(r, col)) / range;
-            ty.sum += e;
-            ty.worst = std::max(ty.worst, e);
-          }
-        }
-        ty.count += s.size();
-      }
+      sw_correct[k] = a == test.labels[k];
+      xb_correct[k] = b == test.labels[k];
+      for (int l = 0; l < L; ++l)
+        tallies[static_cast<size_t>(k) * L + l] = layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
       std::lock_guard<std::mutex> lock(progress_mu);
       bar.update(++done);
     }
@@ -93,9 +97,9 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
   EvalResult r;
   nlohmann::json& j = r.json;
   int swc = 0, xbc = 0;
-  for (int t = 0; t < threads; ++t) {
-    swc += sw_correct[t];
-    xbc += xb_correct[t];
+  for (int k = 0; k < images; ++k) {
+    swc += sw_correct[k];
+    xbc += xb_correct[k];
   }
   j["model"] = model.path;
   j["dataset"] = test.name;
@@ -118,10 +122,11 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
   int crossbars = 0, adcs = 0, oor = 0;
   for (int l = 0; l < L; ++l) {
     LayerTally sum;
-    for (int t = 0; t < threads; ++t) {
-      sum.sum += tallies[t][l].sum;
-      sum.count += tallies[t][l].count;
-      sum.worst = std::max(sum.worst, tallies[t][l].worst);
+    for (int k = 0; k < images; ++k) {
+      const LayerTally& ty = tallies[static_cast<size_t>(k) * L + l];
+      sum.sum += ty.sum;
+      sum.count += ty.count;
+      sum.worst = std::max(sum.worst, ty.worst);
     }
     const AnalogLayer& al = xb.layer(l);
     int l_oor = 0, l_adcs = 0;
@@ -162,23 +167,23 @@ EvalResult evaluate(const Model& model, const ConfigTree& cfg, const Dataset& te
 
 int cmd_eval(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset"});
+  check_outputs(args, {"--json", "--csv"});
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
+  // The command's own keys first, so a bad value is reported before any file is read.
+  const std::string n_str = base.get_string("eval.images");
+  const int offset = base.get_int32("eval.offset");
+  int count = n_str == "all" ? -1 : base.get_int32("eval.images");
+  const int ncal = base.get_int32("eval.calibration_images");
+  const auto combos = sweep_combinations(base);
+  for_each_sweep_point(base, combos, [](const ConfigTree& cfg) { parse_analog_config(cfg); });
   Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
   const std::string dataset = args.has("--dataset") ? args.get("--dataset") : model.dataset;
   if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
   const std::string dir = resolve_data_dir(base);
-  const std::string n_str = base.get_string("eval.images");
-  const int offset = static_cast<int>(base.get_int("eval.offset"));
-  int count = -1;
-  if (n_str != "all") {
-    const long long n = base.get_int("eval.images");
-    if (n < 1) throw InputError("--images / eval.images must be >= 1 or 'all'");
-    count = static_cast<int>(n);
-  }
   if (dataset == "mnist") {
     // MNIST has no calibration split here: test images 9000.. calibrate and are never evaluated.
     const int limit = kMnistCalibrationStart - offset;
@@ -190,29 +195,19 @@ int cmd_eval(int argc, char** argv) {
     }
   }
   const Dataset test = load_dataset(dataset, dir, "test", offset, count);
-  const long long ncal = base.get_int("eval.calibration_images");
-  if (ncal < 1) throw InputError("configuration key 'eval.calibration_images' must be >= 1");
-  const Dataset calib = load_dataset(dataset, dir, "calib", 0, static_cast<int>(ncal));
+  const Dataset calib = load_dataset(dataset, dir, "calib", 0, ncal);
   if (!(test.shape == model.input))
     throw InputError("dataset images are " + std::to_string(test.shape.c) + "x" + std::to_string(test.shape.h) + "x" +
                      std::to_string(test.shape.w) + " but the model expects " + std::to_string(model.input.c) + "x" +
                      std::to_string(model.input.h) + "x" + std::to_string(model.input.w));
 
-  const auto combos = sweep_combinations(base);
-  for (const auto& combo : combos) {  // validate every run before any output
-    ConfigTree cfg = base;
-    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
-    parse_analog_config(cfg);
-  }
   SweepCsv csv(args.get("--csv"), combos.front(), "layer,name,rows,cols,crossbars,mean_relative_error,worst_relative_error");
   nlohmann::json all = nlohmann::json::array();
   std::printf("%-44s %7s %9s %9s %8s %7s %9s\n", "run", "images", "software", "crossbar", "xbars", "oor", "img/s");
   int run = 0;
   for (const auto& combo : combos) {
-    ConfigTree cfg = base;
-    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
     const std::string label = sweep_label(combo);
-    EvalResult r = evaluate(model, cfg, test, calib, label);
+    EvalResult r = evaluate(model, sweep_point(base, combo), test, calib, label);
     for (const auto& kv : combo) r.json["sweep"][kv.first] = kv.second;
     std::printf("%-44s %7d %8.2f%% %8.2f%% %8d %7d %9.1f\n", label.c_str(), r.json["images"].get<int>(),
                 100 * r.json["software_accuracy"].get<double>(), 100 * r.json["crossbar_accuracy"].get<double>(),
@@ -231,6 +226,7 @@ int cmd_eval(int argc, char** argv) {
     all.push_back(r.json);
     ++run;
   }
+  csv.commit();
   if (args.has("--json")) write_json(args.get("--json"), combos.size() == 1 ? all[0] : all);
   return 0;
 }

@@ -13,6 +13,7 @@ int cmd_netlist(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
   if (args.has("--json") || args.has("--csv"))
     throw InputError("netlist writes a SPICE netlist (--out); --json and --csv do not apply");
+  check_outputs(args, {"--out"});
   const ConfigTree cfg = load_config(args);
   const CrossbarParams params = parse_crossbar_params(cfg);
   const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"));
@@ -25,9 +26,9 @@ int cmd_netlist(int argc, char** argv) {
     write_spice_netlist(std::cout, params, g, v);
     return 0;
   }
-  std::ofstream out(args.get("--out"));
-  if (!out) throw InputError("cannot write '" + args.get("--out") + "'");
-  write_spice_netlist(out, params, g, v);
+  OutputFile out(args.get("--out"));
+  write_spice_netlist(out.stream(), params, g, v);
+  out.commit();
   return 0;
 }
 }  // namespace

@@ -29,6 +29,7 @@ nlohmann::json cost_json(const MappingCost& c) {
 
 int cmd_overhead(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--preset", "--input-size"});
+  check_outputs(args, {"--json", "--csv"});
   const ConfigTree cfg = load_config(args);
   const auto t0 = std::chrono::steady_clock::now();
   const Model m = model_from_args(args, cfg);
@@ -48,11 +49,10 @@ int cmd_overhead(int argc, char** argv) {
   nlohmann::json j;
   j["model"] = m.path;
   j["layers"] = nlohmann::json::array();
-  std::ofstream csv;
+  std::unique_ptr<OutputFile> csv_file;
   if (args.has("--csv")) {
-    csv.open(args.get("--csv"));
-    if (!csv) throw InputError("cannot write '" + args.get("--csv") + "'");
-    csv << "layer,k_h,k_w,c_in,c_out,in_h,in_w,mapping,rows,cols,crossbars,adcs,dacs,cells_used,cells_present,"
+    csv_file = std::make_unique<OutputFile>(args.get("--csv"));
+    csv_file->stream() << "layer,k_h,k_w,c_in,c_out,in_h,in_w,mapping,rows,cols,crossbars,adcs,dacs,cells_used,cells_present,"
            "utilization,xbar_power_mw,xbar_area_mm2,total_power_mw,total_area_mm2,iterations\n";
   }
   for (const auto& l : layers) {
@@ -66,8 +66,8 @@ int cmd_overhead(int argc, char** argv) {
                   std::string(which) == "dense" ? l.name.c_str() : "", std::string(which) == "dense" ? kernel.c_str() : "",
                   std::string(which) == "dense" ? input.c_str() : "", which, rc.c_str(), c.crossbars, c.adcs, c.dacs,
                   c.utilization(), c.xbar_power_mw, c.xbar_area_mm2, c.total_power_mw, c.total_area_mm2, c.iterations);
-      if (csv.is_open())
-        csv << l.name << "," << l.k_h << "," << l.k_w << "," << l.c_in << "," << l.c_out << "," << l.input.h << ","
+      if (csv_file)
+        csv_file->stream() << l.name << "," << l.k_h << "," << l.k_w << "," << l.c_in << "," << l.c_out << "," << l.input.h << ","
             << l.input.w << "," << which << "," << c.rows << "," << c.cols << "," << c.crossbars << "," << c.adcs
             << "," << c.dacs << "," << c.cells_used << "," << c.cells_present << "," << c.utilization() << ","
             << c.xbar_power_mw << "," << c.xbar_area_mm2 << "," << c.total_power_mw << "," << c.total_area_mm2
@@ -92,6 +92,7 @@ int cmd_overhead(int argc, char** argv) {
   std::fprintf(stderr, "xbarsim overhead: %.2f ms\n", ms);
   j["totals"] = {{"dense", cost_json(dense_total)}, {"sparse", cost_json(sparse_total)}};
   j["study_time_ms"] = ms;
+  if (csv_file) csv_file->commit();
   if (args.has("--json")) write_json(args.get("--json"), j);
   return 0;
 }

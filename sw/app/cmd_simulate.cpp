@@ -31,6 +31,10 @@ Dataset synthetic_images(const Shape& s, int count, uint64_t seed) {
 
 int cmd_simulate(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd"});
+  check_outputs(args, {"--json", "--csv", "--vcd"});
+  const std::string vcd = args.get("--vcd");
+  if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
+    throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("platform.images=" + args.get("--images"));
   if (args.has("--timing")) sets.push_back("platform.timing=" + args.get("--timing"));
@@ -50,7 +54,7 @@ int cmd_simulate(int argc, char** argv) {
   if (with_data) {
     const std::string dir = resolve_data_dir(cfg);
     test = load_dataset(args.get("--dataset"), dir, "test", 0, pc.images);
-    calib = load_dataset(args.get("--dataset"), dir, "calib", 0, static_cast<int>(cfg.get_int("eval.calibration_images")));
+    calib = load_dataset(args.get("--dataset"), dir, "calib", 0, cfg.get_int32("eval.calibration_images"));
     if (!(test.shape == model.input)) throw InputError("dataset image shape does not match the model input");
   } else {
     test = synthetic_images(model.input, pc.images, 1);
@@ -62,7 +66,7 @@ int cmd_simulate(int argc, char** argv) {
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
-    programmed.program(calib, static_cast<int>(cfg.get_int("eval.calibration_samples")),
+    programmed.program(calib, cfg.get_int32("eval.calibration_samples"),
                        [&](int d, int) { bar.update(d); });
   }
   const auto t_sim = std::chrono::steady_clock::now();
@@ -152,14 +156,15 @@ int cmd_simulate(int argc, char** argv) {
   }
   if (args.has("--json")) write_json(args.get("--json"), j);
   if (args.has("--csv")) {
-    std::ofstream csv(args.get("--csv"));
-    if (!csv) throw InputError("cannot write '" + args.get("--csv") + "'");
+    OutputFile csv_file(args.get("--csv"));
+    std::ostream& csv = csv_file.stream();
     csv << "layer,k_h,k_w,c_in,c_out,rows,cols,crossbars,iterations,cycles,latency_us,adcs,dacs,power_mw,area_mm2\n";
     for (const auto& l : j["layers"])
       csv << l["name"].get<std::string>() << "," << l["kernel"][0] << "," << l["kernel"][1] << "," << l["kernel"][2]
           << "," << l["kernel"][3] << "," << l["rows"] << "," << l["cols"] << "," << l["crossbars"] << ","
           << l["iterations"] << "," << l["cycles"] << "," << l["latency_us"] << "," << l["adcs"] << "," << l["dacs"]
           << "," << l["power_mw"] << "," << l["area_mm2"] << "\n";
+    csv_file.commit();
   }
   return 0;
 }

@@ -24,6 +24,7 @@ void warn_ranges(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen:
 namespace {
 int cmd_solve(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
+  check_outputs(args, {"--out", "--json", "--csv"});
   const ConfigTree cfg = load_config(args);
   const CrossbarParams params = parse_crossbar_params(cfg);
   const SolverOptions opts = parse_solver_options(cfg);

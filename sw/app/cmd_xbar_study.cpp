@@ -18,23 +18,43 @@ struct StudyResult {
   Eigen::MatrixXd ideal, actual;
 };
 
-StudyResult run_study(const ConfigTree& cfg) {
-  const AnalogConfig ac = parse_analog_config(cfg, "study.method");
-  const long long rows = cfg.get_int("study.rows"), cols = cfg.get_int("study.cols");
-  const long long vectors = cfg.get_int("study.vectors");
-  if (rows < 1 || rows > 1 << 16) throw InputError("configuration key 'study.rows' must be in 1..65536");
-  if (cols < 1 || cols > 1 << 16) throw InputError("configuration key 'study.cols' must be in 1..65536");
-  if (vectors < 1) throw InputError("configuration key 'study.vectors' must be >= 1");
-  const double sparsity = cfg.get_double("study.sparsity");
-  if (!(sparsity >= 0 && sparsity < 1)) throw InputError("configuration key 'study.sparsity' must be in [0, 1)");
-  const std::string kernel = require_one_of(cfg, "study.kernel", {"gaussian", "bimodal", "ternary"});
-  const uint64_t seed = static_cast<uint64_t>(cfg.get_int("study.seed"));
+/// The `study.` section and the analog configuration it runs, parsed and validated once.
+struct StudySpec {
+  AnalogConfig ac;
+  int rows = 0, cols = 0, vectors = 0;
+  double sparsity = 0;
+  std::string kernel;
+  uint64_t seed = 0;
+};
+
+StudySpec parse_study_spec(const ConfigTree& cfg) {
+  StudySpec s;
+  s.ac = parse_analog_config(cfg, "study.method");
+  s.rows = cfg.get_int32("study.rows");
+  s.cols = cfg.get_int32("study.cols");
+  s.vectors = cfg.get_int32("study.vectors");
+  s.sparsity = cfg.get_double("study.sparsity");
+  s.kernel = require_one_of(cfg, "study.kernel", {"gaussian", "bimodal", "ternary"});
+  s.seed = static_cast<uint64_t>(cfg.get_int("study.seed"));
+  const double cells = static_cast<double>(s.vectors) * std::max(s.rows, s.cols);
+  if (cells > 2e9)
+    throw InputError("study.vectors x study.rows = " + std::to_string(static_cast<long long>(cells)) +
+                     " input values is more than a study holds (2e9); use fewer vectors");
+  return s;
+}
+
+StudyResult run_study(const StudySpec& spec) {
+  const AnalogConfig& ac = spec.ac;
+  const int rows = spec.rows, cols = spec.cols, vectors = spec.vectors;
+  const double sparsity = spec.sparsity;
+  const std::string& kernel = spec.kernel;
+  const uint64_t seed = spec.seed;
 
   const auto t0 = std::chrono::steady_clock::now();
-  const Eigen::MatrixXd w = synthetic_kernel(kernel, static_cast<int>(rows), static_cast<int>(cols), seed);
-  const Eigen::MatrixXd x = synthetic_inputs(static_cast<int>(vectors), static_cast<int>(rows), sparsity, 1.0, seed + 1);
+  const Eigen::MatrixXd w = synthetic_kernel(kernel, rows, cols, seed);
+  const Eigen::MatrixXd x = synthetic_inputs(vectors, rows, sparsity, 1.0, seed + 1);
   // Calibration draws from the same input distribution, never from the test vectors.
-  const Eigen::MatrixXd calib = synthetic_inputs(std::max(100, 10 * ac.calibration_samples), static_cast<int>(rows),
+  const Eigen::MatrixXd calib = synthetic_inputs(std::max(100, 10 * ac.calibration_samples), rows,
                                                  sparsity, 1.0, seed + 2);
   AnalogLayer layer(ac, w, 1.0, false, seed);
   layer.program(calib);
@@ -92,25 +112,20 @@ StudyResult run_study(const ConfigTree& cfg) {
 
 int cmd_xbar_study(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {});
+  check_outputs(args, {"--json", "--csv"});
   const ConfigTree base = load_config(args);
   const auto combos = sweep_combinations(base);
-  for (const auto& combo : combos) {  // validate every run before any output
-    ConfigTree cfg = base;
-    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
-    parse_analog_config(cfg, "study.method");
-    require_one_of(cfg, "study.kernel", {"gaussian", "bimodal", "ternary"});
-  }
+  std::vector<StudySpec> specs;  // every run validated before any output
+  for_each_sweep_point(base, combos, [&](const ConfigTree& cfg) { specs.push_back(parse_study_spec(cfg)); });
   nlohmann::json all = nlohmann::json::array();
   SweepCsv csv(args.get("--csv"), combos.front(), "vector,column,ideal,actual");
   std::printf("%-40s %8s %9s %11s %11s %7s %7s %9s %6s\n", "run", "xbars", "oor_cells", "mean_RE_%", "worst_RE_%",
               "bits_m", "bits_w", "min_gain", "time_s");
   int run = 0;
   for (const auto& combo : combos) {
-    ConfigTree cfg = base;
-    for (const auto& kv : combo) cfg.set(kv.first, kv.second);
     const std::string label = sweep_label(combo);
     if (combos.size() > 1) std::fprintf(stderr, "[%d/%zu] %s\n", run + 1, combos.size(), label.c_str());
-    StudyResult r = run_study(cfg);
+    StudyResult r = run_study(specs[run]);
     nlohmann::json& j = r.json;
     for (const auto& kv : combo) j["sweep"][kv.first] = kv.second;
     std::printf("%-40s %8d %9d %11.4f %11.4f %7.2f %7.2f %9.4f %6.2f\n", label.c_str(), j["crossbar_count"].get<int>(),
@@ -126,6 +141,7 @@ int cmd_xbar_study(int argc, char** argv) {
     all.push_back(j);
     ++run;
   }
+  csv.commit();
   if (args.has("--json")) write_json(args.get("--json"), combos.size() == 1 ? all[0] : all);
   return 0;
 }

@@ -1,6 +1,7 @@
 /// xbarsim: circuit-accurate simulator for resistive-crossbar CNN accelerators.
 #include <cstring>
 #include <iostream>
+#include <new>
 #include <string>
 
 #include "sw/app/app_common.h"
@@ -33,6 +34,11 @@ int main(int argc, char** argv) {
     } catch (const xbarsim::SolverError& e) {
       std::cerr << "xbarsim " << c.name << ": solver error: " << e.what() << "\n";
       return 3;
+    } catch (const std::bad_alloc&) {
+      std::cerr << "xbarsim " << c.name
+                << ": error: out of memory: the requested problem does not fit in this machine's memory "
+                   "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
+      return 2;
     } catch (const std::exception& e) {
       std::cerr << "xbarsim " << c.name << ": internal error: " << e.what() << "\n";
       return 4;

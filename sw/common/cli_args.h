@@ -20,6 +20,8 @@ class CliArgs {
   /// Throws InputError "missing required option --flag".
   std::string require(const std::string& flag) const;
   const std::vector<std::string>& sets() const { return sets_; }
+  /// Every flag given with a value (flag -> value).
+  const std::map<std::string, std::string>& values() const { return values_; }
 
  private:
   std::map<std::string, std::string> values_;

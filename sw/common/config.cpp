@@ -1,10 +1,16 @@
 #include "sw/common/config.h"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
+#include <climits>
 #include <cmath>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
+
+#include "sw/common/parse.h"
 
 namespace xbarsim {
 
@@ -30,6 +36,130 @@ std::vector<std::string> split_key(const std::string& key) {
   for (const auto& p : parts)
     if (p.empty()) throw InputError("invalid configuration key '" + key + "'");
   return parts;
+}
+
+/// Walks the YAML events of one text before it is loaded: rejects a second document,
+/// duplicate keys and keys that are not plain scalars (complex keys), naming the line.
+/// yaml-cpp itself keeps the last of duplicate keys and ignores later documents.
+class StructureCheck : public YAML::EventHandler {
+ public:
+  explicit StructureCheck(std::string origin) : origin_(std::move(origin)) {}
+  void OnDocumentStart(const YAML::Mark& m) override {
+    if (++documents_ > 1)
+      fail(m, "a second YAML document ('---') is not allowed; put every setting in one document");
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& m, YAML::anchor_t) override { item(m, false, ""); }
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { item(m, false, "an alias (*name)"); }
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t, const std::string& v) override {
+    item(m, true, v);
+  }
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    item(m, false, "a list or mapping");
+    stack_.push_back({false, true, {}});
+  }
+  void OnSequenceEnd() override { stack_.pop_back(); }
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    item(m, false, "a list or mapping");
+    stack_.push_back({true, true, {}});
+  }
+  void OnMapEnd() override { stack_.pop_back(); }
+
+ private:
+  struct Frame {
+    bool is_map, expect_key;
+    std::set<std::string> keys;
+  };
+  [[noreturn]] void fail(const YAML::Mark& m, const std::string& what) const {
+    throw InputError(origin_ + ":" + std::to_string(m.line + 1) + ": " + what);
+  }
+  void item(const YAML::Mark& m, bool scalar, const std::string& text) {
+    if (stack_.empty() || !stack_.back().is_map) return;
+    Frame& f = stack_.back();
+    if (f.expect_key) {
+      if (!scalar) fail(m, text.empty() ? "a key is empty" : "a key must be a plain name, not " + text);
+      if (!f.keys.insert(text).second) fail(m, "duplicate key '" + text + "' (each key may appear once)");
+    }
+    f.expect_key = !f.expect_key;
+  }
+  std::string origin_;
+  int documents_ = 0;
+  std::vector<Frame> stack_;
+};
+
+YAML::Node load_checked(const std::string& text, const std::string& origin) {
+  try {
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    StructureCheck check(origin);
+    while (parser.HandleNextDocument(check)) {
+    }
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(origin + ": YAML syntax error: " + e.what());
+  }
+}
+
+/// An interval documented in configs/default.yaml as the first thing of a key's comment,
+/// e.g. `vectors: 1000  # [1, 10000000] test input vectors`; ( ) are open ends.
+struct NumericRange {
+  double lo = 0, hi = 0;
+  bool lo_open = false, hi_open = false;
+  std::string text;
+  bool contains(double v) const {
+    return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
+  }
+};
+
+bool parse_range(const std::string& comment, NumericRange& r) {
+  const auto b = comment.find_first_not_of(" \t");
+  if (b == std::string::npos || (comment[b] != '[' && comment[b] != '(')) return false;
+  const auto e = comment.find_first_of("])", b);
+  const auto comma = comment.find(',', b);
+  if (e == std::string::npos || comma == std::string::npos || comma > e) return false;
+  r.lo_open = comment[b] == '(';
+  r.hi_open = comment[e] == ')';
+  r.text = comment.substr(b, e - b + 1);
+  return parse_finite_double(comment.substr(b + 1, comma - b - 1), r.lo) &&
+         parse_finite_double(comment.substr(comma + 1, e - comma - 1), r.hi) && r.lo <= r.hi;
+}
+
+/// Dotted key -> documented range, read from the text of configs/default.yaml (indentation
+/// gives the nesting; the file is ours and uses two spaces per level).
+std::map<std::string, NumericRange> parse_documented_ranges(const std::string& text) {
+  std::map<std::string, NumericRange> out;
+  std::vector<std::pair<size_t, std::string>> path;  // (indent, name)
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto indent = line.find_first_not_of(' ');
+    if (indent == std::string::npos || line[indent] == '#') continue;
+    const auto colon = line.find(':', indent);
+    if (colon == std::string::npos) continue;
+    const std::string name = line.substr(indent, colon - indent);
+    while (!path.empty() && path.back().first >= indent) path.pop_back();
+    std::string key;
+    for (const auto& p : path) key += p.second + ".";
+    key += name;
+    const auto hash = line.find('#', colon);
+    const std::string value = line.substr(colon + 1, hash == std::string::npos ? std::string::npos : hash - colon - 1);
+    if (value.find_first_not_of(" \t") == std::string::npos) path.emplace_back(indent, name);
+    NumericRange r;
+    if (hash != std::string::npos && parse_range(line.substr(hash + 1), r)) out[key] = r;
+  }
+  return out;
+}
+
+const NumericRange& documented_range(const std::string& key) {
+  static const std::map<std::string, NumericRange> ranges = parse_documented_ranges(default_config_yaml());
+  const auto it = ranges.find(key);
+  // Every numeric key documents its range; a key read as a number without one is a bug here.
+  if (it == ranges.end()) throw std::logic_error("configs/default.yaml documents no range for '" + key + "'");
+  return it->second;
+}
+
+std::string out_of_range_message(const std::string& key, const NumericRange& r, const std::string& value) {
+  return "configuration key '" + key + "' must be in " + r.text + ", got '" + value + "'";
 }
 
 std::string known_children(const YAML::Node& map) {
@@ -109,11 +239,7 @@ void collect_sweeps(const YAML::Node& node, const YAML::Node& def, const std::st
 }  // namespace
 
 ConfigTree::ConfigTree() : impl_(std::make_unique<Impl>()) {
-  try {
-    impl_->defaults = YAML::Load(default_config_yaml());
-  } catch (const YAML::Exception& e) {
-    throw InputError(std::string("built-in configs/default.yaml is invalid: ") + e.what());
-  }
+  impl_->defaults = load_checked(default_config_yaml(), "built-in configs/default.yaml");
   impl_->root = YAML::Clone(impl_->defaults);
 }
 
@@ -144,12 +270,7 @@ ConfigTree ConfigTree::load(const std::string& path, const std::vector<std::stri
 }
 
 void ConfigTree::merge_yaml_text(const std::string& text, const std::string& origin) {
-  YAML::Node doc;
-  try {
-    doc = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(origin + ": YAML syntax error: " + e.what());
-  }
+  const YAML::Node doc = load_checked(text, origin);
   if (!doc || doc.IsNull()) return;  // empty file: defaults
   merge_node(impl_->root, impl_->defaults, doc, "", origin);
 }
@@ -166,8 +287,8 @@ void ConfigTree::set(const std::string& key, const std::string& yaml_value) {
   // Build a nested document {a: {b: {c: value}}} and merge it, so the same checks apply.
   YAML::Node value;
   try {
-    value = YAML::Load(yaml_value);
-  } catch (const YAML::Exception& e) {
+    value = load_checked(yaml_value, "--set " + key);
+  } catch (const InputError&) {
     throw InputError("--set " + key + ": cannot parse value '" + yaml_value + "'");
   }
   if (!value || value.IsNull()) value = YAML::Node(yaml_value);
@@ -196,30 +317,34 @@ YAML::Node scalar_at(const YAML::Node& root, const std::string& key) {
 }  // namespace
 
 double ConfigTree::get_double(const std::string& key) const {
-  const YAML::Node n = scalar_at(impl_->root, key);
-  const std::string s = n.Scalar();
-  try {
-    size_t pos = 0;
-    const double v = std::stod(s, &pos);
-    if (pos != s.size()) throw std::invalid_argument("trailing");
-    if (!std::isfinite(v)) throw std::invalid_argument("nonfinite");
-    return v;
-  } catch (const std::exception&) {
-    throw InputError("configuration key '" + key + "': expected a number, got '" + s + "'");
-  }
+  const std::string s = scalar_at(impl_->root, key).Scalar();
+  double v = 0;
+  if (!parse_finite_double(s, v))
+    throw InputError("configuration key '" + key + "': expected a finite number, got '" + s + "'");
+  const NumericRange& r = documented_range(key);
+  if (!r.contains(v)) throw InputError(out_of_range_message(key, r, s));
+  return v;
 }
 
 long long ConfigTree::get_int(const std::string& key) const {
-  const YAML::Node n = scalar_at(impl_->root, key);
-  const std::string s = n.Scalar();
-  try {
-    size_t pos = 0;
-    const long long v = std::stoll(s, &pos);
-    if (pos != s.size()) throw std::invalid_argument("trailing");
-    return v;
-  } catch (const std::exception&) {
+  const std::string s = scalar_at(impl_->root, key).Scalar();
+  long long v = 0;
+  const NumericRange& r = documented_range(key);
+  if (!parse_int64(s, v)) {
+    double d = 0;
+    if (parse_finite_double(s, d) && d == std::floor(d) && !r.contains(d))
+      throw InputError(out_of_range_message(key, r, s));
     throw InputError("configuration key '" + key + "': expected an integer, got '" + s + "'");
   }
+  if (!r.contains(static_cast<double>(v))) throw InputError(out_of_range_message(key, r, s));
+  return v;
+}
+
+int ConfigTree::get_int32(const std::string& key) const {
+  const long long v = get_int(key);
+  if (v < INT_MIN || v > INT_MAX)  // the documented range of such a key lies within int
+    throw std::logic_error("configs/default.yaml: the range of '" + key + "' exceeds a 32-bit integer");
+  return static_cast<int>(v);
 }
 
 bool ConfigTree::get_bool(const std::string& key) const {
@@ -254,6 +379,15 @@ std::vector<std::string> ConfigTree::sweep_keys() const {
   std::vector<std::string> out;
   collect_sweeps(impl_->root, impl_->defaults, "", out);
   return out;
+}
+
+unsigned long long ConfigTree::sweep_points() const {
+  unsigned long long n = 1;
+  for (const auto& key : sweep_keys()) {
+    const unsigned long long k = find(impl_->root, key).size();
+    n = (k != 0 && n > ULLONG_MAX / k) ? ULLONG_MAX : n * k;
+  }
+  return n;
 }
 
 std::string ConfigTree::dump() const {
@@ -294,10 +428,7 @@ std::string require_one_of(const ConfigTree& cfg, const std::string& key, const 
 int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key) {
   const std::string s = cfg.get_string(key);
   if (s == "unbounded") return 0;
-  const long long v = cfg.get_int(key);
-  if (v < 1 || v > (1 << 30))
-    throw InputError("configuration key '" + key + "' must be >= 1 or 'unbounded', got '" + s + "'");
-  return static_cast<int>(v);
+  return cfg.get_int32(key);
 }
 
 }  // namespace xbarsim

@@ -25,7 +25,8 @@ class ConfigTree {
   /// "dotted.key=value" in order. Unknown keys and type mismatches throw InputError.
   static ConfigTree load(const std::string& path, const std::vector<std::string>& overrides);
 
-  /// Merge a YAML document (text) on top; `origin` names it in error messages.
+  /// Merge a YAML document (text) on top; `origin` names it in error messages. Several
+  /// documents, duplicate keys and complex (non-scalar) keys are rejected with the line.
   void merge_yaml_text(const std::string& text, const std::string& origin);
   /// Apply one "dotted.key=value" override (value parsed as a YAML scalar or list).
   void apply_override(const std::string& assignment);
@@ -34,7 +35,12 @@ class ConfigTree {
 
   bool has(const std::string& key) const;
   double get_double(const std::string& key) const;
+  /// Numbers are checked against the key's range documented in configs/default.yaml
+  /// (InputError naming the key, the range and the value); a numeric key without a
+  /// documented range is a programming error (std::logic_error).
   long long get_int(const std::string& key) const;
+  /// get_int for keys whose documented range fits in int.
+  int get_int32(const std::string& key) const;
   bool get_bool(const std::string& key) const;
   std::string get_string(const std::string& key) const;
   /// True if the value at `key` is a YAML sequence (a sweep over values).
@@ -43,6 +49,9 @@ class ConfigTree {
   std::vector<std::string> list_items(const std::string& key) const;
   /// All leaf keys whose value is a list where the default is a scalar (sweeps).
   std::vector<std::string> sweep_keys() const;
+  /// Number of sweep points (product of the list lengths), saturating; counted without
+  /// expanding the product.
+  unsigned long long sweep_points() const;
 
   /// The effective configuration as YAML text (for reports).
   std::string dump() const;

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "sw/common/errors.h"
+#include "sw/common/parse.h"
+#include "sw/common/output_file.h"
 
 namespace xbarsim {
 
@@ -19,6 +21,7 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path) {
   size_t lineno = 0;
   while (std::getline(in, line)) {
     ++lineno;
+    if (lineno == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 byte order mark
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto first = line.find_first_not_of(" \t");
     if (first == std::string::npos || line[first] == '#') continue;
@@ -32,10 +35,8 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path) {
       const auto b = cell.find_first_not_of(" \t");
       const auto e = cell.find_last_not_of(" \t");
       cell = (b == std::string::npos) ? "" : cell.substr(b, e - b + 1);
-      char* end = nullptr;
-      errno = 0;
-      const double v = std::strtod(cell.c_str(), &end);
-      if (cell.empty() || end != cell.c_str() + cell.size() || errno == ERANGE || !std::isfinite(v))
+      double v = 0;
+      if (!parse_finite_double(cell, v))
         throw InputError(path + ":" + std::to_string(lineno) + ": column " + std::to_string(col) +
                          ": '" + cell + "' is not a finite number");
       row.push_back(v);
@@ -55,14 +56,14 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path) {
 }
 
 void write_csv_matrix(const std::string& path, const Eigen::MatrixXd& m) {
-  std::ofstream out(path);
-  if (!out) throw InputError("cannot write '" + path + "'");
+  OutputFile file(path);
+  std::ostream& out = file.stream();
   out << std::setprecision(17);
   for (Eigen::Index i = 0; i < m.rows(); ++i) {
     for (Eigen::Index j = 0; j < m.cols(); ++j) out << (j ? "," : "") << m(i, j);
     out << '\n';
   }
-  if (!out) throw InputError("error while writing '" + path + "'");
+  file.commit();
 }
 
 }  // namespace xbarsim

@@ -136,13 +136,8 @@ ComponentLibrary load_component_library(const ConfigTree& cfg) {
     ss << in.rdbuf();
     lib = parse_component_library(ss.str(), path);
   }
-  const long long share = cfg.get_int("components.adc_columns_per_adc");
-  if (share < 0 || share > (1 << 30))
-    throw InputError(
-        "configuration key 'components.adc_columns_per_adc' must be >= 0 (0 = the library's "
-        "adc.columns_per_unit), got '" +
-        cfg.get_string("components.adc_columns_per_adc") + "'");
-  if (share > 0) lib.adc_columns_per_unit = static_cast<int>(share);
+  const int share = cfg.get_int32("components.adc_columns_per_adc");
+  if (share > 0) lib.adc_columns_per_unit = share;
   return lib;
 }
 

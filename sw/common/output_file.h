@@ -1,0 +1,43 @@
+#pragma once
+/// Output files named on the command line, handled in one place:
+///  - check_output_path() validates a path before any work is done (not empty, not a
+///    directory, its folder exists and is writable, not one of the command's input files);
+///  - OutputFile writes to a temporary file beside the target and renames it over the target
+///    on commit(), so a reader never sees half a file and a failed run leaves the old file;
+///    special files (a terminal, /dev/null, /dev/full, a pipe) are written in place;
+///  - every write, flush and close is checked: a full disk is an InputError naming the file.
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace xbarsim {
+
+/// Throws InputError naming `what` (e.g. "--json") and the path when `path` cannot be
+/// written, is a directory, or is the same file as one of `inputs` (paths that do not exist
+/// are ignored there).
+void check_output_path(const std::string& path, const std::string& what, const std::vector<std::string>& inputs);
+
+class OutputFile {
+ public:
+  /// Opens the temporary file (or the special file itself); throws InputError when it cannot.
+  explicit OutputFile(std::string path);
+  /// Without commit() the temporary file is removed and the target left as it was.
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+
+  std::ostream& stream() { return out_; }
+  /// Flushes, closes and renames onto the target; throws InputError on any failure.
+  void commit();
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_, tmp_;
+  std::ofstream out_;
+  bool committed_ = false;
+};
+
+/// Writes `text` to `path` through an OutputFile.
+void write_text_file(const std::string& path, const std::string& text);
+
+}  // namespace xbarsim
