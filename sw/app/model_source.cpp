@@ -2,12 +2,14 @@
 
 #include <sys/stat.h>
 
+#include "sw/common/parse.h"
 #include "sw/nn/dataset.h"
 #include "sw/nn/presets.h"
 
 namespace xbarsim {
 
 namespace {
+constexpr long long kMaxInputSide = 8192;  ///< --input-size: largest image height or width
 bool file_exists(const std::string& p) {
   struct stat st;
   return stat(p.c_str(), &st) == 0;
@@ -35,11 +37,14 @@ Model model_from_args(const CliArgs& args, const ConfigTree& cfg) {
   Shape in{0, 0, 0};
   if (args.has("--input-size")) {
     if (args.has("--preset")) throw InputError("--input-size applies to --model (presets have fixed inputs)");
-    int h = 0, w = 0;
-    char extra;
-    if (std::sscanf(args.get("--input-size").c_str(), "%d,%d%c", &h, &w, &extra) != 2 || h < 1 || w < 1)
-      throw InputError("--input-size expects H,W (positive integers), got '" + args.get("--input-size") + "'");
-    in = {-1, h, w};
+    const std::string s = args.get("--input-size");
+    const auto comma = s.find(',');
+    long long h = 0, w = 0;
+    if (comma == std::string::npos || !parse_int64(s.substr(0, comma), h) || !parse_int64(s.substr(comma + 1), w) ||
+        h < 1 || w < 1 || h > kMaxInputSide || w > kMaxInputSide)
+      throw InputError("--input-size expects H,W (integers in 1.." + std::to_string(kMaxInputSide) + "), got '" + s +
+                       "'");
+    in = {-1, static_cast<int>(h), static_cast<int>(w)};
   }
   if (args.has("--preset")) return make_preset(args.get("--preset"), 1);
   const std::string path = find_model_file(args.get("--model"), cfg);

@@ -51,15 +51,12 @@ SolverOptions parse_solver_options(const ConfigTree& cfg) {
   SolverOptions o;
   o.method = require_one_of(cfg, "solver.method", {"auto", "line", "direct"});
   o.tolerance = require_positive(cfg, "solver.tolerance");
-  o.max_iterations = static_cast<int>(cfg.get_int("solver.max_iterations"));
-  if (o.max_iterations < 1) throw InputError("configuration key 'solver.max_iterations' must be >= 1");
-  o.newton_max_iterations = static_cast<int>(cfg.get_int("solver.newton_max_iterations"));
-  if (o.newton_max_iterations < 1)
-    throw InputError("configuration key 'solver.newton_max_iterations' must be >= 1");
+  o.max_iterations = cfg.get_int32("solver.max_iterations");
+  o.newton_max_iterations = cfg.get_int32("solver.newton_max_iterations");
   o.newton_tolerance = require_positive(cfg, "solver.newton_tolerance");
   o.max_step_v = require_positive(cfg, "solver.max_step");
-  o.threads = static_cast<int>(cfg.get_int("solver.threads"));
-  if (o.threads < 0) throw InputError("configuration key 'solver.threads' must be >= 0");
+  o.newton_abstol_a = require_positive(cfg, "solver.newton_abstol");
+  o.threads = cfg.get_int32("solver.threads");
   return o;
 }
 

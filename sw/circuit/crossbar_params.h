@@ -59,7 +59,8 @@ struct SolverOptions {
   double tolerance = 1e-12;     ///< relative preconditioned residual of linear solves
   int max_iterations = 2000;    ///< iterations of the structured solver per linear solve
   int newton_max_iterations = 60;
-  double newton_tolerance = 1e-12;  ///< max |dV| / max |V_in| at convergence
+  double newton_tolerance = 1e-12;  ///< max |dV| / max |V_in| at convergence (and KCL reltol)
+  double newton_abstol_a = 1e-12;   ///< A, KCL residual allowed at every node at convergence
   double max_step_v = 0.2;          ///< Newton voltage limiting
   int threads = 0;                  ///< 0 = hardware concurrency
 };

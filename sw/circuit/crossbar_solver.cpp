@@ -1,5 +1,10 @@
 #include "sw/circuit/crossbar_solver.h"
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+
 #include <cmath>
 #include <exception>
 #include <mutex>
@@ -14,15 +19,41 @@ namespace xbarsim {
 
 void CrossbarSolver::store_conductances(const Eigen::MatrixXd& g_s) {
   if (g_s.rows() < 1 || g_s.cols() < 1) throw InputError("conductance matrix is empty");
+  if (g_s.rows() > kMaxDimension || g_s.cols() > kMaxDimension)
+    throw InputError("a crossbar of " + std::to_string(g_s.rows()) + " x " + std::to_string(g_s.cols()) +
+                     " is larger than " + std::to_string(kMaxDimension) + " rows or columns");
+  // A cell far stronger than the wires makes the circuit singular in floating point (the
+  // Krylov solvers then fail); physical memristors are many orders weaker than a wire.
+  const double g_wire = 1.0 / std::min({params_.r_wire_ohm, params_.r_in_ohm, params_.r_out_ohm});
+  const double g_hi = kMaxCellToWireRatio * g_wire, g_lo = 1e-30;
   for (Eigen::Index i = 0; i < g_s.rows(); ++i)
     for (Eigen::Index j = 0; j < g_s.cols(); ++j)
-      if (!(std::isfinite(g_s(i, j)) && g_s(i, j) > 0)) {
+      if (!(std::isfinite(g_s(i, j)) && g_s(i, j) >= g_lo && g_s(i, j) <= g_hi)) {
         std::ostringstream os;
         os << "conductance at row " << i + 1 << ", column " << j + 1 << " is " << g_s(i, j)
-           << " S; conductances must be finite and > 0";
+           << " S; conductances must lie in [" << g_lo << ", " << g_hi << "] S (at most " << kMaxCellToWireRatio
+           << " x the wire conductance 1/r_wire)";
         throw InputError(os.str());
       }
   g_ = g_s;
+}
+
+double CrossbarSolver::kcl_tolerance(double v_scale) const {
+  const double g_wire = 1.0 / std::min({params_.r_wire_ohm, params_.r_in_ohm, params_.r_out_ohm});
+  return options_.newton_abstol_a + options_.newton_tolerance * v_scale * g_wire;
+}
+
+void CrossbarSolver::check_memory(double bytes, const std::string& what) {
+  const double page = static_cast<double>(sysconf(_SC_PAGESIZE));
+  const double total = page * static_cast<double>(sysconf(_SC_PHYS_PAGES));
+  std::ostringstream os;
+  os.precision(3);
+  os << what << " needs an estimated " << bytes / 1e9 << " GB of memory";
+  if (total > 0 && bytes > 0.8 * total) {
+    os << ", more than this machine can hold (" << total / 1e9 << " GB)";
+    throw InputError(os.str());
+  }
+  if (bytes > 1e9) std::fprintf(stderr, "xbarsim: note: %s\n", os.str().c_str());
 }
 
 void CrossbarSolver::check_input(const Eigen::VectorXd& v_in) const {
@@ -32,8 +63,15 @@ void CrossbarSolver::check_input(const Eigen::VectorXd& v_in) const {
     os << "input vector has " << v_in.size() << " voltages but the crossbar has " << g_.rows() << " rows";
     throw InputError(os.str());
   }
-  for (Eigen::Index i = 0; i < v_in.size(); ++i)
-    if (!std::isfinite(v_in(i))) throw InputError("input voltage " + std::to_string(i + 1) + " is not finite");
+  const double k = params_.memristor.model == MemristorModel::Sinh ? params_.memristor.k_per_v : 0.0;
+  for (Eigen::Index i = 0; i < v_in.size(); ++i) {
+    if (!std::isfinite(v_in(i)) || std::abs(v_in(i)) > kMaxInputVoltage)
+      throw InputError("input voltage " + std::to_string(i + 1) + " is " + std::to_string(v_in(i)) +
+                       " V; inputs must be finite and within +-" + std::to_string(kMaxInputVoltage) + " V");
+    if (k * std::abs(v_in(i)) > 600)  // sinh overflows near 710
+      throw InputError("input voltage " + std::to_string(i + 1) + " (" + std::to_string(v_in(i)) +
+                       " V) times the sinh nonlinearity crossbar.memristor.k overflows the device model");
+  }
 }
 
 Eigen::MatrixXd CrossbarSolver::column_currents(const Eigen::MatrixXd& v_in) const {

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <functional>
 #include <memory>
+#include <string>
 
 #include "sw/circuit/crossbar_params.h"
 
@@ -22,10 +23,15 @@ struct CircuitSolution {
 /// Solves the m x n 1T1M crossbar circuit for programmed conductances.
 class CrossbarSolver {
  public:
+  static constexpr int kMaxDimension = 1 << 20;         ///< rows or columns of one crossbar
+  static constexpr double kMaxCellToWireRatio = 1e4;    ///< cell conductance / wire conductance
+  static constexpr double kMaxInputVoltage = 1e3;       ///< V
+
   virtual ~CrossbarSolver() = default;
 
-  /// Programs the nominal conductances (S), m x n. Throws InputError for non-positive or
-  /// non-finite values. Precomputes what can be reused across input vectors.
+  /// Programs the nominal conductances (S), m x n. Throws InputError for values that are not
+  /// finite, not positive or above kMaxCellToWireRatio / r_wire, and for arrays whose
+  /// estimated memory this machine cannot hold. Precomputes what is reused across vectors.
   virtual void program(const Eigen::MatrixXd& g_s) = 0;
 
   /// Operating point for one input vector of m row voltages (V).
@@ -50,6 +56,12 @@ class CrossbarSolver {
   /// Validates and stores g; shared by implementations.
   void store_conductances(const Eigen::MatrixXd& g_s);
   void check_input(const Eigen::VectorXd& v_in) const;
+  /// A, the largest KCL residual (any node) that Newton accepts at convergence, for inputs
+  /// of magnitude up to `v_scale`: abstol + newton_tolerance * v_scale * largest wire conductance.
+  double kcl_tolerance(double v_scale) const;
+  /// Throws InputError when `bytes` (the solver's estimate for `what`) exceeds what this
+  /// machine can hold; prints a note on stderr for estimates above 1 GB.
+  static void check_memory(double bytes, const std::string& what);
 
   CrossbarParams params_;
   SolverOptions options_;

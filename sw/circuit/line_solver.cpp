@@ -19,8 +19,13 @@ double dot(const double* a, const double* b, int n) {
 }  // namespace
 
 struct LineSolver::Workspace {
-  explicit Workspace(int mn)
-      : a(mn), b(mn), s(mn), r(mn), z(mn), p(mn), q(mn), v((kGmresRestart + 1) * static_cast<size_t>(mn)) {}
+  /// `krylov_basis`: GMRES (Newton steps) needs its restart basis; CG does not.
+  Workspace(int mn, bool krylov_basis)
+      : a(mn), b(mn), s(mn), r(mn), z(mn), p(mn), q(mn),
+        v(krylov_basis ? (kGmresRestart + 1) * static_cast<size_t>(mn) : 0) {}
+  static double doubles(int mn, bool krylov_basis) {
+    return (7.0 + (krylov_basis ? kGmresRestart + 1 : 0)) * mn;
+  }
   std::vector<double> a, b;           // schur_apply scratch
   std::vector<double> s;              // Schur right-hand side
   std::vector<double> r, z, p, q;     // Krylov vectors
@@ -244,6 +249,10 @@ int LineSolver::solve_tb(const System& s, const double* r_t, const double* r_b, 
 
 void LineSolver::program(const Eigen::MatrixXd& g_s) {
   store_conductances(g_s);
+  const double mn_d = static_cast<double>(g_s.rows()) * static_cast<double>(g_s.cols());
+  if (mn_d > 2e9) throw InputError("a crossbar of " + std::to_string(g_s.size()) + " cells is too large");
+  check_memory(8.0 * memory_doubles(static_cast<int>(g_s.rows()), static_cast<int>(g_s.cols())),
+               "the line solver on a " + std::to_string(g_s.rows()) + " x " + std::to_string(g_s.cols()) + " crossbar");
   m_ = static_cast<int>(g_s.rows());
   n_ = static_cast<int>(g_s.cols());
   const int mn = m_ * n_;
@@ -266,9 +275,19 @@ void LineSolver::program(const Eigen::MatrixXd& g_s) {
   factor_cols(g_cell_.data(), linear_.q_diag.data(), linear_.q_inv.data());
 }
 
+double LineSolver::memory_doubles(int m, int n) const {
+  const double mn = static_cast<double>(m) * n;
+  const bool newton = !params_.is_linear();
+  const int threads = std::max(1, std::min(resolve_threads(options_.threads), std::min(m, n)));
+  // g, cell conductances, the linear system (5), one solution (5 matrices), G_eff; per
+  // thread a workspace; Newton adds its ~20 per-node arrays.
+  return (1 + 1 + 5 + 5 + 1) * mn + threads * (Workspace::doubles(m * n, newton) + 4 * mn) +
+         (newton ? 20 * mn : 0.0);
+}
+
 CircuitSolution LineSolver::solve(const Eigen::VectorXd& v_in) const {
   check_input(v_in);
-  Workspace w(m_ * n_);
+  Workspace w(m_ * n_, !params_.is_linear());
   return params_.is_linear() ? solve_linear(v_in, w) : solve_newton(v_in, w);
 }
 
@@ -356,6 +375,7 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
   };
 
   const double v_scale = std::max(v_in.cwiseAbs().maxCoeff(), 1e-3);
+  const double kcl_tol = kcl_tolerance(v_scale);
   double f_norm = residual(vt, vm, vb, ft, fm, fb, true);
   double last_step = 0;
   int inner_total = 0;
@@ -406,7 +426,11 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
     vb.swap(tb);
     last_step = scale * dmax;
     f_norm = residual(vt, vm, vb, ft, fm, fb, true);
-    if (last_step <= options_.newton_tolerance * v_scale) {
+    // Converged only when the update is small AND every node balances its currents: a
+    // tiny step alone (e.g. a small solver.max_step) says nothing about the solution.
+    double f_max = 0;
+    for (int k = 0; k < mn; ++k) f_max = std::max({f_max, std::abs(ft[k]), std::abs(fm[k]), std::abs(fb[k])});
+    if (last_step <= options_.newton_tolerance * v_scale && f_max <= kcl_tol) {
       CircuitSolution s;
       s.newton_iterations = it;
       s.linear_iterations = inner_total;
@@ -434,7 +458,7 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
   std::ostringstream os;
   os << "Newton-Raphson (line solver) did not converge in " << options_.newton_max_iterations
      << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual " << fmax
-     << " A";
+     << " A (needs <= " << options_.newton_tolerance * v_scale << " V and <= " << kcl_tol << " A)";
   throw SolverError(os.str());
 }
 
@@ -456,7 +480,7 @@ Eigen::MatrixXd LineSolver::compute_effective_matrix() const {
   const int nthreads = std::max(1, std::min(threads, count));
   std::vector<Workspace> ws;
   ws.reserve(nthreads);
-  for (int t = 0; t < nthreads; ++t) ws.emplace_back(mn);
+  for (int t = 0; t < nthreads; ++t) ws.emplace_back(mn, false);
   parallel_for(nthreads, nthreads, [&](int tid) {
     Workspace& w = ws[tid];
     std::vector<double> r_t(mn), r_b(mn), t(mn), b(mn);

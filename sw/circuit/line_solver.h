@@ -55,6 +55,8 @@ class LineSolver : public CrossbarSolver {
   CircuitSolution solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const;
   CircuitSolution solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const;
   Eigen::MatrixXd compute_effective_matrix() const;
+  /// Estimated peak memory (in doubles) of programming and solving an m x n array.
+  double memory_doubles(int m, int n) const;
 
   int m_ = 0, n_ = 0;
   double g_w_ = 1, g_s_ = 0.5, g_d_ = 0.5;  ///< wire, source-side and ground-side conductances (S)

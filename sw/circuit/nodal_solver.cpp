@@ -2,6 +2,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -31,6 +32,14 @@ void NodalSolver::add_conductance(std::vector<Eigen::Triplet<double>>& t, int a,
 
 void NodalSolver::program(const Eigen::MatrixXd& g_s) {
   store_conductances(g_s);
+  {
+    // Unknowns, the wire matrix and its sparse factor (fill grows with the shorter side).
+    const double nodes = 3.0 * g_s.size() + 2.0 * (g_s.rows() + g_s.cols());
+    const double fill = std::min<double>(g_s.rows(), g_s.cols()) + 16;
+    check_memory(nodes * (12.0 * 8 + 12.0 * fill + 64),
+                 "the direct solver on a " + std::to_string(g_s.rows()) + " x " + std::to_string(g_s.cols()) +
+                     " crossbar");
+  }
   m_ = static_cast<int>(g_s.rows());
   n_ = static_cast<int>(g_s.cols());
   base_ = (short_transistor_ ? 2 : 3) * m_ * n_;
@@ -151,6 +160,7 @@ void NodalSolver::residual(const Eigen::VectorXd& x, const Eigen::VectorXd& rhs,
 CircuitSolution NodalSolver::solve_nonlinear(const Eigen::VectorXd& v_in) const {
   const Eigen::VectorXd rhs = source_rhs(v_in);
   const double v_scale = std::max(v_in.cwiseAbs().maxCoeff(), 1e-3);
+  const double kcl_tol = kcl_tolerance(v_scale);
   Eigen::VectorXd x = Eigen::VectorXd::Zero(unknowns_), f(unknowns_), f_new(unknowns_), x_new;
   std::vector<Eigen::Triplet<double>> trip;
   Eigen::SparseMatrix<double> jac(unknowns_, unknowns_);
@@ -179,16 +189,19 @@ CircuitSolution NodalSolver::solve_nonlinear(const Eigen::VectorXd& v_in) const 
     }
     x = x_new;
     last_step = alpha * std::min(dmax, options_.max_step_v);
-    if (last_step <= options_.newton_tolerance * v_scale) {
+    residual(x, rhs, f, &trip);
+    // Converged only when the update is small AND every node balances its currents.
+    if (last_step <= options_.newton_tolerance * v_scale && f.cwiseAbs().maxCoeff() <= kcl_tol) {
       CircuitSolution s = extract(x);
       s.newton_iterations = it;
       return s;
     }
-    residual(x, rhs, f, &trip);
   }
   std::ostringstream os;
   os << "Newton-Raphson (direct solver) did not converge in " << options_.newton_max_iterations
-     << " iterations: last update " << last_step << " V, KCL residual " << f.cwiseAbs().maxCoeff() << " A";
+     << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual "
+     << f.cwiseAbs().maxCoeff() << " A (needs <= " << options_.newton_tolerance * v_scale << " V and <= " << kcl_tol
+     << " A)";
   throw SolverError(os.str());
 }
 

@@ -6,72 +6,82 @@
 #include <random>
 #include <thread>
 
+#include "sw/common/seed.h"
+
 namespace xbarsim {
 
 CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg) : model_(m), cfg_(cfg) {}
 
 void CrossbarBackend::program(const Dataset& calib, int max_samples,
                               const std::function<void(int, int)>& progress) {
+  gather_statistics(calib, max_samples);
+  program_layers(progress);
+}
+
+void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
   const int L = static_cast<int>(model_.linear.size());
-  stats_.assign(L, LayerStatistics{});
-  if (calib.count() < 1) throw InputError("crossbar programming needs at least one calibration image");
-  // Software pass over the calibration images, both cores; each thread keeps its own tallies.
-  const int threads = std::max(1, std::min(resolve_threads(cfg_.solver.threads), calib.count()));
-  struct Tally {
+  const int images = calib.count();
+  if (images < 1) throw InputError("crossbar programming needs at least one calibration image");
+  // Software pass over the calibration images on all threads. Everything an image
+  // contributes (its sampled rows, drawn from a stream seeded by the image index) is kept
+  // per image and combined in image order, so the result does not depend on the threads.
+  struct ImageTally {
     std::vector<double> x_max;
     std::vector<char> sign;
-    std::vector<std::vector<Eigen::RowVectorXd>> rows;
+    std::vector<Eigen::MatrixXd> rows;  // per layer: the sampled im2col rows
     std::vector<Eigen::VectorXd> lo, hi;
   };
-  std::vector<Tally> tally(threads);
-  const int per_image = std::max(1, max_samples / calib.count() + 1);
+  std::vector<ImageTally> tally(images);
+  const int per_image = std::max(1, max_samples / images + 1);
+  const int threads = std::max(1, std::min(resolve_threads(cfg_.solver.threads), images));
   parallel_for(threads, threads, [&](int t) {
-    Tally& ty = tally[t];
-    ty.x_max.assign(L, 0.0);
-    ty.sign.assign(L, 0);
-    ty.rows.assign(L, {});
-    ty.lo.resize(L);
-    ty.hi.resize(L);
-    for (int l = 0; l < L; ++l) {
-      ty.lo[l] = Eigen::VectorXd::Constant(model_.linear[l].c_out, std::numeric_limits<double>::infinity());
-      ty.hi[l] = -ty.lo[l];
-    }
     SoftwareBackend sw(model_);
     LayerTrace trace;
     std::vector<float> x(model_.input.size());
-    std::mt19937_64 rng(1234 + t);
-    for (int k = t; k < calib.count(); k += threads) {
+    for (int k = t; k < images; k += threads) {
+      ImageTally& ty = tally[k];
+      std::mt19937_64 rng(derive_seed(cfg_.calibration_seed, {kCalibrationRowStream, static_cast<uint64_t>(k)}));
       calib.preprocess(k, model_.pre, x.data());
       run_image(model_, x.data(), sw, &trace);
+      ty.x_max.resize(L);
+      ty.sign.resize(L);
+      ty.rows.resize(L);
+      ty.lo.resize(L);
+      ty.hi.resize(L);
       for (int l = 0; l < L; ++l) {
         const RowMatrixXf& in = trace.inputs[l];
-        ty.x_max[l] = std::max(ty.x_max[l], static_cast<double>(in.cwiseAbs().maxCoeff()));
-        ty.sign[l] |= in.minCoeff() < 0;
+        ty.x_max[l] = static_cast<double>(in.cwiseAbs().maxCoeff());
+        ty.sign[l] = in.minCoeff() < 0;
+        ty.rows[l].resize(per_image, in.cols());
         for (int s = 0; s < per_image; ++s)
-          ty.rows[l].push_back(in.row(static_cast<Eigen::Index>(rng() % in.rows())).cast<double>());
+          ty.rows[l].row(s) = in.row(static_cast<Eigen::Index>(rng() % in.rows())).cast<double>();
         const Eigen::MatrixXf& out = trace.outputs[l];
-        ty.lo[l] = ty.lo[l].cwiseMin(out.colwise().minCoeff().transpose().cast<double>());
-        ty.hi[l] = ty.hi[l].cwiseMax(out.colwise().maxCoeff().transpose().cast<double>());
+        ty.lo[l] = out.colwise().minCoeff().transpose().cast<double>();
+        ty.hi[l] = out.colwise().maxCoeff().transpose().cast<double>();
       }
     }
   });
+  stats_.assign(L, LayerStatistics{});
   for (int l = 0; l < L; ++l) {
     LayerStatistics& st = stats_[l];
-    std::vector<Eigen::RowVectorXd> rows;
     st.out_lo = tally[0].lo[l];
     st.out_hi = tally[0].hi[l];
-    for (const Tally& ty : tally) {
+    const int n = std::min(per_image * images, max_samples);
+    st.samples.resize(n, model_.linear[l].rows());
+    for (int k = 0; k < images; ++k) {
+      const ImageTally& ty = tally[k];
       st.x_max = std::max(st.x_max, ty.x_max[l]);
       st.signed_inputs = st.signed_inputs || ty.sign[l];
-      rows.insert(rows.end(), ty.rows[l].begin(), ty.rows[l].end());
       st.out_lo = st.out_lo.cwiseMin(ty.lo[l]);
       st.out_hi = st.out_hi.cwiseMax(ty.hi[l]);
+      for (int s = 0; s < per_image && k * per_image + s < n; ++s) st.samples.row(k * per_image + s) = ty.rows[l].row(s);
     }
     if (!(st.x_max > 0)) st.x_max = 1.0;  // a layer that only ever sees zeros
-    const int n = std::min<int>(static_cast<int>(rows.size()), max_samples);
-    st.samples.resize(n, model_.linear[l].rows());
-    for (int r = 0; r < n; ++r) st.samples.row(r) = rows[r];
   }
+}
+
+void CrossbarBackend::program_layers(const std::function<void(int, int)>& progress) {
+  const int L = static_cast<int>(model_.linear.size());
   layers_.clear();
   layers_.reserve(L);
   for (int l = 0; l < L; ++l)

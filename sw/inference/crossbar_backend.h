@@ -38,6 +38,13 @@ class CrossbarBackend : public LinearBackend {
   int layers() const { return static_cast<int>(layers_.size()); }
 
  private:
+  /// Stream id of the calibration-row picks (derived with calibration.seed and the image).
+  static constexpr uint64_t kCalibrationRowStream = 0xCA1B;
+  /// Software pass over `calib`: input ranges, output ranges, sampled im2col rows.
+  void gather_statistics(const Dataset& calib, int max_samples);
+  /// Builds and programs one AnalogLayer per linear layer (in parallel, deterministic).
+  void program_layers(const std::function<void(int, int)>& progress);
+
   const Model& model_;
   AnalogConfig cfg_;
   std::vector<AnalogLayer> layers_;

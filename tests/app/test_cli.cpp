@@ -53,7 +53,7 @@ TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
     std::string args, expect;
   } cases[] = {
       {"solve --conductances " + g + " --inputs " + v3, "3 voltages"},
-      {"solve --conductances " + gneg + " --inputs " + v2, "must be finite and > 0"},
+      {"solve --conductances " + gneg + " --inputs " + v2, "conductances must lie in"},
       {"solve --conductances " + gtxt + " --inputs " + v2, "'abc' is not a finite number"},
       {"solve --conductances /nonexistent.csv --inputs " + v2, "cannot open '/nonexistent.csv'"},
       {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.r_wier=1", "crossbar.r_wier"},

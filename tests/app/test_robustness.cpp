@@ -1,0 +1,161 @@
+// Regression tests for bad input through the executable: each case once crashed, hung, or
+// printed a wrong number with exit 0. Every case must give one clear message and exit 2
+// (input) or 3 (solver), never a signal or "internal error".
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+struct Result {
+  int code;  ///< exit status, or -1 when killed by a signal
+  std::string out;
+};
+
+Result run(const std::string& args, const std::string& prefix = "") {
+  const std::string cmd = prefix + std::string(XBARSIM_BINARY) + " " + args + " 2>&1";
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+std::string file(const std::string& name, const std::string& text) {
+  const std::string path = "/tmp/xbarsim_rb_" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string models_dir() {
+  for (const std::string d : {std::string(XBARSIM_SOURCE_DIR) + "/../shared/models", std::string("../shared/models")}) {
+    struct stat st;
+    if (stat((d + "/resnet20_cifar10.onnx").c_str(), &st) == 0) return d;
+  }
+  return "";
+}
+
+void expect_clean_error(const Result& r, int code, const std::string& part, const std::string& what) {
+  EXPECT_EQ(r.code, code) << what << "\n" << r.out;
+  EXPECT_NE(r.out.find(part), std::string::npos) << what << "\n" << r.out;
+  EXPECT_EQ(r.out.find("internal error"), std::string::npos) << what << "\n" << r.out;
+}
+
+const std::string kSinh8x4 =
+    "xbar-study --set study.rows=8 --set study.cols=4 --set study.vectors=20 --set study.method=none "
+    "--set crossbar.memristor.model=sinh --set converters.adc_bits=none --set converters.dac_bits=none";
+
+}  // namespace
+
+TEST(Robustness, HugeIntegersAreRangeErrorsNotCrashesOrTruncation) {  // items 1 and 9
+  expect_clean_error(run("xbar-study --set study.vectors=2147483648"), 2, "study.vectors", "item 1");
+  expect_clean_error(run("xbar-study --set study.vectors=4294967297"), 2, "study.vectors", "item 9");
+  expect_clean_error(run("eval --model x --images 4294967298"), 2, "eval.images", "item 9 --images");
+  expect_clean_error(run("eval --model x --offset 4294967296"), 2, "eval.offset", "item 9 --offset");
+  expect_clean_error(run("xbar-study --set solver.max_iterations=4294967297"), 2, "solver.max_iterations", "item 9");
+  expect_clean_error(run("simulate --preset lenet --set platform.replication=2147483648"), 2, "platform.replication",
+                     "item 9");
+  expect_clean_error(run("simulate --preset lenet --set platform.clock_mhz=1e300"), 2, "platform.clock_mhz", "item 9");
+  expect_clean_error(run("overhead --model x --input-size 100000,100000"), 2, "--input-size", "item 9");
+}
+
+TEST(Robustness, VcdPathIsCheckedBeforeTheSimulation) {  // items 4 and 11
+  expect_clean_error(run("simulate --preset lenet --vcd /nonexistent/dir/x.vcd"), 2, "does not exist", "item 4");
+  expect_clean_error(run("simulate --preset lenet --vcd /tmp"), 2, "is a directory", "item 11 --vcd dir");
+  const Result ok = run("simulate --preset lenet --vcd /tmp/xbarsim_rb_trace.vcd");
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_NE(slurp("/tmp/xbarsim_rb_trace.vcd").find("$enddefinitions"), std::string::npos);
+}
+
+TEST(Robustness, OverheadOnAnInputSmallerThanTheKernel) {  // item 5
+  const std::string dir = models_dir();
+  if (dir.empty()) GTEST_SKIP() << "shared models not found; test skipped";
+  expect_clean_error(run("overhead --model " + dir + "/resnet20_cifar10.onnx --input-size 1,1"), 2,
+                     "smaller than its 3x3 kernel", "item 5");
+}
+
+TEST(Robustness, NewtonNeedsTheKclResidualNotJustASmallStep) {  // item 7
+  const Result good = run(kSinh8x4);
+  ASSERT_EQ(good.code, 0) << good.out;
+  for (const char* method : {"line", "direct"}) {
+    const Result r = run(kSinh8x4 + " --set solver.max_step=3e-13 --set solver.method=" + method);
+    expect_clean_error(r, 3, "KCL residual", method);
+  }
+}
+
+TEST(Robustness, OutputFilesAreCheckedBeforeWorkAndNeverClobberInputs) {  // items 10 and 11
+  const std::string g = file("g.csv", "5e-5,6e-5\n4e-5,3e-5\n"), v = file("v.csv", "0.1,0.2\n");
+  const std::string base = "solve --conductances " + g + " --inputs " + v;
+  expect_clean_error(run(base + " --out /dev/full"), 2, "/dev/full", "item 10");
+  expect_clean_error(run(base + " --json /dev/full"), 2, "/dev/full", "item 10 json");
+  expect_clean_error(run(base + " --out " + v), 2, "refusing to overwrite", "item 11 --out onto input");
+  EXPECT_EQ(slurp(v), "0.1,0.2\n");
+  const std::string cfg = file("cfg.yaml", "study:\n  rows: 16\n");
+  expect_clean_error(run("xbar-study --config " + cfg + " --json " + cfg), 2, "refusing to overwrite", "json onto config");
+  // An unwritable --json is reported before the study runs (no result table printed).
+  const Result r = run("xbar-study --json /nonexistent/dir/out.json");
+  expect_clean_error(r, 2, "does not exist", "item 11 unwritable json");
+  EXPECT_EQ(r.out.find("mean_RE"), std::string::npos) << r.out;
+}
+
+TEST(Robustness, InputProblemsAreInputErrors) {  // items 12, 14 and 15
+  expect_clean_error(run("xbar-study --config " + file("complex.yaml", "? [a, b] : 1\n")), 2, "complex.yaml:1",
+                     "item 12 complex key");
+  expect_clean_error(run("xbar-study --config " + file("dup.yaml", "study:\n  rows: 8\n  rows: 9\n")), 2,
+                     "dup.yaml:3: duplicate key 'rows'", "item 14 duplicate");
+  expect_clean_error(run("xbar-study --config " + file("docs.yaml", "study:\n  rows: 8\n---\nstudy:\n  rows: 9\n")),
+                     2, "docs.yaml:3", "item 14 documents");
+  const std::string v = file("v15.csv", "0.1,1e-320\n");
+  const Result bom = run("solve --conductances " + file("bom.csv", "\xEF\xBB\xBF" "5e-5,6e-5\n4e-5,3e-5\n") +
+                         " --inputs " + v);
+  EXPECT_EQ(bom.code, 0) << bom.out;
+  expect_clean_error(run("solve --conductances " + file("gbig.csv", "5e-5,1e300\n4e-5,3e-5\n") + " --inputs " + v), 2,
+                     "conductances must lie in", "item 15 G=1e300");
+  // Out of memory is reported as such (exit 2), not as an internal error.
+  const Result oom = run("xbar-study --set study.rows=144 --set study.vectors=10000000", "ulimit -v 1000000; ");
+  expect_clean_error(oom, 2, "out of memory", "item 12 bad_alloc");
+}
+
+TEST(Robustness, ResourceBombsAreRefusedQuicklyWithTheirSize) {  // item 13
+  const std::string bomb = file("bomb.yaml",
+                                "study:\n  rows: &v [1,2,3,4,5,6,7,8,9,10]\n  cols: *v\n  vectors: *v\n  seed: *v\n"
+                                "calibration:\n  samples: *v\n  seed: *v\nnoise:\n  seed: *v\n  sigma_us: *v\n"
+                                "solver:\n  threads: *v\n");
+  const auto t0 = std::chrono::steady_clock::now();
+  expect_clean_error(run("xbar-study --config " + bomb), 2, "1000000000 points", "item 13 anchors");
+  expect_clean_error(run("xbar-study --set 'study.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'noise.seed=[1,2,3,4,5,6,7,8,9,10]'"
+                         " --set 'calibration.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'study.vectors=[1,2,3,4,5,6,7,8,9,10]'"
+                         " --set 'solver.threads=[1,2,3,4,5,6,7,8,9,10]'"),
+                     2, "100000 points", "item 13 1e5 sweep");
+  // Functional bound, not a speed test: a refusal must not first expand the product.
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
+}
+
+TEST(Robustness, RerunsWithNoiseAreByteIdenticalApartFromTiming) {  // determinism
+  const std::string args = "xbar-study --set study.rows=64 --set study.cols=8 --set study.vectors=50 "
+                           "--set noise.sigma_us=0.5 --set crossbar.memristor.model=[linear,sinh]";
+  ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_a.json").code, 0);
+  ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_b.json --set solver.threads=1").code, 0);
+  auto strip = [](const std::string& path) {
+    nlohmann::json j = nlohmann::json::parse(slurp(path));
+    for (auto& run : j) {
+      run.erase("program_time_s");
+      run.erase("evaluate_time_s");
+      run["sweep"].erase("solver.threads");
+    }
+    return j.dump();
+  };
+  EXPECT_EQ(strip("/tmp/xbarsim_rb_a.json"), strip("/tmp/xbarsim_rb_b.json"));
+}
