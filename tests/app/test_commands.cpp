@@ -73,6 +73,27 @@ TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
       EXPECT_TRUE(l.contains(k)) << k;
 }
 
+TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
+  // Every random stream (calibration picks, programming noise) is seeded by the item's
+  // index, never by a thread: the JSON is identical apart from its timing fields.
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  std::string first, out;
+  for (int t = 1; t <= 3; ++t) {
+    const std::string json = "/tmp/xbarsim_eval_threads" + std::to_string(t) + ".json";
+    ASSERT_EQ(run("eval --model resnet20_cifar10 --images 24 --set noise.sigma_us=0.5 --set solver.threads=" +
+                      std::to_string(t) + " --json " + json,
+                  &out),
+              0)
+        << out;
+    auto j = read_json(json);
+    for (const char* k : {"program_time_s", "evaluate_time_s", "images_per_s"}) j.erase(k);
+    if (t == 1)
+      first = j.dump();
+    else
+      EXPECT_EQ(j.dump(), first) << "solver.threads=" << t;
+  }
+}
+
 TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   const std::string json = "/tmp/xbarsim_simulate.json";
   std::string out;
