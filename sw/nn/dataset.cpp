@@ -23,7 +23,14 @@ std::vector<uint8_t> read_gz_or_plain(const std::string& path) {
   std::vector<uint8_t> out;
   uint8_t buf[1 << 16];
   int n;
-  while ((n = gzread(f, buf, sizeof buf)) > 0) out.insert(out.end(), buf, buf + n);
+  constexpr size_t kMaxBytes = size_t{1} << 30;  // far above MNIST (47 MB); refuses decompression bombs
+  while ((n = gzread(f, buf, sizeof buf)) > 0) {
+    out.insert(out.end(), buf, buf + n);
+    if (out.size() > kMaxBytes) {
+      gzclose(f);
+      throw InputError("'" + path + "' holds more than 1 GiB of data; not an MNIST file");
+    }
+  }
   const bool bad = n < 0;
   gzclose(f);
   if (bad) throw InputError("'" + path + "' is not a readable gzip/idx file");
@@ -38,7 +45,7 @@ void clamp_range(int total, int& offset, int& count, const std::string& what) {
   if (offset < 0 || offset >= total)
     throw InputError(what + ": offset " + std::to_string(offset) + " is outside the " + std::to_string(total) +
                      " images");
-  if (count < 0 || offset + count > total) count = total - offset;
+  if (count < 0 || count > total - offset) count = total - offset;
 }
 
 }  // namespace
@@ -83,9 +90,12 @@ Dataset load_mnist(const std::string& images, const std::string& labels, int off
   const auto lb = read_gz_or_plain(labels);
   if (im.size() < 16 || be32(im, 0) != 2051) throw InputError("'" + images + "' is not an idx3 image file");
   if (lb.size() < 8 || be32(lb, 0) != 2049) throw InputError("'" + labels + "' is not an idx1 label file");
-  const int total = static_cast<int>(be32(im, 4)), rows = static_cast<int>(be32(im, 8)),
-            cols = static_cast<int>(be32(im, 12));
-  if (static_cast<int>(be32(lb, 4)) != total) throw InputError("MNIST image and label counts differ");
+  const uint32_t total32 = be32(im, 4), rows32 = be32(im, 8), cols32 = be32(im, 12);
+  if (total32 < 1 || total32 > 10000000 || rows32 < 1 || rows32 > 4096 || cols32 < 1 || cols32 > 4096)
+    throw InputError("'" + images + "' has an implausible header (" + std::to_string(total32) + " images of " +
+                     std::to_string(rows32) + "x" + std::to_string(cols32) + ")");
+  const int total = static_cast<int>(total32), rows = static_cast<int>(rows32), cols = static_cast<int>(cols32);
+  if (be32(lb, 4) != total32) throw InputError("MNIST image and label counts differ");
   if (im.size() < 16 + static_cast<size_t>(total) * rows * cols || lb.size() < 8 + static_cast<size_t>(total))
     throw InputError("MNIST files are truncated");
   clamp_range(total, offset, count, images);
@@ -95,6 +105,8 @@ Dataset load_mnist(const std::string& images, const std::string& labels, int off
   const size_t n = static_cast<size_t>(rows) * cols;
   d.pixels.assign(im.begin() + 16 + offset * n, im.begin() + 16 + (offset + count) * n);
   d.labels.assign(lb.begin() + 8 + offset, lb.begin() + 8 + offset + count);
+  for (int k = 0; k < count; ++k)
+    if (d.labels[k] > 9) throw InputError("'" + labels + "': label " + std::to_string(offset + k) + " is > 9");
   return d;
 }
 

@@ -71,6 +71,8 @@ struct Model {
 /// value throws InputError naming the node and op. `input` gives C,H,W when the model's
 /// input has symbolic dimensions (0 = take them from the model).
 Model load_onnx_model(const std::string& path, Shape input = Shape{0, 0, 0});
+/// The same from the serialized bytes of a model; `origin` names it in messages.
+Model load_onnx_model_from_bytes(const std::string& bytes, const std::string& origin, Shape input = Shape{0, 0, 0});
 
 /// Comma-separated numbers, each possibly a fraction "a/b" (e.g. "1/255"); errors name
 /// `origin` and `key`.

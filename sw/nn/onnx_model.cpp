@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "sw/common/errors.h"
+#include "sw/common/parse.h"
 #include "sw/nn/model.h"
 
 namespace xbarsim {
@@ -14,46 +15,64 @@ namespace {
 
 struct Init {
   std::vector<int64_t> dims;
-  std::vector<float> f;
-  std::vector<int64_t> i;
+  std::vector<float> f;    ///< FLOAT data
+  std::vector<int64_t> i;  ///< INT64 or INT32 data
+  bool is_int32 = false;
 };
 
+constexpr int64_t kMaxTensorElements = int64_t{1} << 31;  ///< far above any CNN layer here
+constexpr int64_t kMaxDim = 1 << 20;                        ///< one spatial/channel dimension
+
+/// Copies `count` elements of a repeated field or of raw_data (little-endian) into `out`,
+/// checking that exactly `count` are present.
+template <typename T, typename Field>
+void copy_elements(const std::string& raw, const Field& field, size_t count, std::vector<T>& out,
+                   const std::string& what) {
+  if (!raw.empty()) {
+    if (raw.size() != count * sizeof(T))
+      throw InputError(what + " holds " + std::to_string(raw.size()) + " bytes of raw data, but its dims need " +
+                       std::to_string(count * sizeof(T)));
+    out.resize(count);
+    std::memcpy(out.data(), raw.data(), raw.size());
+    return;
+  }
+  if (static_cast<size_t>(field.size()) != count)
+    throw InputError(what + " holds " + std::to_string(field.size()) + " values, but its dims need " +
+                     std::to_string(count));
+  out.assign(field.begin(), field.end());
+}
+
+/// One checked reader for every tensor: dims >= 0 whose product fits, the element count
+/// of raw or typed data equal to that product, and a supported data type.
 Init read_tensor(const onnx::TensorProto& t, const std::string& where) {
+  const std::string what = where + ": tensor '" + t.name() + "'";
+  if (t.data_location() == onnx::TensorProto::EXTERNAL) throw InputError(what + " uses external data (not supported)");
   Init out;
-  for (auto d : t.dims()) out.dims.push_back(d);
-  size_t count = 1;
-  for (auto d : out.dims) count *= static_cast<size_t>(d);
+  int64_t count = 1;
+  for (auto d : t.dims()) {
+    if (d < 0 || d > kMaxTensorElements || (d > 0 && count > kMaxTensorElements / d))
+      throw InputError(what + " has invalid or too large dims");
+    out.dims.push_back(d);
+    count *= d;
+  }
   const std::string& raw = t.raw_data();
   switch (t.data_type()) {
     case onnx::TensorProto::FLOAT:
-      if (!raw.empty()) {
-        if (raw.size() != count * 4) throw InputError(where + ": tensor '" + t.name() + "' has a bad size");
-        out.f.resize(count);
-        std::memcpy(out.f.data(), raw.data(), raw.size());
-      } else {
-        out.f.assign(t.float_data().begin(), t.float_data().end());
-      }
+      copy_elements<float>(raw, t.float_data(), static_cast<size_t>(count), out.f, what);
       break;
     case onnx::TensorProto::INT64:
-      if (!raw.empty()) {
-        if (raw.size() != count * 8) throw InputError(where + ": tensor '" + t.name() + "' has a bad size");
-        out.i.resize(count);
-        std::memcpy(out.i.data(), raw.data(), raw.size());
-      } else {
-        out.i.assign(t.int64_data().begin(), t.int64_data().end());
-      }
+      copy_elements<int64_t>(raw, t.int64_data(), static_cast<size_t>(count), out.i, what);
       break;
-    case onnx::TensorProto::INT32:
-      for (auto v : t.int32_data()) out.i.push_back(v);
-      if (!raw.empty()) {
-        std::vector<int32_t> tmp(raw.size() / 4);
-        std::memcpy(tmp.data(), raw.data(), raw.size());
-        out.i.assign(tmp.begin(), tmp.end());
-      }
+    case onnx::TensorProto::INT32: {
+      std::vector<int32_t> v;
+      copy_elements<int32_t>(raw, t.int32_data(), static_cast<size_t>(count), v, what);
+      out.i.assign(v.begin(), v.end());
+      out.is_int32 = true;
       break;
+    }
     default:
-      throw InputError(where + ": tensor '" + t.name() + "' has unsupported data type " +
-                       std::to_string(t.data_type()));
+      throw InputError(what + " has unsupported data type " + std::to_string(t.data_type()) +
+                       " (float32 weights, int32/int64 shapes and indices)");
   }
   return out;
 }
@@ -81,9 +100,13 @@ class Loader {
         Shape s;
         const auto& dims = in.type().tensor_type().shape().dim();
         if (dims.size() == 4) {
-          s.c = static_cast<int>(dims[1].dim_value());
-          s.h = static_cast<int>(dims[2].dim_value());
-          s.w = static_cast<int>(dims[3].dim_value());
+          auto dim = [&](int q) {
+            const int64_t v = dims[q].dim_value();
+            return v >= 1 && v <= kMaxDim ? static_cast<int>(v) : 0;
+          };
+          s.c = dim(1);
+          s.h = dim(2);
+          s.w = dim(3);
         }
         if (input_override.c > 0) s = input_override;
         if (s.c <= 0 || s.h <= 0 || s.w <= 0)
@@ -95,6 +118,7 @@ class Loader {
     define(input_name, model_.input);
     for (const auto& node : g.node()) add_node(node);
     if (g.output_size() != 1) throw InputError(path_ + ": expected exactly one graph output");
+    if (model_.linear.empty()) throw InputError(path_ + ": the graph has no Conv, Gemm or MatMul layer");
     model_.output = value(g.output(0).name(), "graph output");
   }
 
@@ -103,6 +127,10 @@ class Loader {
     return path_ + ": node '" + n.name() + "' (" + n.op_type() + ")";
   }
   int define(const std::string& name, Shape s) {
+    if (s.c < 1 || s.h < 1 || s.w < 1 || s.c > kMaxDim || s.h > kMaxDim || s.w > kMaxDim ||
+        static_cast<int64_t>(s.c) * s.h * s.w > (int64_t{1} << 28))
+      throw InputError(path_ + ": value '" + name + "' would have shape " + std::to_string(s.c) + "x" +
+                       std::to_string(s.h) + "x" + std::to_string(s.w) + " (empty or too large)");
     ids_[name] = static_cast<int>(model_.values.size());
     model_.values.push_back(s);
     return ids_[name];
@@ -116,6 +144,59 @@ class Loader {
     auto it = inits_.find(name);
     if (it == inits_.end()) throw InputError(ctx + ": '" + name + "' must be a constant initializer");
     return it->second;
+  }
+  /// The float32 initializer `name` with exactly `count` finite values (count < 0: any).
+  const std::vector<float>& floats(const std::string& name, const std::string& ctx, int64_t count = -1) const {
+    const Init& t = init(name, ctx);
+    if (t.f.empty() && (!t.i.empty() || count != 0))
+      throw InputError(ctx + ": '" + name + "' must hold float32 values" +
+                       (t.i.empty() ? std::string() : std::string(" (it holds integers)")));
+    if (count >= 0 && static_cast<int64_t>(t.f.size()) != count)
+      throw InputError(ctx + ": '" + name + "' holds " + std::to_string(t.f.size()) + " values, expected " +
+                       std::to_string(count));
+    for (size_t k = 0; k < t.f.size(); ++k)
+      if (!std::isfinite(t.f[k]))
+        throw InputError(ctx + ": '" + name + "' holds a non-finite value (" + std::to_string(t.f[k]) +
+                         ") at element " + std::to_string(k));
+    return t.f;
+  }
+  /// The integer (int32 or int64) initializer `name`.
+  const std::vector<int64_t>& integers(const std::string& name, const std::string& ctx) const {
+    const Init& t = init(name, ctx);
+    if (!t.f.empty()) throw InputError(ctx + ": '" + name + "' must hold integers (it holds floats)");
+    return t.i;
+  }
+  /// Throws unless node `n` has at least `k` inputs and one output.
+  void require_io(const onnx::NodeProto& n, int k) const {
+    if (n.input_size() < k)
+      throw InputError(where(n) + ": needs " + std::to_string(k) + " input(s), has " + std::to_string(n.input_size()));
+    for (int q = 0; q < k; ++q)
+      if (n.input(q).empty()) throw InputError(where(n) + ": input " + std::to_string(q + 1) + " is empty");
+    if (n.output_size() < 1 || n.output(0).empty()) throw InputError(where(n) + ": has no output");
+  }
+  /// An optional input given by name (absent or empty = not given).
+  static bool has_input(const onnx::NodeProto& n, int q) { return n.input_size() > q && !n.input(q).empty(); }
+  /// Integer attribute list with each value in [lo, hi] and the expected length.
+  std::vector<int> checked_ints(const onnx::NodeProto& n, const char* name, std::vector<int64_t> dflt, size_t len,
+                                int64_t lo, int64_t hi) const {
+    const auto v = ints(n, name, std::move(dflt));
+    if (v.size() != len)
+      throw InputError(where(n) + ": attribute '" + name + "' needs " + std::to_string(len) + " values, has " +
+                       std::to_string(v.size()));
+    std::vector<int> out;
+    for (auto x : v) {
+      if (x < lo || x > hi)
+        throw InputError(where(n) + ": attribute '" + name + "' value " + std::to_string(x) + " is outside [" +
+                         std::to_string(lo) + ", " + std::to_string(hi) + "]");
+      out.push_back(static_cast<int>(x));
+    }
+    return out;
+  }
+  /// Output extent of a window sweep; InputError when it is empty.
+  int window_out(const onnx::NodeProto& n, int in, int pad_lo, int pad_hi, int k, int stride) const {
+    const long long span = static_cast<long long>(in) + pad_lo + pad_hi - k;
+    if (span < 0) reject(n, "window (" + std::to_string(k) + ") larger than the padded input");
+    return static_cast<int>(span / stride + 1);
   }
   static const onnx::AttributeProto* attr(const onnx::NodeProto& n, const char* name) {
     for (const auto& a : n.attribute())
@@ -150,6 +231,8 @@ class Loader {
                   const std::vector<float>* bias) {
     L.name = n.name();
     L.in = model_.values[in_id];
+    if (static_cast<int64_t>(L.rows()) * L.c_out > kMaxTensorElements / 4) reject(n, "layer size");
+    if (w_oihw.size() != static_cast<size_t>(L.rows()) * L.c_out) reject(n, "weight size");
     const int K = L.rows();
     L.weight.resize(K, L.c_out);
     for (int o = 0; o < L.c_out; ++o)
@@ -175,42 +258,46 @@ class Loader {
     const std::string ctx = where(n);
     if (t == "Constant") {
       const auto* a = attr(n, "value");
-      if (!a) reject(n, "Constant without a tensor 'value'");
+      if (!a || !a->has_t()) reject(n, "Constant without a tensor 'value'");
+      if (n.output_size() < 1 || n.output(0).empty()) throw InputError(ctx + ": has no output");
       inits_[n.output(0)] = read_tensor(a->t(), ctx);
       return;
     }
-    if (n.input_size() < 1) reject(n, "node without inputs");
+    require_io(n, 1);
     if (t == "Conv") {
+      require_io(n, 2);
       check_known_attrs(n, {"dilations", "group", "kernel_shape", "pads", "strides", "auto_pad"});
       const auto* ap = attr(n, "auto_pad");
       if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
       if (int_attr(n, "group", 1) != 1) reject(n, "group != 1");
-      for (auto d : ints(n, "dilations", {1, 1}))
-        if (d != 1) reject(n, "dilation != 1");
+      checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
       const int in_id = value(n.input(0), ctx);
       const Init& w = init(n.input(1), ctx);
       if (w.dims.size() != 4) reject(n, "weight rank");
+      for (auto d : w.dims)
+        if (d < 1 || d > kMaxDim) reject(n, "weight dims");
       LinearLayer L;
       L.c_out = static_cast<int>(w.dims[0]);
       L.c_in = static_cast<int>(w.dims[1]);
       L.k_h = static_cast<int>(w.dims[2]);
       L.k_w = static_cast<int>(w.dims[3]);
+      if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{L.k_h, L.k_w})
+        reject(n, "kernel_shape that differs from the weight");
       const Shape in = model_.values[in_id];
       if (in.c != L.c_in) reject(n, "input channels (" + std::to_string(in.c) + ") != weight channels");
-      const auto s = ints(n, "strides", {1, 1});
-      const auto p = ints(n, "pads", {0, 0, 0, 0});
-      if (s.size() != 2 || p.size() != 4) reject(n, "strides/pads rank");
-      L.stride_h = static_cast<int>(s[0]);
-      L.stride_w = static_cast<int>(s[1]);
-      L.pad_t = static_cast<int>(p[0]);
-      L.pad_l = static_cast<int>(p[1]);
-      L.pad_b = static_cast<int>(p[2]);
-      L.pad_r = static_cast<int>(p[3]);
-      L.out = {L.c_out, (in.h + L.pad_t + L.pad_b - L.k_h) / L.stride_h + 1,
-               (in.w + L.pad_l + L.pad_r - L.k_w) / L.stride_w + 1};
-      if (L.out.h < 1 || L.out.w < 1) reject(n, "kernel larger than the padded input");
-      const std::vector<float>* b = n.input_size() > 2 && !n.input(2).empty() ? &init(n.input(2), ctx).f : nullptr;
-      add_linear(n, std::move(L), in_id, w.f, b);
+      const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
+      const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
+      L.stride_h = st[0];
+      L.stride_w = st[1];
+      L.pad_t = p[0];
+      L.pad_l = p[1];
+      L.pad_b = p[2];
+      L.pad_r = p[3];
+      L.out = {L.c_out, window_out(n, in.h, L.pad_t, L.pad_b, L.k_h, L.stride_h),
+               window_out(n, in.w, L.pad_l, L.pad_r, L.k_w, L.stride_w)};
+      const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(L.rows()) * L.c_out);
+      const std::vector<float>* b = has_input(n, 2) ? &floats(n.input(2), ctx, L.c_out) : nullptr;
+      add_linear(n, std::move(L), in_id, wf, b);
     } else if (t == "Gemm" || t == "MatMul") {
       if (t == "Gemm") {
         check_known_attrs(n, {"alpha", "beta", "transA", "transB"});
@@ -218,28 +305,29 @@ class Loader {
       } else {
         check_known_attrs(n, {});
       }
+      require_io(n, 2);
       const int in_id = value(n.input(0), ctx);
       const Shape in = model_.values[in_id];
       if (in.h != 1 || in.w != 1) reject(n, "input that is not a flat vector (insert Flatten)");
       const Init& w = init(n.input(1), ctx);
-      if (w.dims.size() != 2) reject(n, "weight rank");
+      if (w.dims.size() != 2 || w.dims[0] < 1 || w.dims[1] < 1 || w.dims[0] > kMaxDim * 64 || w.dims[1] > kMaxDim)
+        reject(n, "weight rank or dims");
       const bool trans_b = t == "Gemm" && int_attr(n, "transB", 0) != 0;
       const int K = static_cast<int>(trans_b ? w.dims[1] : w.dims[0]);
       const int N = static_cast<int>(trans_b ? w.dims[0] : w.dims[1]);
       if (K != in.c) reject(n, "inner dimension " + std::to_string(K) + " vs input " + std::to_string(in.c));
       const float alpha = t == "Gemm" ? float_attr(n, "alpha", 1.0f) : 1.0f;
       const float beta = t == "Gemm" ? float_attr(n, "beta", 1.0f) : 1.0f;
+      if (!std::isfinite(alpha) || !std::isfinite(beta)) reject(n, "non-finite alpha or beta");
+      const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(K) * N);
       std::vector<float> w_oi(static_cast<size_t>(N) * K);  // as OIHW with H = W = 1
       for (int o = 0; o < N; ++o)
         for (int k = 0; k < K; ++k)
           w_oi[static_cast<size_t>(o) * K + k] =
-              alpha * (trans_b ? w.f[static_cast<size_t>(o) * K + k] : w.f[static_cast<size_t>(k) * N + o]);
+              alpha * (trans_b ? wf[static_cast<size_t>(o) * K + k] : wf[static_cast<size_t>(k) * N + o]);
       std::vector<float> bias;
-      if (n.input_size() > 2 && !n.input(2).empty()) {
-        const Init& c = init(n.input(2), ctx);
-        if (c.f.size() != static_cast<size_t>(N)) reject(n, "bias that is not a vector of length N");
-        for (float v : c.f) bias.push_back(beta * v);
-      }
+      if (has_input(n, 2))
+        for (float v : floats(n.input(2), ctx, N)) bias.push_back(beta * v);
       LinearLayer L;
       L.is_conv = false;
       L.c_in = K;
@@ -254,6 +342,7 @@ class Loader {
       model_.ops.push_back(op);
     } else if (t == "Add") {
       check_known_attrs(n, {});
+      require_io(n, 2);
       const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
       if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
       Op op = make_op(OpKind::Add, n.name(), {a, b});
@@ -266,25 +355,25 @@ class Loader {
       if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
       if (int_attr(n, "ceil_mode", 0) != 0) reject(n, "ceil_mode = 1");
       if (int_attr(n, "count_include_pad", 0) != 0) reject(n, "count_include_pad = 1");
-      for (auto d : ints(n, "dilations", {1, 1}))
-        if (d != 1) reject(n, "dilation != 1");
+      checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
       const int in_id = value(n.input(0), ctx);
       const Shape in = model_.values[in_id];
-      const auto k = ints(n, "kernel_shape", {});
-      const auto s = ints(n, "strides", {1, 1});
-      const auto p = ints(n, "pads", {0, 0, 0, 0});
-      if (k.size() != 2 || s.size() != 2 || p.size() != 4) reject(n, "kernel/strides/pads rank");
+      const auto k = checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim);
+      const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
+      const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
       Op op = make_op(t == "MaxPool" ? OpKind::MaxPool : OpKind::AvgPool, n.name(), {in_id});
-      op.k_h = static_cast<int>(k[0]);
-      op.k_w = static_cast<int>(k[1]);
-      op.s_h = static_cast<int>(s[0]);
-      op.s_w = static_cast<int>(s[1]);
-      op.p_t = static_cast<int>(p[0]);
-      op.p_l = static_cast<int>(p[1]);
-      op.p_b = static_cast<int>(p[2]);
-      op.p_r = static_cast<int>(p[3]);
-      const Shape out{in.c, (in.h + op.p_t + op.p_b - op.k_h) / op.s_h + 1, (in.w + op.p_l + op.p_r - op.k_w) / op.s_w + 1};
-      if (out.h < 1 || out.w < 1) reject(n, "pooling window larger than the input");
+      op.k_h = k[0];
+      op.k_w = k[1];
+      op.s_h = st[0];
+      op.s_w = st[1];
+      op.p_t = p[0];
+      op.p_l = p[1];
+      op.p_b = p[2];
+      op.p_r = p[3];
+      if (op.p_t >= op.k_h || op.p_b >= op.k_h || op.p_l >= op.k_w || op.p_r >= op.k_w)
+        reject(n, "pads as large as the pooling window");
+      const Shape out{in.c, window_out(n, in.h, op.p_t, op.p_b, op.k_h, op.s_h),
+                      window_out(n, in.w, op.p_l, op.p_r, op.k_w, op.s_w)};
       op.out = define(n.output(0), out);
       model_.ops.push_back(op);
     } else if (t == "GlobalAveragePool") {
@@ -302,18 +391,23 @@ class Loader {
         if (int_attr(n, "axis", 1) != 1) reject(n, "axis != 1");
       } else {
         check_known_attrs(n, {"allowzero"});
-        const Init& sh = init(n.input(1), ctx);
-        std::vector<int64_t> d = sh.i;
+        require_io(n, 2);
+        std::vector<int64_t> d = integers(n.input(1), ctx);
         if (d.size() == 2 || d.size() == 4) {
           int64_t known = 1, infer = -1;
           for (size_t q = 1; q < d.size(); ++q) {
             if (d[q] == 0) d[q] = q == 1 ? in.c : q == 2 ? in.h : in.w;
-            if (d[q] == -1)
+            if (d[q] == -1 && infer < 0)
               infer = static_cast<int64_t>(q);
-            else
-              known *= d[q];
+            else if (d[q] < 1 || d[q] > kMaxDim * 64 || (known *= d[q]) > in.size())
+              reject(n, "target shape");
           }
-          if (infer > 0) d[infer] = in.size() / known;
+          if (infer > 0) {
+            if (in.size() % known != 0) reject(n, "target shape that does not divide the input");
+            d[infer] = in.size() / known;
+          }
+          for (size_t q = 1; q < d.size(); ++q)
+            if (d[q] > kMaxDim * 64) reject(n, "target shape");
           out = d.size() == 2 ? Shape{static_cast<int>(d[1]), 1, 1}
                               : Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
         } else {
@@ -327,29 +421,35 @@ class Loader {
       model_.ops.push_back(op);
     } else if (t == "Slice") {
       check_known_attrs(n, {});
+      require_io(n, 3);
       const int in_id = value(n.input(0), ctx);
       const Shape in = model_.values[in_id];
-      const Init& st = init(n.input(1), ctx);
-      const Init& en = init(n.input(2), ctx);
+      const std::vector<int64_t>& starts = integers(n.input(1), ctx);
+      const std::vector<int64_t>& ends = integers(n.input(2), ctx);
       std::vector<int64_t> axes;
-      if (n.input_size() > 3 && !n.input(3).empty()) axes = init(n.input(3), ctx).i;
-      for (size_t q = axes.size(); q < st.i.size(); ++q) axes.push_back(static_cast<int64_t>(q));
-      std::vector<int64_t> steps(st.i.size(), 1);
-      if (n.input_size() > 4 && !n.input(4).empty()) steps = init(n.input(4), ctx).i;
+      if (has_input(n, 3)) axes = integers(n.input(3), ctx);
+      for (size_t q = axes.size(); q < starts.size(); ++q) axes.push_back(static_cast<int64_t>(q));
+      std::vector<int64_t> steps(starts.size(), 1);
+      if (has_input(n, 4)) steps = integers(n.input(4), ctx);
+      if (ends.size() != starts.size() || axes.size() != starts.size() || steps.size() != starts.size())
+        reject(n, "starts/ends/axes/steps of different lengths");
       Op op = make_op(OpKind::Slice, n.name(), {in_id});
       const int dims[3] = {in.c, in.h, in.w};
       int out_dims[3] = {in.c, in.h, in.w};
-      for (size_t q = 0; q < st.i.size(); ++q) {
+      for (size_t q = 0; q < starts.size(); ++q) {
         int64_t ax = axes[q] < 0 ? axes[q] + 4 : axes[q];
         if (ax == 0) {
-          if (st.i[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
+          if (starts[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
           continue;
         }
         if (ax < 1 || ax > 3) reject(n, "axis " + std::to_string(axes[q]));
-        if (steps[q] < 1) reject(n, "step < 1");
+        if (steps[q] < 1 || steps[q] > kMaxDim) reject(n, "step outside [1, " + std::to_string(kMaxDim) + "]");
         const int d = dims[ax - 1];
-        auto clampi = [&](int64_t v) { return std::max<int64_t>(0, std::min<int64_t>(d, v < 0 ? v + d : v)); };
-        const int64_t b = clampi(st.i[q]), e = clampi(en.i[q]);
+        auto clampi = [&](int64_t v) {
+          if (v < 0) v = v < -d ? 0 : v + d;
+          return std::max<int64_t>(0, std::min<int64_t>(d, v));
+        };
+        const int64_t b = clampi(starts[q]), e = clampi(ends[q]);
         op.start[ax - 1] = static_cast<int>(b);
         op.step[ax - 1] = static_cast<int>(steps[q]);
         out_dims[ax - 1] = e > b ? static_cast<int>((e - b + steps[q] - 1) / steps[q]) : 0;
@@ -363,38 +463,39 @@ class Loader {
       if (mode && mode->s() != "constant") reject(n, "mode '" + mode->s() + "'");
       const int in_id = value(n.input(0), ctx);
       const Shape in = model_.values[in_id];
-      if (n.input_size() < 2) reject(n, "Pad without a pads input");
-      const Init& p = init(n.input(1), ctx);
-      if (p.i.size() != 8) reject(n, "pads that are not 4-D");
-      if (p.i[0] != 0 || p.i[4] != 0) reject(n, "padding of the batch axis");
+      require_io(n, 2);
+      const std::vector<int64_t>& p = integers(n.input(1), ctx);
+      if (p.size() != 8) reject(n, "pads that are not 4-D");
+      if (p[0] != 0 || p[4] != 0) reject(n, "padding of the batch axis");
       Op op = make_op(OpKind::Pad, n.name(), {in_id});
       for (int q = 0; q < 3; ++q) {
-        op.pad_lo[q] = static_cast<int>(p.i[1 + q]);
-        op.pad_hi[q] = static_cast<int>(p.i[5 + q]);
-        if (op.pad_lo[q] < 0 || op.pad_hi[q] < 0) reject(n, "negative pads");
+        if (p[1 + q] < 0 || p[5 + q] < 0 || p[1 + q] > kMaxDim || p[5 + q] > kMaxDim)
+          reject(n, "pads outside [0, " + std::to_string(kMaxDim) + "]");
+        op.pad_lo[q] = static_cast<int>(p[1 + q]);
+        op.pad_hi[q] = static_cast<int>(p[5 + q]);
       }
-      if (n.input_size() > 2 && !n.input(2).empty()) {
-        const Init& v = init(n.input(2), ctx);
-        op.pad_value = v.f.empty() ? 0.0f : v.f[0];
-      }
+      if (has_input(n, 2)) op.pad_value = floats(n.input(2), ctx, 1)[0];
       op.out = define(n.output(0), Shape{in.c + op.pad_lo[0] + op.pad_hi[0], in.h + op.pad_lo[1] + op.pad_hi[1],
                                          in.w + op.pad_lo[2] + op.pad_hi[2]});
       model_.ops.push_back(op);
     } else if (t == "BatchNormalization") {
       check_known_attrs(n, {"epsilon", "momentum", "training_mode"});
       if (int_attr(n, "training_mode", 0) != 0) reject(n, "training_mode = 1");
+      require_io(n, 5);
       const int in_id = value(n.input(0), ctx);
       const Shape in = model_.values[in_id];
-      const Init &sc = init(n.input(1), ctx), &b = init(n.input(2), ctx), &mu = init(n.input(3), ctx),
-                 &var = init(n.input(4), ctx);
+      const std::vector<float>&sc = floats(n.input(1), ctx, in.c), &b = floats(n.input(2), ctx, in.c),
+                 &mu = floats(n.input(3), ctx, in.c), &var = floats(n.input(4), ctx, in.c);
       const float eps = float_attr(n, "epsilon", 1e-5f);
-      if (static_cast<int>(sc.f.size()) != in.c) reject(n, "parameter length");
+      if (!(eps >= 0) || !std::isfinite(eps)) reject(n, "epsilon");
       Op op = make_op(OpKind::Affine, n.name(), {in_id});
       op.scale.resize(in.c);
       op.shift.resize(in.c);
       for (int c = 0; c < in.c; ++c) {
-        op.scale(c) = sc.f[c] / std::sqrt(var.f[c] + eps);
-        op.shift(c) = b.f[c] - mu.f[c] * op.scale(c);
+        if (!(var[c] + eps > 0)) reject(n, "variance + epsilon <= 0 in channel " + std::to_string(c));
+        op.scale(c) = sc[c] / std::sqrt(var[c] + eps);
+        op.shift(c) = b[c] - mu[c] * op.scale(c);
+        if (!std::isfinite(op.scale(c)) || !std::isfinite(op.shift(c))) reject(n, "parameters (non-finite result)");
       }
       op.out = define(n.output(0), in);
       model_.ops.push_back(op);
@@ -418,34 +519,63 @@ std::vector<double> parse_number_list(const std::string& s, const std::string& k
   std::stringstream ss(s);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    const auto slash = item.find('/');
-    try {
-      out.push_back(slash == std::string::npos ? std::stod(item)
-                                               : std::stod(item.substr(0, slash)) / std::stod(item.substr(slash + 1)));
-    } catch (const std::exception&) {
-      throw InputError(path + ": '" + key + "' has a non-numeric entry '" + item + "'");
-    }
+    double v = 0;
+    if (!parse_finite_ratio(item, v))
+      throw InputError(path + ": '" + key + "' has an entry '" + item + "' that is not a finite number or a/b");
+    out.push_back(v);
   }
+  if (out.empty()) throw InputError(path + ": '" + key + "' holds no numbers");
   return out;
 }
+
+namespace {
+
+/// Preprocessing and reference accuracy from metadata_props, with checked conversions.
+void read_metadata(const onnx::ModelProto& proto, const std::string& path, Model& model) {
+  for (const auto& p : proto.metadata_props()) model.metadata[p.key()] = p.value();
+  auto meta = [&](const char* k) { return model.metadata.count(k) ? model.metadata[k] : std::string(); };
+  if (!meta("input_scale").empty()) model.pre.scale = parse_number_list(meta("input_scale"), "input_scale", path).at(0);
+  if (!meta("input_mean").empty()) model.pre.mean = parse_number_list(meta("input_mean"), "input_mean", path);
+  if (!meta("input_std").empty()) model.pre.std = parse_number_list(meta("input_std"), "input_std", path);
+  if (!(model.pre.scale > 0)) throw InputError(path + ": metadata 'input_scale' must be > 0");
+  for (double v : model.pre.std)
+    if (!(v > 0)) throw InputError(path + ": metadata 'input_std' values must be > 0");
+  for (const auto* v : {&model.pre.mean, &model.pre.std})
+    if (v->size() != 1 && static_cast<int>(v->size()) != model.input.c)
+      throw InputError(path + ": metadata 'input_mean'/'input_std' need 1 or " + std::to_string(model.input.c) +
+                       " values");
+  model.dataset = meta("dataset");
+  const std::string acc = meta("software_accuracy_test_batch");
+  if (!acc.empty() && (!parse_finite_double(acc, model.reference_accuracy) || model.reference_accuracy < 0))
+    throw InputError(path + ": metadata 'software_accuracy_test_batch' = '" + acc + "' is not an accuracy");
+}
+
+Model load_proto(const onnx::ModelProto& proto, const std::string& path, Shape input) {
+  Model model;
+  model.path = path;
+  try {
+    Loader(proto, path, model).run(input);
+  } catch (const std::out_of_range& e) {  // a field indexed past its end: malformed graph
+    throw InputError(path + ": malformed graph (" + e.what() + ")");
+  }
+  read_metadata(proto, path, model);
+  return model;
+}
+
+}  // namespace
 
 Model load_onnx_model(const std::string& path, Shape input) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open model '" + path + "'");
   onnx::ModelProto proto;
   if (!proto.ParseFromIstream(&in)) throw InputError("'" + path + "' is not a valid ONNX model");
-  Model model;
-  model.path = path;
-  Loader(proto, path, model).run(input);
-  for (const auto& p : proto.metadata_props()) model.metadata[p.key()] = p.value();
-  auto meta = [&](const char* k) { return model.metadata.count(k) ? model.metadata[k] : std::string(); };
-  if (!meta("input_scale").empty()) model.pre.scale = parse_number_list(meta("input_scale"), "input_scale", path).at(0);
-  if (!meta("input_mean").empty()) model.pre.mean = parse_number_list(meta("input_mean"), "input_mean", path);
-  if (!meta("input_std").empty()) model.pre.std = parse_number_list(meta("input_std"), "input_std", path);
-  model.dataset = meta("dataset");
-  if (!meta("software_accuracy_test_batch").empty())
-    model.reference_accuracy = std::stod(meta("software_accuracy_test_batch"));
-  return model;
+  return load_proto(proto, path, input);
+}
+
+Model load_onnx_model_from_bytes(const std::string& bytes, const std::string& origin, Shape input) {
+  onnx::ModelProto proto;
+  if (!proto.ParseFromString(bytes)) throw InputError("'" + origin + "' is not a valid ONNX model");
+  return load_proto(proto, origin, input);
 }
 
 }  // namespace xbarsim
