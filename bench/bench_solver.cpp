@@ -38,7 +38,7 @@ CrossbarParams device(bool nonlinear) {
 
 SolverOptions method(const char* name, int threads = 0) {
   SolverOptions o;
-  o.method = name;
+  o.method = solver_method_from_name(name);
   o.threads = threads;
   return o;
 }

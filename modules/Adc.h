@@ -1,8 +1,8 @@
 #pragma once
 /// Column ADCs of a tile: currents -> codes (converters.adc_bits over ranges set at
-/// calibration). `adcs_per_crossbar` converters are shared over a crossbar's columns, so
-/// one iteration takes ceil(columns / adcs) conversions at `rate_gsps` each; partitions
-/// convert in parallel.
+/// calibration). One ADC serves up to `columns_per_adc` columns of a crossbar (the
+/// inventory's rule, adcs_for_columns), so one iteration takes ceil(columns / adcs)
+/// conversions at `rate_gsps` each; partitions convert in parallel.
 #include <algorithm>
 #include <cmath>
 #include <systemc>
@@ -11,6 +11,7 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "sw/hw/inventory.h"
 
 namespace xbarsim {
 
@@ -19,17 +20,14 @@ class Adc : public sc_core::sc_module {
   tlm_utils::simple_target_socket<Adc> xbar2adc{"xbar2adc"};
   tlm_utils::simple_initiator_socket<Adc> adc2acc{"adc2acc"};
 
-  /// `adcs_per_crossbar` = 0: one ADC per `columns_per_adc` columns (component library rule).
-  Adc(sc_core::sc_module_name name, int adcs_per_crossbar, int columns_per_adc, double rate_gsps)
-      : sc_module(name), adcs_(adcs_per_crossbar), columns_per_adc_(columns_per_adc), rate_gsps_(rate_gsps) {
+  Adc(sc_core::sc_module_name name, int columns_per_adc, double rate_gsps)
+      : sc_module(name), columns_per_adc_(columns_per_adc), rate_gsps_(rate_gsps) {
     xbar2adc.register_b_transport(this, &Adc::b_transport);
   }
   long long conversions() const { return conversions_; }
 
   /// ADCs serving a crossbar of `columns` columns.
-  int adcs_for(int columns) const {
-    return adcs_ > 0 ? adcs_ : std::max(1, (columns + columns_per_adc_ - 1) / columns_per_adc_);
-  }
+  int adcs_for(int columns) const { return static_cast<int>(adcs_for_columns(columns, columns_per_adc_)); }
   /// Time of one iteration's conversions on a crossbar of `columns` columns (ns).
   double iteration_ns(int columns) const {
     const int a = adcs_for(columns);
@@ -55,7 +53,7 @@ class Adc : public sc_core::sc_module {
     if (job->detailed) delay += sc_core::sc_time(slowest, sc_core::SC_NS);
     adc2acc->b_transport(p, delay);
   }
-  int adcs_, columns_per_adc_;
+  int columns_per_adc_;
   double rate_gsps_;
   long long conversions_ = 0;
 };

@@ -21,6 +21,7 @@ class CrossbarArray : public sc_core::sc_module {
     dac2xbar.register_b_transport(this, &CrossbarArray::b_transport);
   }
   long long evaluations() const { return evaluations_; }
+  long long cell_reads() const { return cell_reads_; }
 
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
@@ -31,14 +32,17 @@ class CrossbarArray : public sc_core::sc_module {
     }
     const int nb = job->analog->crossbars();
     job->currents.resize(nb);
-    for (int b = 0; b < nb; ++b) job->analog->analog<float>(b, job->xq, job->currents[b]);
+    for (int b = 0; b < nb; ++b) {
+      job->analog->analog<float>(b, job->xq, job->currents[b]);
+      cell_reads_ += static_cast<long long>(job->iterations()) * job->analog->block(b).rows * job->currents[b].cols();
+    }
     evaluations_ += static_cast<long long>(job->iterations()) * nb;
     job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_);
     if (job->detailed) delay += sc_core::sc_time(settle_ns_, sc_core::SC_NS);
     xbar2adc->b_transport(p, delay);
   }
   double settle_ns_;
-  long long evaluations_ = 0;
+  long long evaluations_ = 0, cell_reads_ = 0;
 };
 
 }  // namespace xbarsim

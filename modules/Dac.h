@@ -1,7 +1,8 @@
 #pragma once
 /// Row DACs of a tile: input codes -> voltages. Functionally the AnalogLayer's DAC stage
-/// (quantization to converters.dac_bits over the layer's input range); one conversion per
-/// crossbar row and iteration, `latency_ns` per iteration.
+/// (quantization to converters.dac_bits over the layer's input range); every crossbar has
+/// its own row DACs, so each iteration converts every row of every crossbar; `latency_ns`
+/// per iteration.
 #include <systemc>
 #include <tlm>
 #include <tlm_utils/simple_initiator_socket.h>
@@ -29,7 +30,9 @@ class Dac : public sc_core::sc_module {
       return;
     }
     job->analog->dac_inplace<float>(job->xq);
-    const long long n = static_cast<long long>(job->xq.rows()) * job->xq.cols();
+    long long rows = 0;
+    for (int b = 0; b < job->analog->crossbars(); ++b) rows += job->analog->block(b).rows;
+    const long long n = static_cast<long long>(job->xq.rows()) * rows;
     job->dac_conversions += n;
     conversions_ += n;
     job->stage_ns[kDac].assign(job->iterations(), latency_ns_);

@@ -28,7 +28,10 @@ class DigitalAccumulator : public sc_core::sc_module {
     }
     job->y.setZero(job->iterations(), job->analog->outputs());
     for (int b = 0; b < job->analog->crossbars(); ++b) job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
-    const long long n = static_cast<long long>(job->y.size()) * job->analog->crossbars();
+    // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
+    long long per_iteration = 0;
+    for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;
+    const long long n = per_iteration * job->iterations();
     job->accumulations += n;
     accumulations_ += n;
     job->stage_ns[kAccumulate].assign(job->iterations(), latency_ns_);

@@ -14,7 +14,7 @@
 
 #include "platform/Interconnect.h"
 #include "platform/IoBuffer.h"
-#include "platform/PlatformConfig.h"
+#include "sw/hw/platform_spec.h"
 #include "platform/Tile.h"
 #include "sw/inference/crossbar_backend.h"
 

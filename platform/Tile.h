@@ -15,7 +15,8 @@
 #include "modules/Dac.h"
 #include "modules/DigitalAccumulator.h"
 #include "modules/ShiftRegisterBuffer.h"
-#include "platform/PlatformConfig.h"
+#include "sw/hw/cost.h"
+#include "sw/hw/platform_spec.h"
 
 namespace xbarsim {
 
@@ -29,7 +30,7 @@ class Tile : public sc_core::sc_module {
         sr_("sr", c.clock_ns(), c.shift_entries_per_cycle),
         dac_("dac", c.dac_latency_ns),
         xbar_("xbar", c.crossbar_settle_ns),
-        adc_("adc", c.adcs_per_crossbar, c.adc_columns_per_unit, c.adc_rate_gsps),
+        adc_("adc", c.adc_columns_per_unit, c.adc_rate_gsps),
         acc_("acc", c.accumulator_latency_ns) {
     noc2tile.register_b_transport(this, &Tile::b_transport);
     tile2sr.bind(sr_.ctrl2sr);
@@ -41,6 +42,20 @@ class Tile : public sc_core::sc_module {
 
   long long iterations() const { return iterations_; }
   long long cycles() const { return cycles_; }
+  /// Output values written to the next layer's buffer.
+  long long outputs_written() const { return outputs_written_; }
+  /// Every action the tile's modules counted, for pricing by the component library.
+  ActionCounts actions() const {
+    ActionCounts a;
+    a.dac_conversions = static_cast<double>(dac_.conversions());
+    a.adc_conversions = static_cast<double>(adc_.conversions());
+    a.cell_reads = static_cast<double>(xbar_.cell_reads());
+    a.accumulates = static_cast<double>(acc_.accumulations());
+    a.shifts = static_cast<double>(sr_.shifted_entries());
+    a.buffer_read_bytes = a.shifts;  // the shift register loads its entries from the layer's buffer
+    a.buffer_write_bytes = static_cast<double>(outputs_written_);
+    return a;
+  }
   const ShiftRegisterBuffer& shift_register() const { return sr_; }
   const Dac& dac() const { return dac_; }
   const Adc& adc() const { return adc_; }
@@ -81,6 +96,7 @@ class Tile : public sc_core::sc_module {
     }
     delay += sc_core::sc_time(steady_ns, sc_core::SC_NS);
     iterations_ += n;
+    outputs_written_ += static_cast<long long>(job->y.size());
     cycles_ += std::llround((delay - start).to_seconds() * 1e9 / clk);
   }
 
@@ -90,7 +106,7 @@ class Tile : public sc_core::sc_module {
   CrossbarArray xbar_;
   Adc adc_;
   DigitalAccumulator acc_;
-  long long iterations_ = 0, cycles_ = 0;
+  long long iterations_ = 0, cycles_ = 0, outputs_written_ = 0;
 };
 
 }  // namespace xbarsim

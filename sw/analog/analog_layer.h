@@ -1,56 +1,41 @@
 #pragma once
-/// One matrix-vector layer Y = X * W executed on resistive crossbars, with the paper's
-/// mapping (shift method or differential pairs), partitioning, conversion, programming
-/// noise, DAC/ADC quantization and calibration. SystemC-free; the SystemC modules call its
-/// stages (dac, analog, adc, recover) so both engines compute bit-identical results.
+/// One matrix-vector layer Y = X * W executed on resistive crossbars, in three parts:
+///  - weight mapping (weight_mapping.h): partitioning, shift or differential pairs, sum(X)
+///    column -> target conductances and the physical column layout;
+///  - programming (analog_programming.cpp): conversion, programming noise, ADC ranging and
+///    calibration, in named steps;
+///  - the programmed crossbars and the forward stages (dac, analog, adc, recover) that use
+///    them (analog_layer.cpp). SystemC-free; the SystemC modules call the same stages, so
+///    both engines compute bit-identical results.
 #include <Eigen/Dense>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "sw/analog/analog_spec.h"
 #include "sw/analog/calibration.h"
 #include "sw/analog/partition.h"
 #include "sw/analog/quantizer.h"
+#include "sw/analog/weight_mapping.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/common/config.h"
 
 namespace xbarsim {
 
-enum class ConversionKind { None, Signal, Matrix };
-
-/// Everything that configures an analog layer (YAML sections crossbar, solver, mapping,
-/// conversion, calibration, converters, noise).
+/// Everything that configures an analog layer: the typed specs of the sections crossbar,
+/// solver, mapping, mitigation, conversion, calibration, converters and noise.
 struct AnalogConfig {
   CrossbarParams xbar;
   SolverOptions solver;
-  int max_rows = 0;  ///< 0 = unbounded
-  int max_cols = 0;
-  bool differential = false;  ///< mapping.negative = differential
-  bool analog_sum = false;    ///< mapping.sum_x = analog
-  double g_headroom = 0;      ///< mapping.g_headroom: weights map to [g_min, g_max (1 - headroom)]
-  std::string method = "conversion+calibration";
-  ConversionKind conversion = ConversionKind::Signal;
-  bool calibrate = true;
-  std::string conversion_signal = "constant";  ///< constant | max_input | mean_input
-  double conversion_amplitude = 0.1;           ///< fraction of v_in_max
-  bool optimize_amplitude = false;
-  bool paper_amplitudes = false;  ///< conversion.amplitude = paper: per crossbar size as in the paper
-  bool column_scaling = true;
-  int conversion_max_iterations = 60;
-  double conversion_tolerance = 1e-9;  ///< matrix conversion: max |G_eff - T| / max T
-  int calibration_samples = 10;
-  std::string calibration_signal = "shuffled";  ///< random | random_decreasing | shuffled
-  uint64_t calibration_seed = 7;
-  int dac_bits = 0;  ///< 0 = none
-  int adc_bits = 0;
-  double adc_margin = 0.05;
-  bool adc_offset_subtraction = true;  ///< subtract the sum(X) shift current before the ADC
-  double sigma_s = 0;  ///< programming noise (S)
-  uint64_t noise_seed = 11;
-
-  /// Sets method, conversion and calibrate from a method name; throws InputError naming `key`.
-  void set_method(const std::string& name, const std::string& key);
+  MappingSpec mapping;
+  MitigationSpec mitigation;
+  ConversionSpec conversion;
+  CalibrationSpec calibration;
+  ConvertersSpec converters;
+  NoiseSpec noise;
+  /// Sets the mitigation from a method name; throws InputError naming `key`.
+  void set_method(const std::string& name, const std::string& key) { mitigation = mitigation_from_name(name, key); }
 };
 
 /// Reads and validates the sections above; the method comes from `method_key`.
@@ -68,6 +53,11 @@ struct CrossbarReport {
 
 class AnalogLayer {
  public:
+  /// Vectors used to estimate ADC ranges: nonlinear devices need a Newton solve per vector.
+  static constexpr int kRangeVectorsLinear = 2048, kRangeVectorsNonlinear = 128;
+  /// Stream ids of the random picks (derived with calibration.seed and the layer's salt).
+  static constexpr uint64_t kCalibrationPickStream = 0xCA1, kRangePickStream = 0x5A7;
+
   /// `w` is K x N (inputs x outputs). Inputs span [0, x_max] (or [-x_max, x_max] when
   /// `signed_inputs`) and map to [0, v_in_max] volts. `salt` decorrelates the random
   /// choices (noise, calibration picks) of different layers.
@@ -125,9 +115,20 @@ class AnalogLayer {
 
  private:
   struct Crossbar;
+  struct ProgrammingInputs;
   Eigen::MatrixXd calibration_vectors(const Eigen::MatrixXd& calib) const;
+  Eigen::MatrixXd range_vectors(const Eigen::MatrixXd& calib_in, const Eigen::MatrixXd& cal) const;
+  // Programming steps (analog_programming.cpp), in order, for one crossbar.
+  void install(Crossbar& x, const Eigen::MatrixXd& g) const;
+  void convert(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
+  void convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
+  void add_programming_noise(Crossbar& x, int b) const;
+  void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
+  void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
   template <typename S>
   void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
+  template <typename S, typename XQ>
+  void adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const;
   template <typename S>
   void recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
                   bool calibrated) const;

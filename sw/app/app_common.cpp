@@ -42,56 +42,6 @@ std::vector<CommandInfo>& command_registry() {
 
 namespace xbarsim {
 
-std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations(const ConfigTree& cfg) {
-  const unsigned long long points = cfg.sweep_points();
-  const long long limit = cfg.get_int("limits.max_sweep_points");
-  if (points > static_cast<unsigned long long>(limit)) {
-    std::string keys;
-    for (const auto& k : cfg.sweep_keys()) keys += (keys.empty() ? "" : ", ") + k;
-    throw InputError("the sweep over " + keys + " has " +
-                     (points == ULLONG_MAX ? std::string("more than 1.8e19") : std::to_string(points)) +
-                     " points, more than limits.max_sweep_points = " + std::to_string(limit) +
-                     " (raise it to run this sweep)");
-  }
-  if (points > 1) std::fprintf(stderr, "sweep: %llu points\n", points);
-  std::vector<std::vector<std::pair<std::string, std::string>>> out(1);
-  for (const auto& key : cfg.sweep_keys()) {
-    std::vector<std::vector<std::pair<std::string, std::string>>> next;
-    for (const auto& combo : out)
-      for (const auto& v : cfg.list_items(key)) {
-        auto c = combo;
-        c.emplace_back(key, v);
-        next.push_back(c);
-      }
-    out.swap(next);
-  }
-  return out;
-}
-
-ConfigTree sweep_point(const ConfigTree& base, const std::vector<std::pair<std::string, std::string>>& combo) {
-  ConfigTree cfg = base;
-  for (const auto& kv : combo) cfg.set(kv.first, kv.second);
-  return cfg;
-}
-
-void for_each_sweep_point(const ConfigTree& base,
-                          const std::vector<std::vector<std::pair<std::string, std::string>>>& combos,
-                          const std::function<void(const ConfigTree&)>& f) {
-  ProgressBar bar(static_cast<int>(combos.size()), "checking sweep points");
-  int done = 0;
-  for (const auto& combo : combos) {
-    f(sweep_point(base, combo));
-    if (combos.size() > 100) bar.update(++done);
-  }
-}
-
-std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo) {
-  std::string label;
-  for (const auto& kv : combo)
-    label += (label.empty() ? "" : " ") + kv.first.substr(kv.first.rfind('.') + 1) + "=" + kv.second;
-  return label.empty() ? "default" : label;
-}
-
 SweepCsv::SweepCsv(const std::string& path, const std::vector<std::pair<std::string, std::string>>& first_combo,
                    const std::string& columns) {
   if (path.empty()) return;

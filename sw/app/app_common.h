@@ -24,22 +24,6 @@ void write_json(const std::string& path, const nlohmann::json& j);
 /// flags that name existing files). Throws InputError naming the flag and the path.
 void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags);
 
-/// Sweeps: every combination (cartesian product) of the values of the keys given as lists;
-/// one empty combination when nothing sweeps.
-std::vector<std::vector<std::pair<std::string, std::string>>> sweep_combinations(const ConfigTree& cfg);
-
-/// The configuration of one sweep point: `base` with the combination's values set.
-ConfigTree sweep_point(const ConfigTree& base, const std::vector<std::pair<std::string, std::string>>& combo);
-
-/// Calls `f` with each point's configuration in order (a progress bar on long sweeps);
-/// commands use it to validate every point before running any.
-void for_each_sweep_point(const ConfigTree& base,
-                          const std::vector<std::vector<std::pair<std::string, std::string>>>& combos,
-                          const std::function<void(const ConfigTree&)>& f);
-
-/// Short label "key=value ..." of a combination (last key component only), or "default".
-std::string sweep_label(const std::vector<std::pair<std::string, std::string>>& combo);
-
 /// A CSV file whose rows start with the run index and the run's sweep values.
 class SweepCsv {
  public:

@@ -55,7 +55,7 @@ int cmd_solve(int argc, char** argv) {
   if (args.has("--csv") && args.has("--out")) write_csv_matrix(args.get("--csv"), currents);
   std::cerr << "xbarsim solve: " << g.rows() << "x" << g.cols() << " crossbar, " << v.rows()
             << " input vector(s), memristor=" << to_string(params.memristor.model)
-            << ", transistor=" << to_string(params.transistor.model) << ", solver=" << opts.method << ": "
+            << ", transistor=" << to_string(params.transistor.model) << ", solver=" << to_string(opts.method) << ": "
             << std::fixed << std::setprecision(2) << ms << " ms\n";
   if (args.has("--json")) {
     nlohmann::json j;
@@ -65,7 +65,7 @@ int cmd_solve(int argc, char** argv) {
     j["vectors"] = v.rows();
     j["memristor_model"] = to_string(params.memristor.model);
     j["transistor_model"] = to_string(params.transistor.model);
-    j["solver"] = opts.method;
+    j["solver"] = to_string(opts.method);
     j["wall_time_ms"] = ms;
     j["column_currents_a"] = nlohmann::json::array();
     for (Eigen::Index k = 0; k < currents.rows(); ++k) {

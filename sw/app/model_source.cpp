@@ -46,7 +46,8 @@ Model model_from_args(const CliArgs& args, const ConfigTree& cfg) {
                        "'");
     in = {-1, static_cast<int>(h), static_cast<int>(w)};
   }
-  if (args.has("--preset")) return make_preset(args.get("--preset"), 1);
+  if (args.has("--preset"))
+    return make_preset(args.get("--preset"), static_cast<uint64_t>(cfg.get_int("data.synthetic_seed")));
   const std::string path = find_model_file(args.get("--model"), cfg);
   if (in.h > 0) {
     const Model probe = load_onnx_model(path);

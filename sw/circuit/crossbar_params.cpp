@@ -47,9 +47,20 @@ const char* to_string(TransistorModel t) {
   return t == TransistorModel::None ? "none" : t == TransistorModel::Linear ? "linear" : "level1";
 }
 
+const char* to_string(SolverMethod m) {
+  return m == SolverMethod::Line ? "line" : m == SolverMethod::Direct ? "direct" : "auto";
+}
+
+SolverMethod solver_method_from_name(const std::string& name) {
+  if (name == "auto") return SolverMethod::Auto;
+  if (name == "line") return SolverMethod::Line;
+  if (name == "direct") return SolverMethod::Direct;
+  throw InputError("configuration key 'solver.method': '" + name + "' is not one of: auto, line, direct");
+}
+
 SolverOptions parse_solver_options(const ConfigTree& cfg) {
   SolverOptions o;
-  o.method = require_one_of(cfg, "solver.method", {"auto", "line", "direct"});
+  o.method = solver_method_from_name(cfg.get_string("solver.method"));
   o.tolerance = require_positive(cfg, "solver.tolerance");
   o.max_iterations = cfg.get_int32("solver.max_iterations");
   o.newton_max_iterations = cfg.get_int32("solver.newton_max_iterations");

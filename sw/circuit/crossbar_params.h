@@ -53,9 +53,14 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg);
 const char* to_string(MemristorModel m);
 const char* to_string(TransistorModel t);
 
+enum class SolverMethod { Auto, Line, Direct };
+const char* to_string(SolverMethod m);
+/// auto | line | direct; InputError otherwise.
+SolverMethod solver_method_from_name(const std::string& name);
+
 /// Options of the circuit solvers (configuration keys under `solver.`).
 struct SolverOptions {
-  std::string method = "auto";  ///< auto | line | direct
+  SolverMethod method = SolverMethod::Auto;  ///< auto (= line) | line | direct
   double tolerance = 1e-12;     ///< relative preconditioned residual of linear solves
   int max_iterations = 2000;    ///< iterations of the structured solver per linear solve
   int newton_max_iterations = 60;

@@ -115,7 +115,7 @@ void parallel_for(int count, int threads, const std::function<void(int)>& f) {
 }
 
 std::unique_ptr<CrossbarSolver> make_crossbar_solver(const CrossbarParams& p, const SolverOptions& o) {
-  if (o.method == "direct") return std::make_unique<NodalSolver>(p, o);
+  if (o.method == SolverMethod::Direct) return std::make_unique<NodalSolver>(p, o);
   return std::make_unique<LineSolver>(p, o);
 }
 

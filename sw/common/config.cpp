@@ -6,6 +6,7 @@
 #include <climits>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <set>
 #include <sstream>
@@ -17,6 +18,8 @@ namespace xbarsim {
 struct ConfigTree::Impl {
   YAML::Node defaults;
   YAML::Node root;
+  /// Keys read through the typed getters, shared by copies (sweep points) of one tree.
+  std::shared_ptr<std::set<std::string>> read = std::make_shared<std::set<std::string>>();
 };
 
 namespace {
@@ -247,11 +250,13 @@ ConfigTree::~ConfigTree() = default;
 ConfigTree::ConfigTree(const ConfigTree& o) : impl_(std::make_unique<Impl>()) {
   impl_->defaults = YAML::Clone(o.impl_->defaults);
   impl_->root = YAML::Clone(o.impl_->root);
+  impl_->read = o.impl_->read;
 }
 ConfigTree& ConfigTree::operator=(const ConfigTree& o) {
   if (this != &o) {
     impl_->defaults = YAML::Clone(o.impl_->defaults);
     impl_->root = YAML::Clone(o.impl_->root);
+    impl_->read = o.impl_->read;
   }
   return *this;
 }
@@ -317,6 +322,7 @@ YAML::Node scalar_at(const YAML::Node& root, const std::string& key) {
 }  // namespace
 
 double ConfigTree::get_double(const std::string& key) const {
+  impl_->read->insert(key);
   const std::string s = scalar_at(impl_->root, key).Scalar();
   double v = 0;
   if (!parse_finite_double(s, v))
@@ -327,6 +333,7 @@ double ConfigTree::get_double(const std::string& key) const {
 }
 
 long long ConfigTree::get_int(const std::string& key) const {
+  impl_->read->insert(key);
   const std::string s = scalar_at(impl_->root, key).Scalar();
   long long v = 0;
   const NumericRange& r = documented_range(key);
@@ -348,6 +355,7 @@ int ConfigTree::get_int32(const std::string& key) const {
 }
 
 bool ConfigTree::get_bool(const std::string& key) const {
+  impl_->read->insert(key);
   const std::string s = scalar_at(impl_->root, key).Scalar();
   if (s == "true" || s == "yes" || s == "on" || s == "1") return true;
   if (s == "false" || s == "no" || s == "off" || s == "0") return false;
@@ -355,6 +363,7 @@ bool ConfigTree::get_bool(const std::string& key) const {
 }
 
 std::string ConfigTree::get_string(const std::string& key) const {
+  impl_->read->insert(key);
   return scalar_at(impl_->root, key).Scalar();
 }
 
@@ -381,6 +390,23 @@ std::vector<std::string> ConfigTree::sweep_keys() const {
   return out;
 }
 
+std::set<std::string> ConfigTree::read_keys() const { return *impl_->read; }
+
+std::vector<std::string> ConfigTree::leaf_keys() const {
+  std::vector<std::string> out;
+  std::function<void(const YAML::Node&, const std::string&)> walk = [&](const YAML::Node& n, const std::string& prefix) {
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      const std::string key = (prefix.empty() ? "" : prefix + ".") + it->first.as<std::string>();
+      if (it->second.IsMap())
+        walk(it->second, key);
+      else
+        out.push_back(key);
+    }
+  };
+  walk(impl_->defaults, "");
+  return out;
+}
+
 unsigned long long ConfigTree::sweep_points() const {
   unsigned long long n = 1;
   for (const auto& key : sweep_keys()) {
@@ -395,6 +421,8 @@ std::string ConfigTree::dump() const {
   e << impl_->root;
   return e.c_str();
 }
+
+void check_yaml_structure(const std::string& text, const std::string& origin) { load_checked(text, origin); }
 
 double require_positive(const ConfigTree& cfg, const std::string& key) {
   const double v = cfg.get_double(key);

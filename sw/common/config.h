@@ -3,7 +3,9 @@
 /// YAML file and `--set key=value` overrides. This is the only place that sees yaml-cpp;
 /// subsystems read typed values through it and validate them into plain structs.
 #include <memory>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sw/common/errors.h"
@@ -53,6 +55,11 @@ class ConfigTree {
   /// expanding the product.
   unsigned long long sweep_points() const;
 
+  /// Keys read so far through the typed getters (by this tree or any copy of it).
+  std::set<std::string> read_keys() const;
+  /// Every leaf key of configs/default.yaml, in file order.
+  std::vector<std::string> leaf_keys() const;
+
   /// The effective configuration as YAML text (for reports).
   std::string dump() const;
 
@@ -61,11 +68,27 @@ class ConfigTree {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Rejects a YAML text with several documents, duplicate keys or complex keys, naming
+/// `origin` and the line (yaml-cpp itself keeps the last duplicate and ignores documents).
+void check_yaml_structure(const std::string& text, const std::string& origin);
+
 /// Validation helpers: throw InputError naming the key and the bad value.
 double require_positive(const ConfigTree& cfg, const std::string& key);
 double require_nonnegative(const ConfigTree& cfg, const std::string& key);
 std::string require_one_of(const ConfigTree& cfg, const std::string& key,
                            const std::vector<std::string>& allowed);
+/// The enumerator named by the value at `key`; InputError listing the names otherwise.
+template <typename E>
+E require_enum(const ConfigTree& cfg, const std::string& key,
+               const std::vector<std::pair<std::string, E>>& names) {
+  const std::string v = cfg.get_string(key);
+  std::string list;
+  for (const auto& n : names) {
+    if (v == n.first) return n.second;
+    list += (list.empty() ? "" : ", ") + n.first;
+  }
+  throw InputError("configuration key '" + key + "': '" + v + "' is not one of: " + list);
+}
 /// A size that may be the word `unbounded` (returned as 0); otherwise an integer >= 1.
 int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key);
 

@@ -1,5 +1,7 @@
 #include "sw/hw/component_library.h"
 
+#include "sw/common/parse.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -24,121 +26,128 @@ double scale_by_bits(double value, int ref, int bits, Scaling rule) {
   return value;
 }
 
-double ConverterSpec::power_at(int bits) const { return scale_by_bits(power_mw, reference_bits, bits, power_scaling); }
-double ConverterSpec::area_at(int bits) const { return scale_by_bits(area_mm2, reference_bits, bits, area_scaling); }
+double ConverterModel::conversion_pj_at(int bits) const {
+  return scale_by_bits(conversion_pj, reference_bits, bits, energy_scaling);
+}
+double ConverterModel::area_at(int bits) const { return scale_by_bits(area_mm2, reference_bits, bits, area_scaling); }
 
 namespace {
 
-double number(const YAML::Node& root, const std::string& sec, const std::string& key, const std::string& origin,
-              bool positive = true) {
-  const YAML::Node n = root[sec] ? root[sec][key] : YAML::Node();
-  if (!n) throw InputError(origin + ": missing key '" + sec + "." + key + "'");
-  try {
-    const double v = n.as<double>();
-    if (!std::isfinite(v) || (positive ? !(v > 0) : v < 0)) throw YAML::Exception(YAML::Mark(), "range");
-    return v;
-  } catch (const YAML::Exception&) {
-    throw InputError(origin + ": '" + sec + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
-                     " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
+/// One section of the library: its keys are checked against the ones read from it.
+class Section {
+ public:
+  Section(const YAML::Node& root, std::string name, std::string origin)
+      : node_(root[name]), name_(std::move(name)), origin_(std::move(origin)) {
+    if (!node_) throw InputError(origin_ + ": missing section '" + name_ + "'");
+    if (!node_.IsMap()) throw InputError(origin_ + ": section '" + name_ + "' must be a map of keys");
   }
-}
-
-/// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
-int integer(const YAML::Node& root, const std::string& sec, const std::string& key, const std::string& origin) {
-  const double v = number(root, sec, key, origin);
-  if (v != std::floor(v) || v > (1 << 30))
-    throw InputError(origin + ": '" + sec + "." + key + "' must be a positive integer, got '" +
-                     root[sec][key].Scalar() + "'");
-  return static_cast<int>(v);
-}
-
-/// Rejects keys of section `sec` outside `allowed` (a misspelt scaling rule would
-/// otherwise fall back to the default silently).
-void only_keys(const YAML::Node& root, const std::string& sec, const std::vector<std::string>& allowed,
-               const std::string& origin) {
-  const YAML::Node n = root[sec];
-  if (!n) throw InputError(origin + ": missing section '" + sec + "'");
-  if (!n.IsMap()) throw InputError(origin + ": section '" + sec + "' must be a map of keys");
-  for (auto it = n.begin(); it != n.end(); ++it) {
-    const std::string k = it->first.as<std::string>();
-    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw InputError(origin + ": unknown key '" + sec + "." + k + "' (" + list + ")");
+  /// A number >= 0 (> 0 when `positive`).
+  double number(const std::string& key, bool positive = false) {
+    const YAML::Node n = get(key);
+    double v = 0;
+    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0))
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
+                       " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
+    return v;
+  }
+  /// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
+  int integer(const std::string& key) {
+    const double v = number(key, true);
+    if (v != std::floor(v) || v > (1 << 30))
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer, got '" +
+                       node_[key].Scalar() + "'");
+    return static_cast<int>(v);
+  }
+  Scaling scaling(const std::string& key) {
+    read_.push_back(key);
+    const YAML::Node n = node_[key];
+    if (!n) return Scaling::Exponential;
+    const std::string s = n.Scalar();
+    if (s == "exponential") return Scaling::Exponential;
+    if (s == "linear") return Scaling::Linear;
+    if (s == "constant") return Scaling::Constant;
+    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s + "'");
+  }
+  /// Rejects keys that were not read (a misspelt key would otherwise be ignored).
+  void finish() const {
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      const std::string k = it->first.as<std::string>();
+      if (std::find(read_.begin(), read_.end(), k) == read_.end()) {
+        std::string list;
+        for (const auto& a : read_) list += (list.empty() ? "" : ", ") + a;
+        throw InputError(origin_ + ": unknown key '" + name_ + "." + k + "' (" + list + ")");
+      }
     }
   }
-}
 
-Scaling scaling(const YAML::Node& root, const std::string& sec, const std::string& key, const std::string& origin) {
-  const YAML::Node n = root[sec] ? root[sec][key] : YAML::Node();
-  if (!n) return Scaling::Exponential;
-  const std::string s = n.Scalar();
-  if (s == "exponential") return Scaling::Exponential;
-  if (s == "linear") return Scaling::Linear;
-  if (s == "constant") return Scaling::Constant;
-  throw InputError(origin + ": '" + sec + "." + key + "' must be exponential, linear or constant, got '" + s + "'");
-}
+ private:
+  YAML::Node get(const std::string& key) {
+    read_.push_back(key);
+    const YAML::Node n = node_[key];
+    if (!n) throw InputError(origin_ + ": missing key '" + name_ + "." + key + "'");
+    return n;
+  }
+  YAML::Node node_;
+  std::string name_, origin_;
+  std::vector<std::string> read_;
+};
 
-ConverterSpec converter(const YAML::Node& root, const std::string& sec, const std::string& origin) {
-  ConverterSpec c;
-  c.power_mw = number(root, sec, "power_mw", origin);
-  c.area_mm2 = number(root, sec, "area_mm2", origin);
-  c.reference_bits = integer(root, sec, "reference_bits", origin);
-  c.power_scaling = scaling(root, sec, "power_scaling", origin);
-  c.area_scaling = scaling(root, sec, "area_scaling", origin);
+ConverterModel converter(Section& s) {
+  ConverterModel c;
+  c.area_mm2 = s.number("area_mm2", true);
+  c.leakage_mw = s.number("leakage_mw");
+  c.conversion_pj = s.number("conversion_pj");
+  c.reference_bits = s.integer("reference_bits");
+  c.energy_scaling = s.scaling("energy_scaling");
+  c.area_scaling = s.scaling("area_scaling");
   return c;
 }
 
 }  // namespace
 
 ComponentLibrary parse_component_library(const std::string& text, const std::string& origin) {
+  check_yaml_structure(text, origin);
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(origin + ": YAML syntax error: " + e.what());
   }
+  if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
+  static const char* kSections[] = {"adc", "dac", "cell", "accumulator", "shift_register", "buffer"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string k = it->first.as<std::string>();
-    if (k != "adc" && k != "dac" && k != "cell" && k != "accumulator")
-      throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator)");
+    if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
+        std::end(kSections))
+      throw InputError(origin + ": unknown section '" + k +
+                       "' (adc, dac, cell, accumulator, shift_register, buffer)");
   }
-  const std::vector<std::string> converter_keys{"power_mw", "area_mm2", "reference_bits", "power_scaling",
-                                                "area_scaling"};
-  std::vector<std::string> adc_keys = converter_keys;
-  adc_keys.insert(adc_keys.end(), {"columns_per_unit", "sample_rate_gsps"});
-  only_keys(root, "adc", adc_keys, origin);
-  only_keys(root, "dac", converter_keys, origin);
-  only_keys(root, "cell", {"power_mw", "area_mm2"}, origin);
-  only_keys(root, "accumulator", {"power_mw", "area_mm2"}, origin);
   ComponentLibrary lib;
   lib.source = origin;
-  lib.adc = converter(root, "adc", origin);
-  lib.dac = converter(root, "dac", origin);
-  lib.adc_columns_per_unit = integer(root, "adc", "columns_per_unit", origin);
-  lib.adc_sample_rate_gsps = number(root, "adc", "sample_rate_gsps", origin);
-  lib.cell_power_mw = number(root, "cell", "power_mw", origin);
-  lib.cell_area_mm2 = number(root, "cell", "area_mm2", origin);
-  lib.accumulator_power_mw = number(root, "accumulator", "power_mw", origin, false);
-  lib.accumulator_area_mm2 = number(root, "accumulator", "area_mm2", origin, false);
+  Section adc(root, "adc", origin), dac(root, "dac", origin), cell(root, "cell", origin),
+      acc(root, "accumulator", origin), sr(root, "shift_register", origin), buf(root, "buffer", origin);
+  lib.adc = converter(adc);
+  lib.adc_columns_per_unit = adc.integer("columns_per_unit");
+  lib.adc_sample_rate_gsps = adc.number("sample_rate_gsps", true);
+  lib.dac = converter(dac);
+  lib.cell = {cell.number("area_mm2", true), cell.number("leakage_mw"), cell.number("read_pj")};
+  lib.accumulator = {acc.number("area_mm2"), acc.number("leakage_mw"), acc.number("accumulate_pj")};
+  lib.shift_register = {sr.number("area_mm2_per_entry"), sr.number("leakage_mw_per_entry"), sr.number("shift_pj")};
+  lib.buffer = {buf.number("area_mm2_per_kib"), buf.number("leakage_mw_per_kib"), buf.number("read_pj_per_byte"),
+                buf.number("write_pj_per_byte")};
+  for (const Section* s : {&adc, &dac, &cell, &acc, &sr, &buf}) s->finish();
   return lib;
 }
 
 ComponentLibrary load_component_library(const ConfigTree& cfg) {
   const std::string path = cfg.get_string("components.library");
-  ComponentLibrary lib;
-  if (path.empty()) {
-    lib = parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
-  } else {
-    std::ifstream in(path);
-    if (!in) throw InputError("cannot open component library '" + path + "' (components.library)");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    lib = parse_component_library(ss.str(), path);
-  }
-  const int share = cfg.get_int32("components.adc_columns_per_adc");
-  if (share > 0) lib.adc_columns_per_unit = share;
-  return lib;
+  if (path.empty())
+    return parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
+  std::ifstream in(path);
+  if (!in) throw InputError("cannot open component library '" + path + "' (components.library)");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_component_library(ss.str(), path);
 }
 
 }  // namespace xbarsim

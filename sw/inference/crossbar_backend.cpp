@@ -40,7 +40,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     std::vector<float> x(model_.input.size());
     for (int k = t; k < images; k += threads) {
       ImageTally& ty = tally[k];
-      std::mt19937_64 rng(derive_seed(cfg_.calibration_seed, {kCalibrationRowStream, static_cast<uint64_t>(k)}));
+      std::mt19937_64 rng(derive_seed(cfg_.calibration.seed, {kCalibrationRowStream, static_cast<uint64_t>(k)}));
       calib.preprocess(k, model_.pre, x.data());
       run_image(model_, x.data(), sw, &trace);
       ty.x_max.resize(L);
@@ -109,7 +109,7 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
 void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
                                           Eigen::MatrixXf& out) const {
   const AnalogLayer& a = layers_.at(layer);
-  if (a.config().dac_bits <= 0) {
+  if (a.config().converters.dac_bits <= 0) {
     im2col(L, chw, scratch);
     a.forward<float>(scratch, out);
     return;

@@ -155,7 +155,10 @@ void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, in
 
 std::string resolve_models_dir(const ConfigTree& cfg) {
   const std::string configured = cfg.get_string("data.models_dir");
-  if (!configured.empty()) return configured;
+  if (!configured.empty()) {
+    if (!exists(configured)) throw InputError("models directory '" + configured + "' (data.models_dir) does not exist");
+    return configured;
+  }
   return resolve_data_dir(cfg) + "/../models";
 }
 

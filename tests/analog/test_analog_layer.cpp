@@ -25,8 +25,8 @@ TEST(AnalogLayer, ShiftMappingRecoversSignedWeightsExactly) {
   for (bool differential : {false, true})
     for (bool analog_sum : {false, true}) {
       AnalogConfig c = ideal_config("none");
-      c.differential = differential;
-      c.analog_sum = analog_sum;
+      c.mapping.negative = differential ? NegativeWeights::Differential : NegativeWeights::Shift;
+      c.mapping.sum_x = analog_sum ? SumX::Analog : SumX::Digital;
       AnalogLayer layer(c, w, 2.0, false);
       layer.program(Eigen::MatrixXd());
       EXPECT_LT(rel(layer.forward(x), x * w), 1e-6) << differential << analog_sum;
@@ -38,8 +38,8 @@ TEST(AnalogLayer, SignedInputsAndPartitionedSums) {
   Eigen::MatrixXd x = synthetic_inputs(20, 50, 0.3, 1.0, 4);
   for (Eigen::Index k = 0; k < x.size(); k += 3) x.data()[k] = -x.data()[k];
   AnalogConfig c = ideal_config("none");
-  c.max_rows = 16;
-  c.max_cols = 4;
+  c.mapping.max_rows = 16;
+  c.mapping.max_cols = 4;
   AnalogLayer layer(c, w, 1.0, true);
   layer.program(Eigen::MatrixXd());
   EXPECT_EQ(layer.crossbars(), 4 * 3);
@@ -50,7 +50,7 @@ TEST(AnalogLayer, DacQuantizesInputsBeforeTheCrossbar) {
   const Eigen::MatrixXd w = synthetic_kernel("ternary", 6, 3, 5);
   const Eigen::MatrixXd x = synthetic_inputs(10, 6, 0.0, 1.0, 6);
   AnalogConfig c = ideal_config("none");
-  c.dac_bits = 2;  // levels 0, 1/3, 2/3, 1
+  c.converters.dac_bits = 2;  // levels 0, 1/3, 2/3, 1
   AnalogLayer layer(c, w, 1.0, false);
   layer.program(Eigen::MatrixXd());
   const Eigen::MatrixXd xq = (x * 3).array().round() / 3;
@@ -62,9 +62,9 @@ TEST(AnalogLayer, ProgrammingNoiseIsSeeded) {
   const Eigen::MatrixXd x = synthetic_inputs(20, 27, 0.5, 1.0, 8);
   AnalogConfig c;
   c.set_method("conversion", "test");
-  c.sigma_s = 1e-6;
+  c.noise.sigma_s = 1e-6;
   auto run = [&](uint64_t seed) {
-    c.noise_seed = seed;
+    c.noise.seed = seed;
     AnalogLayer layer(c, w, 1.0, false);
     layer.program(Eigen::MatrixXd());
     return layer.forward(x);

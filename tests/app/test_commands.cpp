@@ -100,8 +100,11 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   ASSERT_EQ(run("simulate --preset resnet20 --timing ideal --json " + json, &out), 0) << out;
   const auto j = read_json(json);
   for (const char* k : {"clock_mhz", "iterations_total", "cycles_total", "latency_us", "throughput_images_per_s",
-                        "power_mw", "area_mm2", "energy_uj_per_image", "layers"})
+                        "energy_uj_per_image", "energy_breakdown_uj", "avg_power_mw", "peak_power_mw", "area_mm2",
+                        "area_breakdown_mm2", "layers"})
     EXPECT_TRUE(j.contains(k)) << k;
+  for (const auto& l : j["layers"])
+    for (const char* k : {"adcs", "dacs", "crossbars", "energy_uj"}) EXPECT_TRUE(l.contains(k)) << k;
   EXPECT_EQ(j["iterations_total"], 9089);
   long long cycles = 0;
   for (const auto& l : j["layers"]) {

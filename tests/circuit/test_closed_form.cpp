@@ -25,7 +25,7 @@ class ClosedForm : public ::testing::TestWithParam<std::tuple<std::string, Trans
 TEST_P(ClosedForm, SingleCellIsASeriesCircuit) {
   const auto p = params(1.5, 2.0, 3.0, std::get<1>(GetParam()));
   SolverOptions o;
-  o.method = std::get<0>(GetParam());
+  o.method = solver_method_from_name(std::get<0>(GetParam()));
   auto s = make_crossbar_solver(p, o);
   Eigen::MatrixXd g(1, 1);
   g << 1.0 / 20e3;
@@ -40,7 +40,7 @@ TEST_P(ClosedForm, SingleCellIsASeriesCircuit) {
 TEST_P(ClosedForm, SingleRowIsALadder) {
   const auto p = params(1.0, 1.0, 1.0, std::get<1>(GetParam()));
   SolverOptions o;
-  o.method = std::get<0>(GetParam());
+  o.method = solver_method_from_name(std::get<0>(GetParam()));
   const int n = 40;
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(p.g_min_s, p.g_max_s);
@@ -72,7 +72,7 @@ TEST_P(ClosedForm, SingleRowIsALadder) {
 TEST_P(ClosedForm, SingleColumnMatchesNortonEquivalents) {
   const auto p = params(2.0, 1.0, 1.0, std::get<1>(GetParam()));
   SolverOptions o;
-  o.method = std::get<0>(GetParam());
+  o.method = solver_method_from_name(std::get<0>(GetParam()));
   const int m = 50;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(p.g_min_s, p.g_max_s), uv(-0.4, 0.4);

@@ -32,8 +32,8 @@ TEST_P(LineVsDirect, SameOperatingPoint) {
   p.transistor.model = dc.tr;
   p.r_wire_ohm = dc.r_wire;
   SolverOptions lo, dop;
-  lo.method = "line";
-  dop.method = "direct";
+  lo.method = SolverMethod::Line;
+  dop.method = SolverMethod::Direct;
   const auto g = random_g(size.first, size.second, p, 3 + size.first);
   const auto v = random_v(3, size.first, -0.4, 0.4, 5 + size.second);
   auto line = make_crossbar_solver(p, lo);
@@ -81,8 +81,8 @@ TEST(LineVsDirect, PaperLargestCrossbar576x64) {
       p.transistor.model = TransistorModel::Level1;
     }
     SolverOptions lo, dop;
-    lo.method = "line";
-    dop.method = "direct";
+    lo.method = SolverMethod::Line;
+    dop.method = SolverMethod::Direct;
     const auto g = random_g(576, 64, p, 21);
     const auto v = random_v(1, 576, 0, 0.4, 22);
     auto line = make_crossbar_solver(p, lo);
@@ -113,13 +113,13 @@ TEST(EffectiveMatrix, ReproducesSolvesBySuperposition) {
     CrossbarParams p;
     p.transistor.model = TransistorModel::Linear;
     SolverOptions o;
-    o.method = "line";
+    o.method = SolverMethod::Line;
     const auto g = random_g(size.first, size.second, p, 9);
     auto s = make_crossbar_solver(p, o);
     s->program(g);
     const Eigen::MatrixXd geff = s->effective_matrix();
     SolverOptions d;
-    d.method = "direct";
+    d.method = SolverMethod::Direct;
     auto ref = make_crossbar_solver(p, d);
     ref->program(g);
     EXPECT_LT(max_rel(geff, ref->effective_matrix()), 1e-10);
@@ -149,7 +149,7 @@ TEST(Solvers, NewtonNonConvergenceIsAnErrorNotAnAnswer) {
   p.transistor.model = TransistorModel::Level1;
   for (const char* method : {"line", "direct"}) {
     SolverOptions o;
-    o.method = method;
+    o.method = solver_method_from_name(method);
     o.newton_max_iterations = 1;
     auto s = make_crossbar_solver(p, o);
     s->program(random_g(4, 4, p, 1));
@@ -167,7 +167,7 @@ TEST(Solvers, BadInputsAreRejected) {
   CrossbarParams p;
   for (const char* method : {"line", "direct"}) {
     SolverOptions o;
-    o.method = method;
+    o.method = solver_method_from_name(method);
     auto s = make_crossbar_solver(p, o);
     Eigen::MatrixXd g = random_g(3, 2, p, 1);
     g(1, 1) = -1e-6;

@@ -10,7 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "sw/hw/overhead.h"
+#include "sw/hw/cost.h"
+#include "sw/hw/inventory.h"
 #include "sw/nn/dataset.h"
 #include "sw/nn/presets.h"
 
@@ -27,6 +28,36 @@ const double kDacP = kIsaacDacP / 1024 * 256, kDacA = kIsaacDacA / 1024 * 256;  
 const double kCellP = kIsaacXbarP / 16384, kCellA = kIsaacXbarA / 16384;
 
 ComponentLibrary lib() { return load_component_library(ConfigTree()); }
+
+/// Partition limits and converter bits of one test design (0 = unbounded).
+struct HardwareSettings {
+  int max_rows = 0, max_cols = 0;
+  int adc_bits = 8, dac_bits = 8;
+};
+
+/// The inventory's counts and the peak power / area of the paper's scope, under the old names.
+struct MappingCost {
+  long long crossbars = 0, adcs = 0, dacs = 0, cells_present = 0, cells_used = 0, iterations = 0;
+  double xbar_power_mw = 0, xbar_area_mm2 = 0, total_power_mw = 0, total_area_mm2 = 0;
+  double utilization() const { return static_cast<double>(cells_used) / cells_present; }
+  MappingCost& operator+=(const MappingCost& o) {
+    crossbars += o.crossbars, adcs += o.adcs, dacs += o.dacs, cells_present += o.cells_present;
+    cells_used += o.cells_used, iterations += o.iterations, total_power_mw += o.total_power_mw;
+    return *this;
+  }
+};
+
+MappingCost mapping_cost(long long rows, long long cols, long long cells_used, long long iterations,
+                         const HardwareSettings& hw, const ComponentLibrary& l) {
+  MappingSpec m;
+  m.max_rows = hw.max_rows;
+  m.max_cols = hw.max_cols;
+  const LayerInventory v = matrix_inventory(rows, cols, iterations, m, l.adc_columns_per_unit);
+  CostModel cm{l, hw.dac_bits, hw.adc_bits, 100.0};
+  const ComponentBreakdown p = cm.peak_power_mw(v), a = cm.area_mm2(v);
+  return {v.crossbars, v.adcs, v.dacs, v.cells_present, cells_used, v.iterations, p.crossbar, a.crossbar,
+          p.arrays_and_converters(), a.arrays_and_converters()};
+}
 
 std::string run_cli(const std::string& args) {
   const std::string cmd = std::string(XBARSIM_BINARY) + " " + args + " > /dev/null 2>&1";
@@ -148,101 +179,111 @@ TEST(Overhead, SumsOfLayerCosts) {
 
 TEST(ComponentLibrary, BuiltInIsTheIsaacDerivation) {
   const ComponentLibrary l = lib();
-  EXPECT_NEAR(l.adc.power_at(8), kAdcP, 1e-12);
+  // Peak power = energy per action x rate: the ADC at its sample rate, the rest at 100 MHz.
+  EXPECT_NEAR(l.adc.conversion_pj_at(8) * l.adc_sample_rate_gsps, kAdcP, 1e-12);
   EXPECT_NEAR(l.adc.area_at(8), kAdcA, 1e-15);
-  EXPECT_NEAR(l.dac.power_at(8), kDacP, 1e-12);
+  EXPECT_NEAR(l.dac.conversion_pj_at(8) * 0.1, kDacP, 1e-12);
   EXPECT_NEAR(l.dac.area_at(8), kDacA, 1e-15);
-  EXPECT_NEAR(l.cell_power_mw, kCellP, 1e-15);
-  EXPECT_NEAR(l.cell_area_mm2, kCellA, 1e-18);
+  EXPECT_NEAR(l.cell.read_pj * 0.1, kCellP, 1e-15);
+  EXPECT_NEAR(l.cell.area_mm2, kCellA, 1e-18);
   EXPECT_EQ(l.adc_columns_per_unit, 128);
   // The embedded text is the file in configs/components/.
   std::ifstream in(std::string(XBARSIM_SOURCE_DIR) + "/configs/components/isaac_paper.yaml");
   std::stringstream ss;
   ss << in.rdbuf();
   const ComponentLibrary f = parse_component_library(ss.str(), "file");
-  EXPECT_EQ(f.adc.power_mw, l.adc.power_mw);
+  EXPECT_EQ(f.adc.conversion_pj, l.adc.conversion_pj);
   EXPECT_EQ(f.dac.area_mm2, l.dac.area_mm2);
-  EXPECT_EQ(f.cell_power_mw, l.cell_power_mw);
+  EXPECT_EQ(f.cell.read_pj, l.cell.read_pj);
 }
 
+namespace {
+/// A library text with every section; `adc` and `dac` replace those sections.
+std::string library(const std::string& adc, const std::string& dac) {
+  return "adc: " + adc + "\ndac: " + dac + R"(
+cell: {area_mm2: 1e-8, leakage_mw: 0, read_pj: 1e-3}
+accumulator: {area_mm2: 6e-5, leakage_mw: 0, accumulate_pj: 0.5}
+shift_register: {area_mm2_per_entry: 1e-6, leakage_mw_per_entry: 0, shift_pj: 0.03}
+buffer: {area_mm2_per_kib: 1e-3, leakage_mw_per_kib: 0, read_pj_per_byte: 0.5, write_pj_per_byte: 0.5}
+)";
+}
+const std::string kAdc8 =
+    "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5625, reference_bits: 8, columns_per_unit: 128, "
+    "sample_rate_gsps: 1.28}";
+}  // namespace
+
 TEST(ComponentLibrary, ExponentialRuleFromTheOneBitDac) {
-  // ISAAC's 1-bit DAC as the reference: 4 mW / 1024 and 0.00017 mm2 / 1024. The rule
-  // 2^(bits - reference_bits) takes it to 8 bits by 2^7 (0.5 mW); the paper multiplied by
-  // 2^8 (1 mW). The built-in library therefore records the paper's 8-bit figure as its
-  // reference, and the rule scales from there.
-  const ComponentLibrary l = parse_component_library(R"(
-adc: {power_mw: 2, area_mm2: 0.0012, reference_bits: 8, columns_per_unit: 128, sample_rate_gsps: 1.28}
-dac: {power_mw: 0.00390625, area_mm2: 1.66015625e-7, reference_bits: 1, power_scaling: exponential,
-      area_scaling: exponential}
-cell: {power_mw: 1e-4, area_mm2: 1e-8}
-accumulator: {power_mw: 0, area_mm2: 0}
-)",
-                                                     "test");
-  EXPECT_NEAR(l.dac.power_at(8), 4.0 / 1024 * 128, 1e-12);
+  // ISAAC's 1-bit DAC as the reference: 4 mW / 1024 at 100 MHz = 0.0390625 pJ per conversion.
+  // The rule 2^(bits - reference_bits) takes it to 8 bits by 2^7 (0.5 mW); the paper
+  // multiplied by 2^8 (1 mW). The built-in library records the paper's 8-bit figure.
+  const ComponentLibrary l = parse_component_library(
+      library(kAdc8, "{area_mm2: 1.66015625e-7, leakage_mw: 0, conversion_pj: 0.0390625, reference_bits: 1, "
+                     "energy_scaling: exponential, area_scaling: exponential}"),
+      "test");
+  EXPECT_NEAR(l.dac.conversion_pj_at(8) * 0.1, 4.0 / 1024 * 128, 1e-12);
   EXPECT_NEAR(l.dac.area_at(8), 0.00017 / 1024 * 128, 1e-15);
-  EXPECT_NEAR(lib().dac.power_at(8), 2 * l.dac.power_at(8), 1e-12);
-  EXPECT_NEAR(lib().dac.power_at(1), 1.0 / 128, 1e-15);  // and the built-in from 8 bits down
-  EXPECT_NEAR(l.dac.power_at(1), 4.0 / 1024, 1e-15);
-  EXPECT_NEAR(l.adc.power_at(7), 1.0, 1e-12);  // exponential is the default: half per bit
+  EXPECT_NEAR(lib().dac.conversion_pj_at(8), 2 * l.dac.conversion_pj_at(8), 1e-12);
+  EXPECT_NEAR(lib().dac.conversion_pj_at(1) * 0.1, 1.0 / 128, 1e-15);  // the built-in from 8 bits down
+  EXPECT_NEAR(l.adc.conversion_pj_at(7), 1.5625 / 2, 1e-12);          // exponential is the default
   EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Linear), 1.5, 1e-15);
   EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Constant), 3.0, 1e-15);
   EXPECT_NEAR(scale_by_bits(3.0, 8, 10, Scaling::Exponential), 12.0, 1e-15);
 }
 
 TEST(ComponentLibrary, ScalingRulesAreData) {
-  const ComponentLibrary l = parse_component_library(R"(
-adc: {power_mw: 2, area_mm2: 0.0012, reference_bits: 8, columns_per_unit: 64, sample_rate_gsps: 1,
-      power_scaling: linear, area_scaling: constant}
-dac: {power_mw: 1, area_mm2: 4e-5, reference_bits: 8}
-cell: {power_mw: 1e-4, area_mm2: 1e-8}
-accumulator: {power_mw: 0.05, area_mm2: 6e-5}
-)",
-                                                     "test");
-  EXPECT_NEAR(l.adc.power_at(6), 2.0 * 6 / 8, 1e-15);
+  const ComponentLibrary l = parse_component_library(
+      library("{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 2, reference_bits: 8, columns_per_unit: 64, "
+              "sample_rate_gsps: 1, energy_scaling: linear, area_scaling: constant}",
+              "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}"),
+      "test");
+  EXPECT_NEAR(l.adc.conversion_pj_at(6), 2.0 * 6 / 8, 1e-15);
   EXPECT_NEAR(l.adc.area_at(6), 0.0012, 1e-15);
-  EXPECT_NEAR(l.dac.power_at(6), 0.25, 1e-15);  // exponential by default: 2^-2
+  EXPECT_NEAR(l.dac.conversion_pj_at(6), 2.5, 1e-15);  // exponential by default: 2^-2
   EXPECT_NEAR(l.dac.area_at(10), 16e-5, 1e-15);
   HardwareSettings hw;
   hw.adc_bits = 6;
   hw.dac_bits = 6;
   const MappingCost c = mapping_cost(10, 100, 1000, 1, hw, l);
   EXPECT_EQ(c.adcs, 2);  // 64 columns per ADC
+  // Peak: cells 1e-3 pJ x 0.1 GHz, ADCs 1.5 pJ x 1 GS/s, DACs 2.5 pJ x 0.1 GHz, accumulator 0.5 pJ x 0.1 GHz.
   EXPECT_NEAR(c.total_power_mw, 1000 * 1e-4 + 2 * 1.5 + 10 * 0.25 + 0.05, 1e-12);
 }
 
-TEST(ComponentLibrary, ConfigBitsRescaleTheReport) {
-  const ConfigTree cfg = ConfigTree::load("", {"components.adc_bits=6", "components.dac_bits=4",
+TEST(ComponentLibrary, ConverterBitsRescaleTheCost) {
+  // One key per converter: converters.*_bits sets both the function and the price.
+  const ConfigTree cfg = ConfigTree::load("", {"converters.adc_bits=6", "converters.dac_bits=4",
                                                "mapping.max_rows=unbounded", "mapping.max_cols=unbounded"});
-  const HardwareSettings hw = parse_hardware_settings(cfg);
+  HardwareSettings hw;
+  hw.adc_bits = static_cast<int>(cfg.get_int("converters.adc_bits"));
+  hw.dac_bits = static_cast<int>(cfg.get_int("converters.dac_bits"));
   const MappingCost c = mapping_cost(27, 16, 432, 1, hw, load_component_library(cfg));
   EXPECT_NEAR(c.total_power_mw, 432 * kCellP + kAdcP / 4 + 27 * kDacP / 16, 1e-12);
-  EXPECT_THROW(parse_hardware_settings(ConfigTree::load("", {"components.adc_bits=0"})), InputError);
 }
 
-TEST(ComponentLibrary, AdcSharingOverride) {
-  const ComponentLibrary l = load_component_library(ConfigTree::load("", {"components.adc_columns_per_adc=64"}));
-  EXPECT_EQ(l.adc_columns_per_unit, 64);
-  EXPECT_EQ(mapping_cost(10, 200, 2000, 1, HardwareSettings(), l).adcs, 4);  // ceil(200/64)
-  EXPECT_THROW(load_component_library(ConfigTree::load("", {"components.adc_columns_per_adc=-1"})), InputError);
+TEST(ComponentLibrary, AdcSharing) {
+  EXPECT_EQ(resolve_columns_per_adc(0, 128), 128);
+  EXPECT_EQ(resolve_columns_per_adc(64, 128), 64);
+  EXPECT_EQ(matrix_inventory(10, 200, 1, MappingSpec(), 64).adcs, 4);  // ceil(200/64)
+  EXPECT_THROW(ConfigTree::load("", {"converters.adc_columns_per_adc=-1"}).get_int("converters.adc_columns_per_adc"),
+               InputError);
 }
 
 TEST(ComponentLibrary, RejectsBadFiles) {
-  const std::string ok_rest = R"(
-dac: {power_mw: 1, area_mm2: 4e-5, reference_bits: 8}
-cell: {power_mw: 1e-4, area_mm2: 1e-8}
-accumulator: {power_mw: 0, area_mm2: 0}
-)";
-  const std::string adc = "adc: {power_mw: 2, area_mm2: 0.0012, columns_per_unit: 128, sample_rate_gsps: 1, ";
-  EXPECT_NO_THROW(parse_component_library(adc + "reference_bits: 8}" + ok_rest, "ok"));
-  EXPECT_THROW(parse_component_library(adc + "reference_bits: 8.5}" + ok_rest, "bad"), InputError);
-  EXPECT_THROW(parse_component_library(adc + "reference_bits: 8, power_scalling: linear}" + ok_rest, "bad"),
+  const std::string dac = "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}";
+  const std::string adc = "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5, columns_per_unit: 128, "
+                          "sample_rate_gsps: 1, ";
+  EXPECT_NO_THROW(parse_component_library(library(adc + "reference_bits: 8}", dac), "ok"));
+  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8.5}", dac), "bad"), InputError);
+  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, energy_scalling: linear}", dac), "bad"),
                InputError);
-  EXPECT_THROW(parse_component_library(adc + "reference_bits: 8, power_scaling: cubic}" + ok_rest, "bad"), InputError);
-  EXPECT_THROW(parse_component_library(ok_rest, "bad"), InputError);  // no adc section
-  EXPECT_THROW(parse_component_library("adc: {power_mw: -1}", "bad"), InputError);
+  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, energy_scaling: cubic}", dac), "bad"),
+               InputError);
+  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, reference_bits: 8}", dac), "bad"),
+               InputError);  // duplicate key
+  EXPECT_THROW(parse_component_library("adc: {conversion_pj: -1}", "bad"), InputError);
   EXPECT_THROW(parse_component_library("gpu: {}", "bad"), InputError);
   try {
-    parse_component_library(adc + "reference_bits: 8.5}" + ok_rest, "lib.yaml");
+    parse_component_library(library(adc + "reference_bits: 8.5}", dac), "lib.yaml");
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("adc.reference_bits"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("8.5"), std::string::npos) << e.what();
@@ -353,7 +394,7 @@ TEST(OverheadCli, Resnet56CoversEveryLayer) {
 
 TEST(OverheadCli, BadInputIsAnError) {
   EXPECT_NE(run_cli("overhead --preset resnet99"), "");
-  EXPECT_NE(run_cli("overhead --preset resnet20 --set components.dac_bits=30"), "");
+  EXPECT_NE(run_cli("overhead --preset resnet20 --set converters.dac_bits=30"), "");
   EXPECT_NE(run_cli("overhead --preset resnet20 --set components.library=/nonexistent.yaml"), "");
   EXPECT_NE(run_cli("overhead"), "");
 }

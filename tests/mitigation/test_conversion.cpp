@@ -12,7 +12,7 @@ using xbarsim::test::random_g;
 namespace {
 SolverOptions direct() {
   SolverOptions o;
-  o.method = "direct";
+  o.method = SolverMethod::Direct;
   return o;
 }
 }  // namespace

@@ -51,10 +51,10 @@ Dataset random_images(const Shape& s, int n, unsigned seed) {
 
 AnalogConfig quantized_partitioned() {
   AnalogConfig c;
-  c.max_rows = 64;
-  c.max_cols = 32;
-  c.dac_bits = 8;
-  c.adc_bits = 8;
+  c.mapping.max_rows = 64;
+  c.mapping.max_cols = 32;
+  c.converters.dac_bits = 8;
+  c.converters.adc_bits = 8;
   c.set_method("conversion+calibration", "test");
   return c;
 }
@@ -91,7 +91,7 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
   analog.program(Eigen::MatrixXd());
   PlatformConfig pc;
-  pc.adcs_per_crossbar = 2;  // 2 ADCs shared by a crossbar's columns
+  pc.adc_columns_per_unit = 10;  // 2 ADCs shared by a crossbar's 20 columns
   struct Driver : sc_core::sc_module {
     tlm_utils::simple_initiator_socket<Driver> out{"out"};
     LayerJob* job = nullptr;
@@ -125,7 +125,21 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   // Counters.
   const int n = L.out.h * L.out.w;
   EXPECT_EQ(tile.iterations(), n);
-  EXPECT_EQ(tile.dac().conversions(), static_cast<long long>(n) * L.rows());
+  // Each of the 2 column blocks has its own row DACs: every row converts twice per iteration.
+  EXPECT_EQ(tile.dac().conversions(), static_cast<long long>(n) * L.rows() * 2);
+  EXPECT_EQ(tile.crossbars().cell_reads(), static_cast<long long>(n) * 72 * 40);
+  EXPECT_EQ(tile.accumulator().accumulations(), static_cast<long long>(n) * 40 * 2);  // 2 row blocks
+  // The counted actions are the inventory's closed form (the energy both price).
+  const LayerInventory inv = layer_inventory(L, MappingScheme::Dense, ac.mapping, pc.adc_columns_per_unit);
+  const ActionCounts closed = layer_actions_per_image(inv, dense_shifted_entries(L)), counted = tile.actions();
+  EXPECT_EQ(counted.dac_conversions, closed.dac_conversions);
+  EXPECT_EQ(counted.adc_conversions, closed.adc_conversions);
+  EXPECT_EQ(counted.cell_reads, closed.cell_reads);
+  EXPECT_EQ(counted.accumulates, closed.accumulates);
+  EXPECT_EQ(counted.shifts, closed.shifts);
+  EXPECT_EQ(counted.buffer_write_bytes, closed.buffer_write_bytes);
+  EXPECT_EQ(inv.crossbars, analog.crossbars());
+  EXPECT_EQ(inv.adcs, 2 * 2 * 2);  // 2 ADCs for each crossbar's 20 columns
   EXPECT_EQ(tile.adc().conversions(), static_cast<long long>(n) * 40 * analog.crossbars() / 2);  // 2 column blocks
   EXPECT_EQ(analog.crossbars(), 2 * 2);
   // Delay: fill = first-iteration stage latencies; then the slowest stage per iteration.

@@ -1,0 +1,30 @@
+#pragma once
+/// Private to the analog layer's sources: a programmed crossbar and what programming reads.
+#include <memory>
+
+#include "sw/analog/analog_layer.h"
+
+namespace xbarsim {
+
+/// A crossbar after programming: the mapped weights, the conductances written (after
+/// conversion and noise), the solver over them and what the forward stages use.
+struct AnalogLayer::Crossbar : MappedWeights {
+  Eigen::VectorXd beta;     ///< per physical column gain of matrix conversion (1 otherwise)
+  Eigen::MatrixXd g_prog;   ///< S, programmed conductances
+  std::unique_ptr<CrossbarSolver> solver;
+  Eigen::MatrixXd geff_d;   ///< alpha * G_eff (A per input unit), linear devices
+  Eigen::MatrixXf geff_f;   ///< the same in float for network inference
+  Eigen::VectorXd adc_lo, adc_hi;  ///< A, per physical column
+  Eigen::VectorXd adc_offset;      ///< per physical column: offset current per unit sum(X) removed before the ADC
+  ColumnFit fit;
+};
+
+/// What the programming steps of one crossbar read.
+struct AnalogLayer::ProgrammingInputs {
+  Eigen::MatrixXd cal_b;          ///< calibration vectors (DAC values), this crossbar's rows
+  Eigen::MatrixXd calib_b;        ///< real inputs (DAC values), this crossbar's rows; may be empty
+  Eigen::MatrixXd cal;            ///< calibration vectors, all rows of the layer
+  Eigen::MatrixXd ideal_partial;  ///< cal_b * W_block: the partial output calibration aims at
+};
+
+}  // namespace xbarsim

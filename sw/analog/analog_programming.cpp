@@ -1,0 +1,147 @@
+// Programming of an analog layer's crossbars, in named steps: conversion (the paper's signal
+// conversion or matrix conversion), programming noise, ADC ranging and calibration.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "sw/analog/analog_layer_impl.h"
+#include "sw/analog/error_metrics.h"
+#include "sw/common/seed.h"
+#include "sw/mitigation/conversion.h"
+
+namespace xbarsim {
+
+namespace {
+
+/// The conversion controller's parameters.
+struct ConversionController {
+  /// The paper's constant-signal amplitudes (fraction of v_in_max) by crossbar rows: 0.1 up
+  /// to 150 rows, 0.05 up to 300, 0.01 up to 600, 0.001 beyond (its tables).
+  static double paper_amplitude(int rows) { return rows <= 150 ? 0.1 : rows <= 300 ? 0.05 : rows <= 600 ? 0.01 : 0.001; }
+  /// Amplitudes tried by conversion.amplitude = optimize (fraction of v_in_max).
+  static constexpr double kOptimizeAmplitudes[] = {1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
+  /// Matrix conversion's linearisation point without calibration inputs (fraction of v_in_max).
+  static constexpr double kDefaultOperatingPoint = 0.1;
+  /// Smallest ADC range padding relative to the range end, so a constant column keeps a step.
+  static constexpr double kMinAdcPadRelative = 1e-12;
+};
+
+}  // namespace
+
+void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
+  x.g_prog = g;
+  x.solver->program(g);
+  if (cfg_.xbar.is_linear()) {
+    x.geff_d = alpha_ * x.solver->effective_matrix();
+    x.geff_f = x.geff_d.cast<float>();
+  }
+}
+
+void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const {
+  const CrossbarParams& p = cfg_.xbar;
+  const ConversionSpec& cs = cfg_.conversion;
+  auto signal_for = [&](double amplitude) -> Eigen::VectorXd {
+    if (cs.signal != ConversionSignal::Constant && in.cal_b.rows() > 0) {
+      const Eigen::MatrixXd& src = in.calib_b.size() ? in.calib_b : in.cal_b;
+      if (cs.signal == ConversionSignal::MaxInput) return alpha_ * src.colwise().maxCoeff().transpose();
+      return alpha_ * src.colwise().mean().transpose();
+    }
+    return Eigen::VectorXd::Constant(x.blk.rows, amplitude * p.v_in_max_v);
+  };
+  std::vector<double> amps = {cs.amplitude_mode == AmplitudeMode::Paper ? ConversionController::paper_amplitude(x.blk.rows)
+                                                                        : cs.amplitude};
+  if (cs.amplitude_mode == AmplitudeMode::Optimize && cs.signal == ConversionSignal::Constant)
+    amps.assign(std::begin(ConversionController::kOptimizeAmplitudes), std::end(ConversionController::kOptimizeAmplitudes));
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd best_g;
+  for (double a : amps) {
+    const ConversionResult r = convert_signal(p, x.g_target, signal_for(a));
+    if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
+      install(x, r.g_prime);
+      const double e =
+          relative_error(raw_partial_of(x, currents_of(x, in.cal), in.cal), in.ideal_partial).mean_relative_error;
+      if (!(e < best)) continue;
+      best = e;
+    }
+    best_g = r.g_prime;
+    rep.out_of_range_cells = r.out_of_range();
+    rep.conversion_amplitude = a;
+  }
+  install(x, best_g);
+}
+
+void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const {
+  switch (cfg_.mitigation.conversion()) {
+    case ConversionKind::None:
+      install(x, x.g_target);
+      return;
+    case ConversionKind::Signal:
+      convert_signal_amplitudes(x, in, rep);
+      return;
+    case ConversionKind::Matrix: {
+      MatrixConversionOptions mo;
+      mo.column_scaling = cfg_.conversion.column_scaling;
+      mo.max_iterations = cfg_.conversion.max_iterations;
+      mo.tolerance = cfg_.conversion.tolerance;
+      const Eigen::VectorXd v_op =
+          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * in.cal_b.cwiseAbs().colwise().mean().transpose())
+                          : Eigen::VectorXd::Constant(x.blk.rows,
+                                                      ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
+      const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
+      x.beta = r.column_gain;
+      rep.out_of_range_cells = r.out_of_range();
+      rep.min_column_gain = r.column_gain.minCoeff();
+      rep.conversion_residual = r.residual;
+      install(x, r.g_prime);
+      return;
+    }
+  }
+}
+
+void AnalogLayer::add_programming_noise(Crossbar& x, int b) const {
+  if (!(cfg_.noise.sigma_s > 0)) return;
+  const CrossbarParams& p = cfg_.xbar;
+  std::mt19937_64 rng(derive_seed(cfg_.noise.seed, {salt_, static_cast<uint64_t>(b)}));
+  std::normal_distribution<double> nd(0.0, cfg_.noise.sigma_s);
+  Eigen::MatrixXd gp = x.g_prog;
+  for (Eigen::Index k = 0; k < gp.size(); ++k)
+    gp.data()[k] = std::min(std::max(gp.data()[k] + nd(rng), p.g_min_s), p.g_max_s);
+  install(x, gp);
+}
+
+void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const {
+  // Offset subtraction before the ADC: the shift current (g_min - beta s w_lo) sum(X) of each
+  // column, mirrored from the sum(X) reference, so the ADC range spans the weight part only.
+  const bool differential = cfg_.mapping.differential();
+  x.adc_offset = Eigen::VectorXd::Zero(x.pcols);
+  if (cfg_.converters.adc_offset_subtraction)
+    for (int c = 0; c < x.pcols; ++c) {
+      if (cfg_.mapping.analog_sum() && c == x.pcols - 1) continue;  // the reference column itself
+      x.adc_offset(c) = alpha_ * (cfg_.xbar.g_min_s - (differential ? 0.0 : x.beta(c) * x.s * x.w_lo));
+    }
+  // ADC ranges from the (offset-subtracted) currents of the range-estimation vectors.
+  x.adc_lo = Eigen::VectorXd::Zero(x.pcols);
+  x.adc_hi = Eigen::VectorXd::Zero(x.pcols);
+  if (cfg_.converters.adc_bits <= 0) return;
+  Eigen::MatrixXd cur = currents_of(x, range_x);
+  const Eigen::VectorXd sx = range_x.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
+  for (int c = 0; c < x.pcols; ++c) {
+    cur.col(c) -= x.adc_offset(c) * sx;
+    const double lo = cur.col(c).minCoeff(), hi = cur.col(c).maxCoeff();
+    const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
+                                ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
+    x.adc_lo(c) = lo - pad;
+    x.adc_hi(c) = hi + pad;
+  }
+}
+
+void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
+  x.fit = identity_fit(x.blk.cols);
+  if (!cfg_.mitigation.calibrate()) return;
+  Mat<double> cur = currents_of(x, in.cal);
+  adc_of<double, Eigen::MatrixXd>(x, cur, in.cal);
+  x.fit = fit_columns(raw_partial_of(x, cur, in.cal), in.ideal_partial);
+}
+
+}  // namespace xbarsim

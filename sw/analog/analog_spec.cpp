@@ -1,0 +1,127 @@
+#include "sw/analog/analog_spec.h"
+
+#include "sw/analog/quantizer.h"
+
+namespace xbarsim {
+
+namespace {
+struct MitigationName {
+  const char* name;
+  Mitigation method;
+};
+constexpr MitigationName kMitigations[] = {
+    {"none", Mitigation::None},
+    {"calibration", Mitigation::Calibration},
+    {"conversion", Mitigation::Conversion},
+    {"conversion+calibration", Mitigation::ConversionCalibration},
+    {"matrix-conversion", Mitigation::MatrixConversion},
+    {"matrix-conversion+calibration", Mitigation::MatrixConversionCalibration},
+};
+}  // namespace
+
+ConversionKind MitigationSpec::conversion() const {
+  switch (method) {
+    case Mitigation::Conversion:
+    case Mitigation::ConversionCalibration:
+      return ConversionKind::Signal;
+    case Mitigation::MatrixConversion:
+    case Mitigation::MatrixConversionCalibration:
+      return ConversionKind::Matrix;
+    default:
+      return ConversionKind::None;
+  }
+}
+
+bool MitigationSpec::calibrate() const {
+  return method == Mitigation::Calibration || method == Mitigation::ConversionCalibration ||
+         method == Mitigation::MatrixConversionCalibration;
+}
+
+const char* MitigationSpec::name() const {
+  for (const auto& m : kMitigations)
+    if (m.method == method) return m.name;
+  return "?";
+}
+
+MitigationSpec mitigation_from_name(const std::string& name, const std::string& key) {
+  for (const auto& m : kMitigations)
+    if (name == m.name) return MitigationSpec{m.method};
+  std::string list;
+  for (const auto& m : kMitigations) list += (list.empty() ? "" : ", ") + std::string(m.name);
+  throw InputError("configuration key '" + key + "': '" + name + "' is not one of: " + list);
+}
+
+int MappingSpec::logical_columns_per_crossbar() const {
+  if (max_cols == 0) return 0;
+  const int n = (max_cols - (analog_sum() ? 1 : 0)) / (differential() ? 2 : 1);
+  if (n < 1)
+    throw InputError("configuration key 'mapping.max_cols' (" + std::to_string(max_cols) +
+                     ") cannot hold one weight column with this mapping.negative/sum_x");
+  return n;
+}
+
+MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar) {
+  MappingSpec m;
+  m.max_rows = require_size_or_unbounded(cfg, "mapping.max_rows");
+  m.max_cols = require_size_or_unbounded(cfg, "mapping.max_cols");
+  m.negative = require_enum<NegativeWeights>(
+      cfg, "mapping.negative", {{"shift", NegativeWeights::Shift}, {"differential", NegativeWeights::Differential}});
+  m.sum_x = require_enum<SumX>(cfg, "mapping.sum_x", {{"digital", SumX::Digital}, {"analog", SumX::Analog}});
+  m.g_headroom = cfg.get_double("mapping.g_headroom");
+  if (xbar.g_max_s * (1 - m.g_headroom) <= xbar.g_min_s)
+    throw InputError("configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");
+  m.scheme = require_enum<MappingScheme>(cfg, "mapping.scheme",
+                                         {{"dense", MappingScheme::Dense}, {"sparse", MappingScheme::Sparse}});
+  m.logical_columns_per_crossbar();  // validates max_cols against the column layout
+  return m;
+}
+
+ConversionSpec parse_conversion_spec(const ConfigTree& cfg) {
+  ConversionSpec c;
+  c.signal = require_enum<ConversionSignal>(cfg, "conversion.signal",
+                                            {{"constant", ConversionSignal::Constant},
+                                             {"max_input", ConversionSignal::MaxInput},
+                                             {"mean_input", ConversionSignal::MeanInput}});
+  const std::string amp = cfg.get_string("conversion.amplitude");
+  if (amp == "optimize") {
+    c.amplitude_mode = AmplitudeMode::Optimize;
+  } else if (amp == "paper") {
+    c.amplitude_mode = AmplitudeMode::Paper;
+  } else {
+    c.amplitude = cfg.get_double("conversion.amplitude");
+  }
+  c.column_scaling = cfg.get_bool("conversion.column_scaling");
+  c.max_iterations = cfg.get_int32("conversion.max_iterations");
+  c.tolerance = cfg.get_double("conversion.tolerance");
+  return c;
+}
+
+CalibrationSpec parse_calibration_spec(const ConfigTree& cfg) {
+  CalibrationSpec c;
+  c.samples = cfg.get_int32("calibration.samples");
+  c.signal = require_enum<CalibrationSignal>(cfg, "calibration.signal",
+                                             {{"random", CalibrationSignal::Random},
+                                              {"random_decreasing", CalibrationSignal::RandomDecreasing},
+                                              {"shuffled", CalibrationSignal::Shuffled}});
+  c.seed = static_cast<uint64_t>(cfg.get_int("calibration.seed"));
+  return c;
+}
+
+ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
+  ConvertersSpec c;
+  c.dac_bits = parse_bits(cfg, "converters.dac_bits");
+  c.adc_bits = parse_bits(cfg, "converters.adc_bits");
+  c.adc_margin = cfg.get_double("converters.adc_margin");
+  c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");
+  c.adc_columns_per_adc = cfg.get_int32("converters.adc_columns_per_adc");
+  return c;
+}
+
+NoiseSpec parse_noise_spec(const ConfigTree& cfg) {
+  NoiseSpec n;
+  n.sigma_s = cfg.get_double("noise.sigma_us") * 1e-6;
+  n.seed = static_cast<uint64_t>(cfg.get_int("noise.seed"));
+  return n;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,61 @@
+#pragma once
+/// Cost of an inventory from the component library, in one place (Accelergy style):
+/// area and leakage from unit counts; energy from action counts x energy per action plus
+/// leakage x time; peak power with every unit busy at its highest action rate.
+/// The crossbar read energy is the library's energy per cell read (cell.read_pj) for every
+/// used cell of every iteration, not V*I*t of the solved currents.
+#include <nlohmann/json.hpp>
+
+#include "sw/hw/component_library.h"
+#include "sw/hw/inventory.h"
+
+namespace xbarsim {
+
+/// One figure per component class (mm2, mW, pJ, ... as the name of the variable says).
+struct ComponentBreakdown {
+  double crossbar = 0, adc = 0, dac = 0, accumulator = 0, shift_register = 0, buffer = 0;
+  double total() const { return crossbar + adc + dac + accumulator + shift_register + buffer; }
+  /// The paper's scope (Table "Overhead comparison"): arrays, converters, accumulators.
+  double arrays_and_converters() const { return crossbar + adc + dac + accumulator; }
+  ComponentBreakdown& operator+=(const ComponentBreakdown& o);
+  ComponentBreakdown operator*(double k) const;
+  ComponentBreakdown operator+(const ComponentBreakdown& o) const {
+    ComponentBreakdown r = *this;
+    return r += o;
+  }
+  nlohmann::json to_json() const;
+};
+
+/// Actions of the units of one layer (or a network), counted by a command or a simulation.
+struct ActionCounts {
+  double dac_conversions = 0, adc_conversions = 0, cell_reads = 0, accumulates = 0, shifts = 0;
+  double buffer_read_bytes = 0, buffer_write_bytes = 0;
+  ActionCounts& operator+=(const ActionCounts& o);
+};
+
+/// What prices an inventory: the library, the converters' resolutions (0 = ideal, priced at
+/// the library's reference bits) and the clock (MHz) that sets the peak action rates.
+struct CostModel {
+  ComponentLibrary lib;
+  int dac_bits = 8, adc_bits = 8;
+  double clock_mhz = 100;
+  int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.dac.reference_bits; }
+  int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.adc.reference_bits; }
+
+  ComponentBreakdown area_mm2(const LayerInventory& v) const;
+  ComponentBreakdown leakage_mw(const LayerInventory& v) const;
+  ComponentBreakdown peak_power_mw(const LayerInventory& v) const;
+  /// Dynamic energy of the actions (pJ), without leakage.
+  ComponentBreakdown dynamic_energy_pj(const ActionCounts& a) const;
+  /// Dynamic energy plus the inventory's leakage over `time_ns` (pJ).
+  ComponentBreakdown energy_pj(const ActionCounts& a, const LayerInventory& v, double time_ns) const {
+    return dynamic_energy_pj(a) + leakage_mw(v) * time_ns;  // mW x ns = pJ
+  }
+};
+
+/// Actions of one image through a layer, counted from its inventory: every iteration converts
+/// on every DAC, reads every used cell, converts every physical column and accumulates every
+/// crossbar's outputs; a dense layer shifts `shifted_entries` inputs in from its buffer.
+ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries);
+
+}  // namespace xbarsim

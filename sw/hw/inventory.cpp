@@ -1,0 +1,113 @@
+#include "sw/hw/inventory.h"
+
+#include <algorithm>
+
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+namespace {
+long long ceil_div(long long a, long long b) { return (a + b - 1) / b; }
+/// a * b, or InputError when the count does not fit in 64 bits.
+long long mul(long long a, long long b) {
+  long long r = 0;
+  if (__builtin_mul_overflow(a, b, &r)) throw InputError("the mapping is too large to count (over 9.2e18)");
+  return r;
+}
+long long add(long long a, long long b) {
+  long long r = 0;
+  if (__builtin_add_overflow(a, b, &r)) throw InputError("the mapping is too large to count (a total exceeds 9.2e18)");
+  return r;
+}
+}  // namespace
+
+LayerInventory& LayerInventory::operator+=(const LayerInventory& o) {
+  for (auto f : {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks,
+                 &LayerInventory::col_blocks, &LayerInventory::physical_cols, &LayerInventory::crossbars,
+                 &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
+                 &LayerInventory::cells_present, &LayerInventory::cells_used, &LayerInventory::iterations,
+                 &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes})
+    this->*f = add(this->*f, o.*f);
+  return *this;
+}
+
+int resolve_columns_per_adc(int configured, int library_columns_per_unit) {
+  return configured > 0 ? configured : library_columns_per_unit;
+}
+
+LayerInventory matrix_inventory(long long rows, long long cols, long long iterations, const MappingSpec& mapping,
+                                int columns_per_adc) {
+  if (rows < 1 || cols < 1)
+    throw InputError("cannot map a " + std::to_string(rows) + " x " + std::to_string(cols) + " matrix onto crossbars");
+  if (columns_per_adc < 1) throw InputError("columns per ADC must be >= 1");
+  LayerInventory v;
+  v.rows = rows;
+  v.cols = cols;
+  v.iterations = iterations;
+  v.columns_per_adc = columns_per_adc;
+  const long long logical_max = mapping.logical_columns_per_crossbar();
+  v.row_blocks = mapping.max_rows ? ceil_div(rows, mapping.max_rows) : 1;
+  v.col_blocks = logical_max ? ceil_div(cols, logical_max) : 1;
+  v.crossbars = mul(v.row_blocks, v.col_blocks);
+  // Balanced column blocks: (cols % pc) blocks of cb + 1 weight columns, the rest cb.
+  const long long pc = v.col_blocks, big = cols % pc, small = pc - big, cb = cols / pc;
+  const long long phys_big = mapping.physical_columns(static_cast<int>(std::min(cb + 1, cols)));
+  const long long phys_small = cb > 0 ? mapping.physical_columns(static_cast<int>(cb)) : 0;
+  v.physical_cols = add(mul(big, phys_big), mul(small, phys_small));
+  const long long adcs_per_row_block =
+      add(mul(big, adcs_for_columns(phys_big, columns_per_adc)),
+          mul(small, cb > 0 ? adcs_for_columns(phys_small, columns_per_adc) : 0));
+  v.adcs = mul(v.row_blocks, adcs_per_row_block);
+  v.dacs = mul(rows, pc);
+  v.accumulators = v.crossbars;
+  v.array_rows = mapping.max_rows ? mapping.max_rows : rows;
+  v.array_cols = mapping.max_cols ? mapping.max_cols : v.physical_cols;
+  v.cells_present = mul(mul(v.crossbars, v.array_rows), v.array_cols);
+  v.cells_used = mul(rows, v.physical_cols);
+  return v;
+}
+
+long long dense_shifted_entries(const LinearLayer& L) {
+  const long long K = L.rows(), step = L.stride_w < L.k_w ? static_cast<long long>(L.stride_w) * L.k_h * L.c_in : K;
+  return static_cast<long long>(L.out.h) * (K + (L.out.w - 1) * step);
+}
+
+LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const MappingSpec& mapping,
+                               int columns_per_adc) {
+  LayerInventory v;
+  if (scheme == MappingScheme::Dense) {
+    v = matrix_inventory(L.rows(), L.c_out, L.iterations(), mapping, columns_per_adc);
+    v.shift_register_entries = L.rows();
+  } else {
+    // Toeplitz of the valid convolution on the layer's input: every output (pixel, channel)
+    // is one column holding the K weights of its window.
+    if (L.is_conv && (L.in.h < L.k_h || L.in.w < L.k_w))
+      throw InputError("layer '" + L.name + "': its " + std::to_string(L.in.h) + "x" + std::to_string(L.in.w) +
+                       " input is smaller than its " + std::to_string(L.k_h) + "x" + std::to_string(L.k_w) +
+                       " kernel, so the sparse (valid-convolution Toeplitz) mapping has no outputs; use a larger input");
+    const long long oh = L.is_conv ? (L.in.h - L.k_h) / L.stride_h + 1 : 1;
+    const long long ow = L.is_conv ? (L.in.w - L.k_w) / L.stride_w + 1 : 1;
+    v = matrix_inventory(mul(mul(L.in.h, L.in.w), L.c_in), mul(mul(oh, ow), L.c_out), 1, mapping, columns_per_adc);
+    // Only the K weights of each column's window are programmed (the rest are zeros).
+    v.cells_used = add(mul(mul(v.cols, L.rows()), mapping.differential() ? 2 : 1),
+                       mapping.analog_sum() ? mul(v.rows, v.col_blocks) : 0);
+  }
+  v.name = L.name;
+  v.k_h = L.k_h;
+  v.k_w = L.k_w;
+  v.c_in = L.c_in;
+  v.c_out = L.c_out;
+  v.input = L.in;
+  v.output = L.out;
+  v.scheme = scheme;
+  v.buffer_bytes = L.in.size();
+  return v;
+}
+
+std::vector<LayerInventory> network_inventory(const Model& m, const MappingSpec& mapping, int columns_per_adc) {
+  std::vector<LayerInventory> out;
+  for (const LinearLayer& L : m.linear) out.push_back(layer_inventory(L, mapping.scheme, mapping, columns_per_adc));
+  return out;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,64 @@
+#pragma once
+/// The hardware inventory of a mapped network: per layer the logical matrix, its partition
+/// into crossbars and the physical columns (differential pairs, sum(X) column), and the
+/// units that serve it (DACs, ADCs, accumulators, shift register, buffer). This is the only
+/// counting rule: overhead, eval, xbar-study, simulate and the SystemC Adc module use it.
+#include <string>
+#include <vector>
+
+#include "sw/analog/analog_spec.h"
+#include "sw/nn/model.h"
+
+namespace xbarsim {
+
+/// Counting rules: crossbars = ceil(rows / R) x ceil(cols / C') with balanced blocks, where
+/// C' is the weight columns one array of max_cols physical columns holds; one DAC per used
+/// row of every crossbar; ceil(physical columns / columns_per_adc) ADCs per crossbar; one
+/// accumulator per crossbar; cells present = R x C physical arrays (rows x physical columns
+/// when unbounded); one shift register of `rows` entries per dense layer.
+struct LayerInventory {
+  std::string name;
+  int k_h = 1, k_w = 1, c_in = 0, c_out = 0;
+  Shape input, output;
+  MappingScheme scheme = MappingScheme::Dense;
+  long long rows = 0, cols = 0;           ///< logical matrix (inputs x weight columns)
+  long long row_blocks = 0, col_blocks = 0;
+  long long physical_cols = 0;            ///< physical columns of one row of crossbars (all column blocks)
+  long long array_rows = 0, array_cols = 0;  ///< one physical array
+  long long crossbars = 0, dacs = 0, adcs = 0, accumulators = 0;
+  long long cells_present = 0, cells_used = 0;
+  long long iterations = 0;               ///< crossbar reads per image
+  long long shift_register_entries = 0;   ///< dense: the unrolled window; sparse: none
+  long long buffer_bytes = 0;             ///< the layer's input activations (one byte per value)
+  int columns_per_adc = 128;
+  double utilization() const { return cells_present ? static_cast<double>(cells_used) / cells_present : 0.0; }
+  /// Sums the counts of `o` (names and shapes are kept).
+  LayerInventory& operator+=(const LayerInventory& o);
+};
+
+/// ADC sharing: converters.adc_columns_per_adc, or the component library's columns_per_unit.
+int resolve_columns_per_adc(int configured, int library_columns_per_unit);
+
+/// Inventory of a rows x cols weight matrix read `iterations` times per image.
+LayerInventory matrix_inventory(long long rows, long long cols, long long iterations, const MappingSpec& mapping,
+                                int columns_per_adc);
+
+/// ADCs serving one crossbar of `physical_cols` columns.
+inline long long adcs_for_columns(long long physical_cols, int columns_per_adc) {
+  return (physical_cols + columns_per_adc - 1) / columns_per_adc;
+}
+
+/// Inventory of a Conv/Gemm layer under `scheme` (dense: the unrolled kernels, one iteration
+/// per output pixel; sparse: the valid-convolution Toeplitz matrix, one iteration per image).
+LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const MappingSpec& mapping,
+                               int columns_per_adc);
+
+/// Every linear layer of `m` under the configured mapping scheme.
+std::vector<LayerInventory> network_inventory(const Model& m, const MappingSpec& mapping, int columns_per_adc);
+
+/// Entries shifted into a dense layer's input register per image: a whole window (K entries)
+/// at the start of each output row, then stride x k_h x c_in per step (K when the stride is
+/// not smaller than the kernel), as ShiftRegisterBuffer does.
+long long dense_shifted_entries(const LinearLayer& L);
+
+}  // namespace xbarsim

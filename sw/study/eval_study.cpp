@@ -1,0 +1,219 @@
+#include "sw/study/eval_study.h"
+
+#include <chrono>
+#include <mutex>
+
+namespace xbarsim {
+
+EvalSpec parse_eval_spec(const ConfigTree& cfg) {
+  EvalSpec s;
+  s.images = cfg.get_string("eval.images") == "all" ? -1 : cfg.get_int32("eval.images");
+  s.offset = cfg.get_int32("eval.offset");
+  s.calibration_images = cfg.get_int32("eval.calibration_images");
+  s.calibration_samples = cfg.get_int32("eval.calibration_samples");
+  s.nonlinear_images = cfg.get_int32("eval.nonlinear_images");
+  return s;
+}
+
+EvalData load_eval_data(const Model& model, std::string dataset, const std::string& data_dir, const EvalSpec& spec) {
+  if (dataset.empty()) dataset = model.dataset;
+  if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
+  EvalData d;
+  int count = spec.images;
+  if (dataset == "mnist") {
+    const int limit = kMnistCalibrationStart - spec.offset;
+    if (limit <= 0) throw InputError("MNIST test images from 9000 on are the calibration set (see README)");
+    if (count < 0 || count > limit) {
+      count = limit;
+      d.note = "MNIST images 9000-9999 are used for calibration; evaluating images " + std::to_string(spec.offset) +
+               ".." + std::to_string(spec.offset + count - 1);
+    }
+  }
+  d.test = load_dataset(dataset, data_dir, "test", spec.offset, count);
+  d.calib = load_dataset(dataset, data_dir, "calib", 0, spec.calibration_images);
+  if (!(d.test.shape == model.input))
+    throw InputError("dataset images are " + std::to_string(d.test.shape.c) + "x" + std::to_string(d.test.shape.h) +
+                     "x" + std::to_string(d.test.shape.w) + " but the model expects " + std::to_string(model.input.c) +
+                     "x" + std::to_string(model.input.h) + "x" + std::to_string(model.input.w));
+  return d;
+}
+
+EvalPoint parse_eval_point(const ConfigTree& cfg) {
+  EvalPoint p;
+  p.ac = parse_analog_config(cfg);
+  if (p.ac.mapping.scheme == MappingScheme::Sparse)
+    throw InputError("configuration key 'mapping.scheme': eval computes the dense mapping; 'sparse' (Toeplitz) is "
+                     "costed by overhead and simulate");
+  p.hw = make_hardware_context(cfg, p.ac);
+  return p;
+}
+
+namespace {
+
+struct LayerTally {
+  double sum = 0, worst = 0;
+  long long count = 0;
+};
+
+/// Relative errors of one image's layer output (crossbar vs software), each normalised by
+/// the output channel's calibration range.
+LayerTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
+  LayerTally ty;
+  for (Eigen::Index col = 0; col < s.cols(); ++col) {
+    const double range = std::max(st.out_hi(col) - st.out_lo(col), 1e-30);
+    for (Eigen::Index r = 0; r < s.rows(); ++r) {
+      const double e = std::abs(static_cast<double>(c(r, col)) - s(r, col)) / range;
+      ty.sum += e;
+      ty.worst = std::max(ty.worst, e);
+    }
+  }
+  ty.count = s.size();
+  return ty;
+}
+
+/// Per image and layer error tallies and correct counts, evaluated in parallel; reduced in
+/// image order by the caller, so the figures do not depend on the number of threads.
+struct ImageTallies {
+  std::vector<LayerTally> layer;  // images x L
+  std::vector<char> sw_correct, xb_correct;
+};
+
+ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, const Dataset& test, int images,
+                             int threads, const std::function<void(int, int)>& progress) {
+  const int L = static_cast<int>(model.linear.size());
+  ImageTallies t{std::vector<LayerTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
+                 std::vector<char>(images, 0)};
+  std::mutex mu;
+  int done = 0;
+  // Images in parallel; inside an image, linear layers run serially.
+  parallel_for(threads, threads, [&](int th) {
+    SoftwareBackend sw(model);
+    LayerTrace sw_trace, xb_trace;
+    sw_trace.record_inputs = xb_trace.record_inputs = false;
+    std::vector<float> x(model.input.size());
+    for (int k = th; k < images; k += threads) {
+      test.preprocess(k, model.pre, x.data());
+      Eigen::Index a, b;
+      run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
+      run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
+      t.sw_correct[k] = a == test.labels[k];
+      t.xb_correct[k] = b == test.labels[k];
+      for (int l = 0; l < L; ++l)
+        t.layer[static_cast<size_t>(k) * L + l] = layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
+      std::lock_guard<std::mutex> lock(mu);
+      if (progress) progress(++done, images);
+    }
+  });
+  return t;
+}
+
+}  // namespace
+
+EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
+                    const Dataset& calib, const EvalProgress& progress) {
+  const AnalogConfig& ac = point.ac;
+  if (spec.calibration_samples < ac.calibration.samples)
+    throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
+  EvalResult r;
+  r.ac = &point.ac;
+  r.model = model.path;
+  r.dataset = test.name;
+  const auto t0 = std::chrono::steady_clock::now();
+  CrossbarBackend xb(model, ac);
+  xb.program(calib, spec.calibration_samples, progress.programming);
+  const auto t1 = std::chrono::steady_clock::now();
+  r.images = test.count();
+  if (!ac.xbar.is_linear() && spec.nonlinear_images < r.images) {
+    r.images = spec.nonlinear_images;
+    r.note = "nonlinear devices: every crossbar input vector is a Newton circuit solve; evaluated on the first " +
+             std::to_string(r.images) + " images only (eval.nonlinear_images)";
+  }
+  const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), r.images));
+  const ImageTallies t = evaluate_images(model, xb, test, r.images, threads, progress.evaluating);
+  r.program_time_s = std::chrono::duration<double>(t1 - t0).count();
+  r.evaluate_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  int swc = 0, xbc = 0;
+  for (int k = 0; k < r.images; ++k) {
+    swc += t.sw_correct[k];
+    xbc += t.xb_correct[k];
+  }
+  r.software_accuracy = static_cast<double>(swc) / r.images;
+  r.crossbar_accuracy = static_cast<double>(xbc) / r.images;
+  const int L = static_cast<int>(model.linear.size());
+  const double clock_ns = point.hw.platform.clock_ns();
+  for (int l = 0; l < L; ++l) {
+    EvalLayer el;
+    el.layer = &model.linear[l];
+    el.name = model.linear[l].name;
+    el.inventory = layer_inventory(model.linear[l], MappingScheme::Dense, ac.mapping, point.hw.columns_per_adc);
+    LayerTally sum;
+    for (int k = 0; k < r.images; ++k) {
+      const LayerTally& ty = t.layer[static_cast<size_t>(k) * L + l];
+      sum.sum += ty.sum;
+      sum.count += ty.count;
+      sum.worst = std::max(sum.worst, ty.worst);
+    }
+    el.mean_relative_error = sum.count ? sum.sum / sum.count : 0.0;
+    el.worst_relative_error = sum.worst;
+    el.input_full_scale = xb.statistics(l).x_max;
+    el.signed_inputs = xb.statistics(l).signed_inputs;
+    for (const auto& rep : xb.layer(l).reports()) {
+      el.out_of_range_cells += rep.out_of_range_cells;
+      el.min_column_gain = std::min(el.min_column_gain, rep.min_column_gain);
+    }
+    add_layer_cost(r.cost, point.hw, el.inventory,
+                   layer_actions_per_image(el.inventory, dense_shifted_entries(model.linear[l])));
+    r.cost.time_ns += el.inventory.iterations * clock_ns;
+    r.layers.push_back(el);
+  }
+  return r;
+}
+
+nlohmann::json EvalResult::to_json() const {
+  nlohmann::json j;
+  auto bits = [](int b) { return b ? nlohmann::json(b) : nlohmann::json("none"); };
+  auto size = [](int s) { return s ? nlohmann::json(s) : nlohmann::json("unbounded"); };
+  j["model"] = model;
+  j["dataset"] = dataset;
+  j["images"] = images;
+  j["software_accuracy"] = software_accuracy;
+  j["crossbar_accuracy"] = crossbar_accuracy;
+  j["method"] = ac->mitigation.name();
+  j["dac_bits"] = bits(ac->converters.dac_bits);
+  j["adc_bits"] = bits(ac->converters.adc_bits);
+  j["sigma_us"] = ac->noise.sigma_s * 1e6;
+  j["memristor_model"] = to_string(ac->xbar.memristor.model);
+  j["transistor_model"] = to_string(ac->xbar.transistor.model);
+  j["max_rows"] = size(ac->mapping.max_rows);
+  j["max_cols"] = size(ac->mapping.max_cols);
+  if (!note.empty()) j["note"] = note;
+  j["program_time_s"] = program_time_s;
+  j["evaluate_time_s"] = evaluate_time_s;
+  j["images_per_s"] = images / std::max(1e-9, evaluate_time_s);
+  j["layers"] = nlohmann::json::array();
+  long long oor = 0;
+  for (const auto& l : layers) {
+    const LinearLayer& L = *l.layer;
+    oor += l.out_of_range_cells;
+    j["layers"].push_back({{"name", l.name},
+                           {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
+                           {"rows", L.rows()},
+                           {"cols", L.c_out},
+                           {"crossbars", l.inventory.crossbars},
+                           {"adcs", l.inventory.adcs},
+                           {"dacs", l.inventory.dacs},
+                           {"iterations", l.inventory.iterations},
+                           {"input_full_scale", l.input_full_scale},
+                           {"signed_inputs", l.signed_inputs},
+                           {"out_of_range_cells", l.out_of_range_cells},
+                           {"min_column_gain", l.min_column_gain},
+                           {"mean_relative_error", l.mean_relative_error},
+                           {"worst_relative_error", l.worst_relative_error}});
+  }
+  j["out_of_range_cells"] = oor;
+  j.update(cost.to_json());
+  j["energy_note"] = "closed-form action counts per image; leakage over ideal timing (one clock per iteration)";
+  return j;
+}
+
+}  // namespace xbarsim

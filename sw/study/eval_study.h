@@ -1,0 +1,68 @@
+#pragma once
+/// eval as a library function: a whole network on crossbars against software, with
+/// per-layer error propagation and the design's cost from the shared inventory.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sw/inference/crossbar_backend.h"
+#include "sw/study/hardware.h"
+
+namespace xbarsim {
+
+/// Section `eval.`.
+struct EvalSpec {
+  int images = -1;  ///< -1 = all
+  int offset = 0;
+  int calibration_images = 200;
+  int calibration_samples = 2048;
+  int nonlinear_images = 2;
+};
+EvalSpec parse_eval_spec(const ConfigTree& cfg);
+
+/// The test and calibration images of an evaluation. MNIST ships no calibration split here,
+/// so test images 9000.. calibrate and are never evaluated (`note` says so).
+struct EvalData {
+  Dataset test, calib;
+  std::string note;
+};
+/// Loads `dataset` (the model's metadata when empty) from `data_dir` for `model`.
+EvalData load_eval_data(const Model& model, std::string dataset, const std::string& data_dir, const EvalSpec& spec);
+
+/// One design point of an evaluation: the analog configuration and its hardware.
+struct EvalPoint {
+  AnalogConfig ac;
+  HardwareContext hw;
+};
+EvalPoint parse_eval_point(const ConfigTree& cfg);
+
+struct EvalLayer {
+  std::string name;
+  const LinearLayer* layer = nullptr;
+  LayerInventory inventory;
+  double mean_relative_error = 0, worst_relative_error = 0;
+  double input_full_scale = 0, min_column_gain = 1;
+  bool signed_inputs = false;
+  long long out_of_range_cells = 0;
+};
+
+struct EvalResult {
+  std::string model, dataset, note;
+  int images = 0;
+  double software_accuracy = 0, crossbar_accuracy = 0;
+  double program_time_s = 0, evaluate_time_s = 0;
+  std::vector<EvalLayer> layers;
+  CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing
+  const AnalogConfig* ac = nullptr;
+  nlohmann::json to_json() const;
+};
+
+/// Progress callbacks: (done, total) for programming (layers) and evaluation (images).
+struct EvalProgress {
+  std::function<void(int, int)> programming, evaluating;
+};
+
+EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
+                    const Dataset& calib, const EvalProgress& progress = {});
+
+}  // namespace xbarsim

@@ -1,0 +1,38 @@
+#pragma once
+/// The hardware a configuration describes, parsed once and shared by every command so that
+/// overhead, eval, xbar-study and simulate count and price the same design the same way.
+#include "sw/analog/analog_layer.h"
+#include "sw/hw/cost.h"
+#include "sw/hw/inventory.h"
+#include "sw/hw/platform_spec.h"
+
+namespace xbarsim {
+
+struct HardwareContext {
+  MappingSpec mapping;
+  ConvertersSpec converters;
+  ComponentLibrary lib;
+  PlatformConfig platform;
+  int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library
+  CostModel cost;
+};
+
+/// Reads components.library and platform.*; mapping and converters come from `ac`.
+HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig& ac);
+
+/// Cost of a set of layers per image: areas, leakage and peak power from the inventory;
+/// energy = the actions' dynamic energy (closed form per layer, or counted by a simulation)
+/// + every unit's leakage over the image time `time_ns`; average power = energy / time.
+struct CostReport {
+  ComponentBreakdown area_mm2, peak_power_mw, leakage_mw, dynamic_energy_uj;
+  double time_ns = 0;  ///< per image
+  long long crossbars = 0, adcs = 0, dacs = 0;
+  ComponentBreakdown energy_uj() const { return dynamic_energy_uj + leakage_mw * (time_ns * 1e-6); }
+  double avg_power_mw() const { return time_ns > 0 ? energy_uj().total() * 1e6 / time_ns : 0.0; }
+  nlohmann::json to_json() const;
+};
+
+/// Adds one layer (its inventory and the actions of one image) to `r`.
+void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);
+
+}  // namespace xbarsim

@@ -1,0 +1,60 @@
+#include "sw/study/overhead_study.h"
+
+namespace xbarsim {
+
+nlohmann::json MappingOverhead::to_json() const {
+  // Power and area in the paper's scope: arrays, ADCs, DACs and accumulators.
+  return {{"rows", inv.rows},
+          {"cols", inv.cols},
+          {"crossbars", inv.crossbars},
+          {"adcs", inv.adcs},
+          {"dacs", inv.dacs},
+          {"cells_used", inv.cells_used},
+          {"cells_present", inv.cells_present},
+          {"utilization", inv.utilization()},
+          {"xbar_power_mw", peak_power_mw.crossbar},
+          {"xbar_area_mm2", area_mm2.crossbar},
+          {"total_power_mw", peak_power_mw.arrays_and_converters()},
+          {"total_area_mm2", area_mm2.arrays_and_converters()},
+          {"power_breakdown_mw", peak_power_mw.to_json()},
+          {"area_breakdown_mm2", area_mm2.to_json()},
+          {"iterations", inv.iterations}};
+}
+
+nlohmann::json OverheadReport::to_json() const {
+  nlohmann::json j;
+  j["layers"] = nlohmann::json::array();
+  for (const auto& l : layers)
+    j["layers"].push_back({{"name", l.name},
+                           {"kernel", {l.k_h, l.k_w, l.c_in, l.c_out}},
+                           {"input", {l.input.h, l.input.w}},
+                           {"dense", l.dense.to_json()},
+                           {"sparse", l.sparse.to_json()}});
+  j["totals"] = {{"dense", dense_total.to_json()}, {"sparse", sparse_total.to_json()}};
+  return j;
+}
+
+OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
+  OverheadReport r;
+  auto priced = [&](const LayerInventory& v) { return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)}; };
+  for (const LinearLayer& L : m.linear) {
+    LayerOverhead o;
+    o.name = L.name;
+    o.k_h = L.k_h;
+    o.k_w = L.k_w;
+    o.c_in = L.c_in;
+    o.c_out = L.c_out;
+    o.input = L.in;
+    o.dense = priced(layer_inventory(L, MappingScheme::Dense, hw.mapping, hw.columns_per_adc));
+    o.sparse = priced(layer_inventory(L, MappingScheme::Sparse, hw.mapping, hw.columns_per_adc));
+    for (auto [total, part] : {std::pair{&r.dense_total, &o.dense}, std::pair{&r.sparse_total, &o.sparse}}) {
+      total->inv += part->inv;
+      total->area_mm2 += part->area_mm2;
+      total->peak_power_mw += part->peak_power_mw;
+    }
+    r.layers.push_back(std::move(o));
+  }
+  return r;
+}
+
+}  // namespace xbarsim
