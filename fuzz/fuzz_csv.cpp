@@ -13,7 +13,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const Eigen::MatrixXd m = xbarsim::read_csv_matrix(path);
     // The documented contract: a non-empty rectangular table of finite numbers.
-    if (m.rows() < 1 || m.cols() < 1 || !m.allFinite()) __builtin_trap();
+    XBARSIM_FUZZ_CHECK(m.rows() >= 1 && m.cols() >= 1 && m.allFinite());
   } catch (const xbarsim::InputError&) {
   }
   return 0;

@@ -15,8 +15,8 @@ namespace {
 
 void check(const xbarsim::Dataset& d) {
   // Documented contract: count x (C*H*W) pixels, one label per image.
-  if (d.shape.c < 1 || d.shape.h < 1 || d.shape.w < 1) __builtin_trap();
-  if (d.pixels.size() != static_cast<size_t>(d.count()) * static_cast<size_t>(d.shape.size())) __builtin_trap();
+  XBARSIM_FUZZ_CHECK(d.shape.c >= 1 && d.shape.h >= 1 && d.shape.w >= 1);
+  XBARSIM_FUZZ_CHECK(d.pixels.size() == static_cast<size_t>(d.count()) * static_cast<size_t>(d.shape.size()));
 }
 
 }  // namespace

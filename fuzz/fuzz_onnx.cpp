@@ -14,14 +14,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const xbarsim::Model m = xbarsim::load_onnx_model(path);
     // A loaded model must be internally consistent: value ids in range, shapes positive.
     const int nv = static_cast<int>(m.values.size());
-    if (m.output < 0 || m.output >= nv) __builtin_trap();
+    XBARSIM_FUZZ_CHECK(m.output >= 0 && m.output < nv);
     // Every value has a positive C x H x W (what the executor sizes its buffers from).
     for (const auto& s : m.values)
-      if (s.c < 1 || s.h < 1 || s.w < 1) __builtin_trap();
+      XBARSIM_FUZZ_CHECK(s.c >= 1 && s.h >= 1 && s.w >= 1);
     for (const auto& op : m.ops) {
-      if (op.out < 0 || op.out >= nv) __builtin_trap();
+      XBARSIM_FUZZ_CHECK(op.out >= 0 && op.out < nv);
       for (int v : op.in)
-        if (v < 0 || v >= nv) __builtin_trap();
+        XBARSIM_FUZZ_CHECK(v >= 0 && v < nv);
     }
   } catch (const xbarsim::InputError&) {
   }

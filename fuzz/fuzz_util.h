@@ -8,6 +8,16 @@
 #include <cstdlib>
 #include <string>
 
+/// A broken invariant of a reader's result: says which one on stderr, then aborts, which
+/// libFuzzer records as a crash.
+#define XBARSIM_FUZZ_CHECK(cond)                                                          \
+  do {                                                                                    \
+    if (!(cond)) {                                                                        \
+      std::fprintf(stderr, "%s:%d: invariant violated: %s\n", __FILE__, __LINE__, #cond); \
+      std::abort();                                                                       \
+    }                                                                                     \
+  } while (0)
+
 namespace xbarsim_fuzz {
 
 /// "/tmp/xbarsim_fuzz_<tag>_<pid>" (computed once per process and tag).
