@@ -1,0 +1,173 @@
+// Writes the tiny ONNX seed models of corpus/fuzz_onnx (weights are small deterministic
+// numbers; nothing is taken from trained models). Usage: make_seed_onnx <output-dir>
+#include <onnx/onnx_pb.h>
+
+#include <cstdio>
+#include <fstream>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+namespace {
+
+void add_float_init(onnx::GraphProto* g, const std::string& name, std::vector<int64_t> dims) {
+  auto* t = g->add_initializer();
+  t->set_name(name);
+  t->set_data_type(onnx::TensorProto::FLOAT);
+  size_t n = 1;
+  for (auto d : dims) {
+    t->add_dims(d);
+    n *= static_cast<size_t>(d);
+  }
+  std::vector<float> v(n);
+  for (size_t i = 0; i < n; ++i) v[i] = static_cast<float>(static_cast<int>(i % 7) - 3) * 0.25f;
+  t->set_raw_data(std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float)));
+}
+
+void add_int_init(onnx::GraphProto* g, const std::string& name, std::vector<int64_t> vals) {
+  auto* t = g->add_initializer();
+  t->set_name(name);
+  t->set_data_type(onnx::TensorProto::INT64);
+  t->add_dims(static_cast<int64_t>(vals.size()));
+  for (auto v : vals) t->add_int64_data(v);
+}
+
+onnx::NodeProto* node(onnx::GraphProto* g, const std::string& op, std::initializer_list<const char*> in,
+                      const std::string& out) {
+  auto* n = g->add_node();
+  n->set_op_type(op);
+  n->set_name(op + "_" + out);
+  for (const char* i : in) n->add_input(i);
+  n->add_output(out);
+  return n;
+}
+
+void ints_attr(onnx::NodeProto* n, const char* name, std::initializer_list<int64_t> v) {
+  auto* a = n->add_attribute();
+  a->set_name(name);
+  a->set_type(onnx::AttributeProto::INTS);
+  for (auto x : v) a->add_ints(x);
+}
+
+void int_attr(onnx::NodeProto* n, const char* name, int64_t v) {
+  auto* a = n->add_attribute();
+  a->set_name(name);
+  a->set_type(onnx::AttributeProto::INT);
+  a->set_i(v);
+}
+
+void io(onnx::ValueInfoProto* v, const std::string& name, std::initializer_list<int64_t> dims) {
+  v->set_name(name);
+  auto* tt = v->mutable_type()->mutable_tensor_type();
+  tt->set_elem_type(onnx::TensorProto::FLOAT);
+  for (auto d : dims) tt->mutable_shape()->add_dim()->set_dim_value(d);
+}
+
+onnx::ModelProto base(const char* name) {
+  onnx::ModelProto m;
+  m.set_ir_version(8);
+  m.set_producer_name("xbarsim make_seed_onnx");
+  auto* op = m.add_opset_import();
+  op->set_domain("");
+  op->set_version(13);
+  m.mutable_graph()->set_name(name);
+  return m;
+}
+
+void meta(onnx::ModelProto& m, const char* k, const char* v) {
+  auto* p = m.add_metadata_props();
+  p->set_key(k);
+  p->set_value(v);
+}
+
+// 1x1x4x4 -> Conv 3x3 (2 ch, pad 1) -> Relu -> MaxPool 2x2/2 -> Flatten -> Gemm (8 -> 3).
+onnx::ModelProto small_cnn() {
+  auto m = base("small_cnn");
+  auto* g = m.mutable_graph();
+  io(g->add_input(), "x", {1, 1, 4, 4});
+  add_float_init(g, "w1", {2, 1, 3, 3});
+  add_float_init(g, "b1", {2});
+  add_float_init(g, "w2", {3, 8});
+  add_float_init(g, "b2", {3});
+  auto* c = node(g, "Conv", {"x", "w1", "b1"}, "c1");
+  ints_attr(c, "kernel_shape", {3, 3});
+  ints_attr(c, "pads", {1, 1, 1, 1});
+  ints_attr(c, "strides", {1, 1});
+  node(g, "Relu", {"c1"}, "r1");
+  auto* p = node(g, "MaxPool", {"r1"}, "p1");
+  ints_attr(p, "kernel_shape", {2, 2});
+  ints_attr(p, "strides", {2, 2});
+  node(g, "Flatten", {"p1"}, "f1");
+  auto* gm = node(g, "Gemm", {"f1", "w2", "b2"}, "y");
+  int_attr(gm, "transB", 1);
+  // Gemm with transB: weight is N x K = 3 x 8.
+  io(g->add_output(), "y", {1, 3});
+  meta(m, "input_scale", "1/255");
+  meta(m, "input_mean", "0.5");
+  meta(m, "input_std", "0.25");
+  meta(m, "dataset", "mnist");
+  return m;
+}
+
+// 1x2x4x4 -> Pad -> BatchNorm -> Slice (H 1..5) -> Add(self) -> AveragePool 2x2 -> Reshape -> MatMul,
+// plus a Constant-produced Reshape shape and a GlobalAveragePool side branch merged by Add.
+onnx::ModelProto ops_mix() {
+  auto m = base("ops_mix");
+  auto* g = m.mutable_graph();
+  io(g->add_input(), "x", {1, 2, 4, 4});
+  add_int_init(g, "pads", {0, 0, 1, 1, 0, 0, 1, 1});
+  add_float_init(g, "bn_s", {2});
+  add_float_init(g, "bn_b", {2});
+  add_float_init(g, "bn_m", {2});
+  auto* var = g->add_initializer();
+  var->set_name("bn_v");
+  var->set_data_type(onnx::TensorProto::FLOAT);
+  var->add_dims(2);
+  var->add_float_data(1.0f);
+  var->add_float_data(2.0f);
+  add_int_init(g, "st", {1});
+  add_int_init(g, "en", {5});
+  add_int_init(g, "ax", {2});
+  add_float_init(g, "wm", {8, 2});
+  node(g, "Pad", {"x", "pads"}, "pd");
+  node(g, "BatchNormalization", {"pd", "bn_s", "bn_b", "bn_m", "bn_v"}, "bn");
+  node(g, "Slice", {"bn", "st", "en", "ax"}, "sl");
+  node(g, "Add", {"sl", "sl"}, "ad");
+  auto* ap = node(g, "AveragePool", {"ad"}, "ap");
+  ints_attr(ap, "kernel_shape", {2, 3});
+  ints_attr(ap, "strides", {2, 3});
+  auto* cst = node(g, "Constant", {}, "shape");
+  auto* a = cst->add_attribute();
+  a->set_name("value");
+  a->set_type(onnx::AttributeProto::TENSOR);
+  a->mutable_t()->set_data_type(onnx::TensorProto::INT64);
+  a->mutable_t()->add_dims(2);
+  a->mutable_t()->add_int64_data(1);
+  a->mutable_t()->add_int64_data(-1);
+  node(g, "Reshape", {"ap", "shape"}, "rs");
+  node(g, "MatMul", {"rs", "wm"}, "y");
+  node(g, "GlobalAveragePool", {"x"}, "gap");
+  io(g->add_output(), "y", {1, 2});
+  meta(m, "software_accuracy_test_batch", "0.5");
+  return m;
+}
+
+bool write(const onnx::ModelProto& m, const std::string& path) {
+  std::ofstream out(path, std::ios::binary);
+  return m.SerializeToOstream(&out);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: %s <output-dir>\n", argv[0]);
+    return 2;
+  }
+  const std::string dir = argv[1];
+  if (!write(small_cnn(), dir + "/small_cnn.onnx") || !write(ops_mix(), dir + "/ops_mix.onnx")) {
+    std::fprintf(stderr, "cannot write into %s\n", dir.c_str());
+    return 1;
+  }
+  return 0;
+}

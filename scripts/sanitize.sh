@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Builds everything with AddressSanitizer + UndefinedBehaviorSanitizer (gcc) in build-asan and
+# runs the unit tests, except the slow whole-dataset ones.
+# Usage: scripts/sanitize.sh
+# Environment:
+#   SANITIZE_EXCLUDE  ctest -E regex of excluded tests (default: FullTestSet, i.e. the
+#                     Shared/SharedModel.FullTestSetAccuracyMatchesMetadata/* cases, which push the
+#                     whole 10 000-image test set through each network)
+#   SANITIZE_EXCLUDE_LABEL  ctest -LE regex (default: ^slow$)
+#   JOBS=2            parallel build and test jobs
+# Every sanitizer report (also from the xbarsim processes that the CLI tests start, whose exit
+# status a test may expect to be non-zero anyway) is written to build-asan/sanitizer-logs/;
+# the script exits 1 if a test failed or any report was written.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD_DIR=build-asan
+JOBS=${JOBS:-2}
+EXCLUDE=${SANITIZE_EXCLUDE:-FullTestSet}
+EXCLUDE_LABEL=${SANITIZE_EXCLUDE_LABEL:-^slow\$}
+FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+
+start=$(date +%s)
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS="$FLAGS" >/dev/null
+# Test discovery (gtest_discover_tests) runs the instrumented test binaries at build time.
+cmake --build "$BUILD_DIR" -j "$JOBS"
+built=$(date +%s)
+
+LOG_DIR=$PWD/$BUILD_DIR/sanitizer-logs
+rm -rf "$LOG_DIR"
+mkdir -p "$LOG_DIR"
+export ASAN_OPTIONS="detect_leaks=1:log_path=$LOG_DIR/asan"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$LOG_DIR/ubsan"
+export LSAN_OPTIONS="log_path=$LOG_DIR/lsan"
+
+cd "$BUILD_DIR"
+echo "sanitize: excluded tests (-E '$EXCLUDE', -LE '$EXCLUDE_LABEL'):"
+comm -23 <(ctest -N | sed -nE 's/^ *Test +#[0-9]+: (.*)$/\1/p' | sort) \
+         <(ctest -N -E "$EXCLUDE" -LE "$EXCLUDE_LABEL" | sed -nE 's/^ *Test +#[0-9]+: (.*)$/\1/p' | sort) |
+  sed 's/^/  /'
+set +e
+ctest --output-on-failure -j "$JOBS" --timeout 900 -E "$EXCLUDE" -LE "$EXCLUDE_LABEL"
+rc=$?
+set -e
+end=$(date +%s)
+echo "sanitize: build $((built - start)) s, tests $((end - built)) s"
+
+mapfile -t reports < <(find "$LOG_DIR" -type f | sort)
+if ((${#reports[@]})); then
+  echo "sanitize: ${#reports[@]} sanitizer report(s):"
+  for r in "${reports[@]}"; do
+    echo "---- $r"
+    head -40 "$r"
+  done
+  exit 1
+fi
+if ((rc)); then
+  echo "sanitize: tests failed (ctest exit $rc)"
+  exit 1
+fi
+echo "sanitize: no findings"
