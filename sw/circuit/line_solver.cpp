@@ -315,150 +315,162 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
   return s;
 }
 
-CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const {
+/// Node voltages, KCL residuals and device derivatives of one Newton solve (T, M, B nodes).
+struct LineSolver::NewtonState {
+  explicit NewtonState(int mn)
+      : vt(mn, 0.0), vm(mn, 0.0), vb(mn, 0.0), ft(mn), fm(mn), fb(mn), gm(mn), ga(mn), gb(mn), jtt(mn), jbb(mn),
+        rt(mn), rb(mn), dt(mn), db(mn), dm(mn), tt(mn), tm(mn), tb(mn), tft(mn), tfm(mn), tfb(mn) {
+    sys.symmetric = false;
+    sys.p_inv.resize(mn);
+    sys.q_diag.resize(mn);
+    sys.q_inv.resize(mn);
+    sys.cx.resize(mn);
+    sys.cy.resize(mn);
+  }
+  std::vector<double> vt, vm, vb;  ///< V, current iterate
+  std::vector<double> ft, fm, fb;  ///< A, KCL residuals at the iterate
+  std::vector<double> gm, ga, gb;  ///< memristor dI/dV, transistor dI/dV_M, dI/dV_B
+  std::vector<double> jtt, jbb, rt, rb, dt, db, dm;  ///< condensed Jacobian, right-hand sides, update
+  std::vector<double> tt, tm, tb, tft, tfm, tfb;     ///< trial iterate of the line search and its residuals
+  System sys;
+  double max_residual() const {
+    double f = 0;
+    for (size_t k = 0; k < ft.size(); ++k) f = std::max({f, std::abs(ft[k]), std::abs(fm[k]), std::abs(fb[k])});
+    return f;
+  }
+};
+
+double LineSolver::newton_residual(const Eigen::VectorXd& v_in, NewtonState& st, bool trial, bool deriv) const {
+  const bool short_tr = transistor_.is_short();
+  const std::vector<double>&t = trial ? st.tt : st.vt, &mid = trial ? st.tm : st.vm, &b = trial ? st.tb : st.vb;
+  std::vector<double>&rT = trial ? st.tft : st.ft, &rM = trial ? st.tfm : st.fm, &rB = trial ? st.tfb : st.fb;
+  double norm2 = 0;
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) {
+      const int k = i * n_ + j;
+      const double tk = t[k], bk = b[k];
+      double ft_k = (j == 0 ? g_s_ * (tk - v_in(i)) : g_w_ * (tk - t[k - 1])) + (j + 1 < n_ ? g_w_ * (tk - t[k + 1]) : 0.0);
+      double fb_k = (i > 0 ? g_w_ * (bk - b[k - n_]) : 0.0) + (i + 1 < m_ ? g_w_ * (bk - b[k + n_]) : g_d_ * bk);
+      const double mk = short_tr ? bk : mid[k];
+      double im, dim, it = 0, dia = 0, dib = 0;
+      memristor_.eval(g_(i, j), tk - mk, im, dim);
+      ft_k += im;
+      if (short_tr) {
+        fb_k -= im;
+      } else {
+        transistor_.eval(mk, bk, it, dia, dib);
+        fb_k -= it;
+      }
+      const double fm_k = short_tr ? 0.0 : im - it;
+      if (deriv) {
+        st.gm[k] = dim;
+        st.ga[k] = dia;
+        st.gb[k] = dib;
+      }
+      rT[k] = ft_k;
+      rM[k] = fm_k;
+      rB[k] = fb_k;
+      norm2 += ft_k * ft_k + fm_k * fm_k + fb_k * fb_k;
+    }
+  return std::sqrt(norm2);
+}
+
+int LineSolver::newton_direction(NewtonState& st, Workspace& w) const {
+  // Condense the middle nodes into 2x2 cell Jacobians between T and B, then solve for the
+  // update of T and B and recover the middle nodes'.
   const int mn = m_ * n_;
   const bool short_tr = transistor_.is_short();
-  std::vector<double> vt(mn, 0.0), vm(mn, 0.0), vb(mn, 0.0);
-  std::vector<double> ft(mn), fm(mn), fb(mn);
-  std::vector<double> gm(mn), ga(mn), gb(mn);  // memristor dI/dV, transistor dI/dV_M, dI/dV_B
-  std::vector<double> jtt(mn), jbb(mn), rt(mn), rb(mn), dt(mn), db(mn), dm(mn);
-  std::vector<double> tt(mn), tm(mn), tb(mn), tft(mn), tfm(mn), tfb(mn);
-  System sys;
-  sys.symmetric = false;
-  sys.p_inv.resize(mn);
-  sys.q_diag.resize(mn);
-  sys.q_inv.resize(mn);
-  sys.cx.resize(mn);
-  sys.cy.resize(mn);
+  for (int k = 0; k < mn; ++k) {
+    if (short_tr) {
+      st.jtt[k] = st.jbb[k] = st.gm[k];
+      st.sys.cx[k] = st.sys.cy[k] = -st.gm[k];
+      st.rt[k] = -st.ft[k];
+      st.rb[k] = -st.fb[k];
+    } else {
+      const double den = st.gm[k] + st.ga[k], c = st.gm[k] / den;
+      st.jtt[k] = st.ga[k] * c;
+      st.jbb[k] = -st.gb[k] * c;
+      st.sys.cx[k] = st.gb[k] * c;
+      st.sys.cy[k] = -st.ga[k] * c;
+      st.rt[k] = -st.ft[k] + c * st.fm[k];
+      st.rb[k] = -st.fb[k] + (st.ga[k] / den) * st.fm[k];
+    }
+  }
+  factor_rows(st.jtt.data(), st.sys.p_inv.data());
+  factor_cols(st.jbb.data(), st.sys.q_diag.data(), st.sys.q_inv.data());
+  const int inner = solve_tb(st.sys, st.rt.data(), st.rb.data(), st.dt.data(), st.db.data(), w);
+  for (int k = 0; k < mn; ++k)
+    st.dm[k] = short_tr ? st.db[k] : (st.fm[k] + st.gm[k] * st.dt[k] - st.gb[k] * st.db[k]) / (st.gm[k] + st.ga[k]);
+  return inner;
+}
 
-  // KCL residuals (sum of currents leaving each node); derivatives when `deriv`.
-  auto residual = [&](const std::vector<double>& t, const std::vector<double>& mid, const std::vector<double>& b,
-                      std::vector<double>& rT, std::vector<double>& rM, std::vector<double>& rB, bool deriv) {
-    double norm2 = 0;
-    for (int i = 0; i < m_; ++i)
-      for (int j = 0; j < n_; ++j) {
-        const int k = i * n_ + j;
-        const double tk = t[k], bk = b[k];
-        double ft_k = (j == 0 ? g_s_ * (tk - v_in(i)) : g_w_ * (tk - t[k - 1])) +
-                      (j + 1 < n_ ? g_w_ * (tk - t[k + 1]) : 0.0);
-        double fb_k = (i > 0 ? g_w_ * (bk - b[k - n_]) : 0.0) +
-                      (i + 1 < m_ ? g_w_ * (bk - b[k + n_]) : g_d_ * bk);
-        const double mk = short_tr ? bk : mid[k];
-        double im, dim;
-        memristor_.eval(g_(i, j), tk - mk, im, dim);
-        ft_k += im;
-        double fm_k = 0;
-        if (short_tr) {
-          fb_k -= im;
-          if (deriv) {
-            gm[k] = dim;
-            ga[k] = 0;
-            gb[k] = 0;
-          }
-        } else {
-          double it, dia, dib;
-          transistor_.eval(mk, bk, it, dia, dib);
-          fm_k = im - it;
-          fb_k -= it;
-          if (deriv) {
-            gm[k] = dim;
-            ga[k] = dia;
-            gb[k] = dib;
-          }
-        }
-        rT[k] = ft_k;
-        rM[k] = fm_k;
-        rB[k] = fb_k;
-        norm2 += ft_k * ft_k + fm_k * fm_k + fb_k * fb_k;
-      }
-    return std::sqrt(norm2);
-  };
+double LineSolver::newton_update(const Eigen::VectorXd& v_in, NewtonState& st, double f_norm) const {
+  // Voltage limiting to solver.max_step, then halving until the residual does not grow.
+  const int mn = m_ * n_;
+  double dmax = 0;
+  for (int k = 0; k < mn; ++k) dmax = std::max({dmax, std::abs(st.dt[k]), std::abs(st.db[k]), std::abs(st.dm[k])});
+  if (!std::isfinite(dmax)) throw SolverError("Newton-Raphson (line solver) produced a non-finite update");
+  double scale = dmax > options_.max_step_v ? options_.max_step_v / dmax : 1.0;
+  for (int ls = 0; ls < 20; ++ls) {
+    for (int k = 0; k < mn; ++k) {
+      st.tt[k] = st.vt[k] + scale * st.dt[k];
+      st.tm[k] = st.vm[k] + scale * st.dm[k];
+      st.tb[k] = st.vb[k] + scale * st.db[k];
+    }
+    if (newton_residual(v_in, st, true, false) <= f_norm || scale * dmax < 1e-9) break;
+    scale *= 0.5;
+  }
+  st.vt.swap(st.tt);
+  st.vm.swap(st.tm);
+  st.vb.swap(st.tb);
+  return scale * dmax;
+}
 
+CircuitSolution LineSolver::newton_solution(const NewtonState& st) const {
+  CircuitSolution s;
+  s.v_top.resize(m_, n_);
+  s.v_mid.resize(m_, n_);
+  s.v_bottom.resize(m_, n_);
+  s.cell_current.resize(m_, n_);
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) {
+      const int k = i * n_ + j;
+      s.v_top(i, j) = st.vt[k];
+      s.v_bottom(i, j) = st.vb[k];
+      s.v_mid(i, j) = transistor_.is_short() ? st.vb[k] : st.vm[k];
+      double im, d;
+      memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), im, d);
+      s.cell_current(i, j) = im;
+    }
+  s.column_current.resize(n_);
+  for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * st.vb[(m_ - 1) * n_ + j];
+  return s;
+}
+
+CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const {
+  NewtonState st(m_ * n_);
   const double v_scale = std::max(v_in.cwiseAbs().maxCoeff(), 1e-3);
   const double kcl_tol = kcl_tolerance(v_scale);
-  double f_norm = residual(vt, vm, vb, ft, fm, fb, true);
+  double f_norm = newton_residual(v_in, st, false, true);
   double last_step = 0;
   int inner_total = 0;
   for (int it = 1; it <= options_.newton_max_iterations; ++it) {
-    // Condense the middle nodes into 2x2 cell Jacobians between T and B.
-    for (int k = 0; k < mn; ++k) {
-      if (short_tr) {
-        jtt[k] = gm[k];
-        jbb[k] = gm[k];
-        sys.cx[k] = -gm[k];
-        sys.cy[k] = -gm[k];
-        rt[k] = -ft[k];
-        rb[k] = -fb[k];
-      } else {
-        const double den = gm[k] + ga[k];
-        const double c = gm[k] / den;
-        jtt[k] = ga[k] * c;
-        jbb[k] = -gb[k] * c;
-        sys.cx[k] = gb[k] * c;
-        sys.cy[k] = -ga[k] * c;
-        rt[k] = -ft[k] + c * fm[k];
-        rb[k] = -fb[k] + (ga[k] / den) * fm[k];
-      }
-    }
-    factor_rows(jtt.data(), sys.p_inv.data());
-    factor_cols(jbb.data(), sys.q_diag.data(), sys.q_inv.data());
-    inner_total += solve_tb(sys, rt.data(), rb.data(), dt.data(), db.data(), w);
-    double dmax = 0;
-    for (int k = 0; k < mn; ++k) {
-      dm[k] = short_tr ? db[k] : (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
-      dmax = std::max({dmax, std::abs(dt[k]), std::abs(db[k]), std::abs(dm[k])});
-    }
-    if (!std::isfinite(dmax)) throw SolverError("Newton-Raphson (line solver) produced a non-finite update");
-    double scale = dmax > options_.max_step_v ? options_.max_step_v / dmax : 1.0;
-    double f_new = 0;
-    for (int ls = 0; ls < 20; ++ls) {
-      for (int k = 0; k < mn; ++k) {
-        tt[k] = vt[k] + scale * dt[k];
-        tm[k] = vm[k] + scale * dm[k];
-        tb[k] = vb[k] + scale * db[k];
-      }
-      f_new = residual(tt, tm, tb, tft, tfm, tfb, false);
-      if (f_new <= f_norm || scale * dmax < 1e-9) break;
-      scale *= 0.5;
-    }
-    vt.swap(tt);
-    vm.swap(tm);
-    vb.swap(tb);
-    last_step = scale * dmax;
-    f_norm = residual(vt, vm, vb, ft, fm, fb, true);
+    inner_total += newton_direction(st, w);
+    last_step = newton_update(v_in, st, f_norm);
+    f_norm = newton_residual(v_in, st, false, true);
     // Converged only when the update is small AND every node balances its currents: a
     // tiny step alone (e.g. a small solver.max_step) says nothing about the solution.
-    double f_max = 0;
-    for (int k = 0; k < mn; ++k) f_max = std::max({f_max, std::abs(ft[k]), std::abs(fm[k]), std::abs(fb[k])});
-    if (last_step <= options_.newton_tolerance * v_scale && f_max <= kcl_tol) {
-      CircuitSolution s;
+    if (last_step <= options_.newton_tolerance * v_scale && st.max_residual() <= kcl_tol) {
+      CircuitSolution s = newton_solution(st);
       s.newton_iterations = it;
       s.linear_iterations = inner_total;
-      s.v_top.resize(m_, n_);
-      s.v_mid.resize(m_, n_);
-      s.v_bottom.resize(m_, n_);
-      s.cell_current.resize(m_, n_);
-      for (int i = 0; i < m_; ++i)
-        for (int j = 0; j < n_; ++j) {
-          const int k = i * n_ + j;
-          s.v_top(i, j) = vt[k];
-          s.v_bottom(i, j) = vb[k];
-          s.v_mid(i, j) = short_tr ? vb[k] : vm[k];
-          double im, d;
-          memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), im, d);
-          s.cell_current(i, j) = im;
-        }
-      s.column_current.resize(n_);
-      for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * vb[(m_ - 1) * n_ + j];
       return s;
     }
   }
-  double fmax = 0;
-  for (int k = 0; k < mn; ++k) fmax = std::max({fmax, std::abs(ft[k]), std::abs(fm[k]), std::abs(fb[k])});
   std::ostringstream os;
   os << "Newton-Raphson (line solver) did not converge in " << options_.newton_max_iterations
-     << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual " << fmax
-     << " A (needs <= " << options_.newton_tolerance * v_scale << " V and <= " << kcl_tol << " A)";
+     << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual "
+     << st.max_residual() << " A (needs <= " << options_.newton_tolerance * v_scale << " V and <= " << kcl_tol << " A)";
   throw SolverError(os.str());
 }
 

@@ -54,6 +54,15 @@ class LineSolver : public CrossbarSolver {
   int gmres(const System& s, const double* rhs, double* x, Workspace& w) const;
   CircuitSolution solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const;
   CircuitSolution solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const;
+  // Steps of one Newton solve (damped, voltage-limited, on the condensed T/B system).
+  struct NewtonState;
+  /// KCL residuals (and device derivatives when `deriv`) at the iterate (or the trial); the 2-norm.
+  double newton_residual(const Eigen::VectorXd& v_in, NewtonState& st, bool trial, bool deriv) const;
+  /// The Newton update of every node; returns the inner Krylov iterations.
+  int newton_direction(NewtonState& st, Workspace& w) const;
+  /// Applies the limited, line-searched update; returns the largest voltage change taken.
+  double newton_update(const Eigen::VectorXd& v_in, NewtonState& st, double f_norm) const;
+  CircuitSolution newton_solution(const NewtonState& st) const;
   Eigen::MatrixXd compute_effective_matrix() const;
   /// Estimated peak memory (in doubles) of programming and solving an m x n array.
   double memory_doubles(int m, int n) const;

@@ -38,6 +38,113 @@ void LinearBackend::multiply_activation(int layer, const LinearLayer& L, const f
   multiply(layer, scratch, out);
 }
 
+namespace {
+
+void pool(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x, std::vector<float>& y) {
+  y.assign(out.size(), 0.0f);
+  const bool is_max = op.kind == OpKind::MaxPool;
+  for (int c = 0; c < out.c; ++c)
+    for (int oy = 0; oy < out.h; ++oy)
+      for (int ox = 0; ox < out.w; ++ox) {
+        float acc = is_max ? -std::numeric_limits<float>::infinity() : 0.0f;
+        int count = 0;
+        for (int ky = 0; ky < op.k_h; ++ky)
+          for (int kx = 0; kx < op.k_w; ++kx) {
+            const int iy = oy * op.s_h - op.p_t + ky, ix = ox * op.s_w - op.p_l + kx;
+            if (iy < 0 || iy >= in.h || ix < 0 || ix >= in.w) continue;
+            const float val = x[(static_cast<size_t>(c) * in.h + iy) * in.w + ix];
+            acc = is_max ? std::max(acc, val) : acc + val;
+            ++count;
+          }
+        y[(static_cast<size_t>(c) * out.h + oy) * out.w + ox] = is_max ? acc : acc / count;
+      }
+}
+
+void slice(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x, std::vector<float>& y) {
+  y.resize(out.size());
+  for (int c = 0; c < out.c; ++c)
+    for (int yy = 0; yy < out.h; ++yy)
+      for (int xx = 0; xx < out.w; ++xx)
+        y[(static_cast<size_t>(c) * out.h + yy) * out.w + xx] =
+            x[(static_cast<size_t>(op.start[0] + c * op.step[0]) * in.h + op.start[1] + yy * op.step[1]) * in.w +
+              op.start[2] + xx * op.step[2]];
+}
+
+void pad(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x, std::vector<float>& y) {
+  y.assign(out.size(), op.pad_value);
+  for (int c = 0; c < in.c; ++c)
+    for (int yy = 0; yy < in.h; ++yy)
+      for (int xx = 0; xx < in.w; ++xx)
+        y[(static_cast<size_t>(c + op.pad_lo[0]) * out.h + yy + op.pad_lo[1]) * out.w + xx + op.pad_lo[2]] =
+            x[(static_cast<size_t>(c) * in.h + yy) * in.w + xx];
+}
+
+void global_avg_pool(const Shape& in, const std::vector<float>& x, std::vector<float>& y) {
+  y.resize(in.c);
+  const int hw = in.h * in.w;
+  for (int c = 0; c < in.c; ++c) {
+    double s = 0;
+    for (int p = 0; p < hw; ++p) s += x[static_cast<size_t>(c) * hw + p];
+    y[c] = static_cast<float>(s / hw);
+  }
+}
+
+/// A linear layer through the backend: y (C x H x W) = W x + bias.
+void linear_op(const Model& m, const Op& op, const LinearBackend& backend, const std::vector<float>& x,
+               std::vector<float>& y, LayerTrace* trace, RowMatrixXf& cols, Eigen::MatrixXf& prod) {
+  const LinearLayer& L = m.linear[op.linear];
+  if (trace && trace->record_inputs) {
+    im2col(L, x.data(), cols);
+    trace->inputs[op.linear] = cols;
+    backend.multiply(op.linear, cols, prod);
+  } else {
+    backend.multiply_activation(op.linear, L, x.data(), cols, prod);
+  }
+  y.resize(L.out.size());
+  const int pixels = L.out.h * L.out.w;
+  for (int c = 0; c < L.c_out; ++c)
+    for (int p = 0; p < pixels; ++p) y[static_cast<size_t>(c) * pixels + p] = prod(p, c) + L.bias(c);
+  if (trace) trace->outputs[op.linear] = prod.rowwise() + L.bias.transpose();
+}
+
+}  // namespace
+
+void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x,
+                const std::vector<float>* x2, std::vector<float>& y) {
+  switch (op.kind) {
+    case OpKind::Relu:
+      y.resize(x.size());
+      for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] > 0 ? x[k] : 0.0f;
+      return;
+    case OpKind::Add:
+      y.resize(x.size());
+      for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] + (*x2)[k];
+      return;
+    case OpKind::Affine: {
+      y.resize(x.size());
+      const int hw = in.h * in.w;
+      for (int c = 0; c < in.c; ++c)
+        for (int p = 0; p < hw; ++p)
+          y[static_cast<size_t>(c) * hw + p] = x[static_cast<size_t>(c) * hw + p] * op.scale(c) + op.shift(c);
+      return;
+    }
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+      return pool(op, in, out, x, y);
+    case OpKind::GlobalAvgPool:
+      return global_avg_pool(in, x, y);
+    case OpKind::Flatten:
+      y = x;
+      return;
+    case OpKind::Slice:
+      return slice(op, in, out, x, y);
+    case OpKind::Pad:
+      return pad(op, in, out, x, y);
+    case OpKind::Linear:
+      throw std::logic_error("digital_op: a linear layer runs on a backend");
+  }
+}
+
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend, LayerTrace* trace) {
   std::vector<std::vector<float>> v(m.values.size());
   v[0].assign(input, input + m.input.size());
@@ -48,99 +155,11 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
   RowMatrixXf cols;
   Eigen::MatrixXf prod;
   for (const Op& op : m.ops) {
-    const Shape out = m.values[op.out];
-    std::vector<float>& y = v[op.out];
-    const std::vector<float>& x = v[op.in[0]];
-    const Shape in = m.values[op.in[0]];
-    switch (op.kind) {
-      case OpKind::Linear: {
-        const LinearLayer& L = m.linear[op.linear];
-        if (trace && trace->record_inputs) {
-          im2col(L, x.data(), cols);
-          trace->inputs[op.linear] = cols;
-          backend.multiply(op.linear, cols, prod);
-        } else {
-          backend.multiply_activation(op.linear, L, x.data(), cols, prod);
-        }
-        y.resize(out.size());
-        const int pixels = out.h * out.w;
-        for (int c = 0; c < L.c_out; ++c)
-          for (int p = 0; p < pixels; ++p) y[static_cast<size_t>(c) * pixels + p] = prod(p, c) + L.bias(c);
-        if (trace) {
-          trace->outputs[op.linear] = prod.rowwise() + L.bias.transpose();
-        }
-        break;
-      }
-      case OpKind::Relu:
-        y.resize(x.size());
-        for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] > 0 ? x[k] : 0.0f;
-        break;
-      case OpKind::Add: {
-        const std::vector<float>& b = v[op.in[1]];
-        y.resize(x.size());
-        for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] + b[k];
-        break;
-      }
-      case OpKind::Affine: {
-        y.resize(x.size());
-        const int hw = in.h * in.w;
-        for (int c = 0; c < in.c; ++c)
-          for (int p = 0; p < hw; ++p)
-            y[static_cast<size_t>(c) * hw + p] = x[static_cast<size_t>(c) * hw + p] * op.scale(c) + op.shift(c);
-        break;
-      }
-      case OpKind::MaxPool:
-      case OpKind::AvgPool: {
-        y.assign(out.size(), 0.0f);
-        const bool is_max = op.kind == OpKind::MaxPool;
-        for (int c = 0; c < out.c; ++c)
-          for (int oy = 0; oy < out.h; ++oy)
-            for (int ox = 0; ox < out.w; ++ox) {
-              float acc = is_max ? -std::numeric_limits<float>::infinity() : 0.0f;
-              int count = 0;
-              for (int ky = 0; ky < op.k_h; ++ky)
-                for (int kx = 0; kx < op.k_w; ++kx) {
-                  const int iy = oy * op.s_h - op.p_t + ky, ix = ox * op.s_w - op.p_l + kx;
-                  if (iy < 0 || iy >= in.h || ix < 0 || ix >= in.w) continue;
-                  const float val = x[(static_cast<size_t>(c) * in.h + iy) * in.w + ix];
-                  acc = is_max ? std::max(acc, val) : acc + val;
-                  ++count;
-                }
-              y[(static_cast<size_t>(c) * out.h + oy) * out.w + ox] = is_max ? acc : acc / count;
-            }
-        break;
-      }
-      case OpKind::GlobalAvgPool: {
-        y.resize(out.size());
-        const int hw = in.h * in.w;
-        for (int c = 0; c < in.c; ++c) {
-          double s = 0;
-          for (int p = 0; p < hw; ++p) s += x[static_cast<size_t>(c) * hw + p];
-          y[c] = static_cast<float>(s / hw);
-        }
-        break;
-      }
-      case OpKind::Flatten:
-        y = x;
-        break;
-      case OpKind::Slice:
-        y.resize(out.size());
-        for (int c = 0; c < out.c; ++c)
-          for (int yy = 0; yy < out.h; ++yy)
-            for (int xx = 0; xx < out.w; ++xx)
-              y[(static_cast<size_t>(c) * out.h + yy) * out.w + xx] =
-                  x[(static_cast<size_t>(op.start[0] + c * op.step[0]) * in.h + op.start[1] + yy * op.step[1]) * in.w +
-                    op.start[2] + xx * op.step[2]];
-        break;
-      case OpKind::Pad:
-        y.assign(out.size(), op.pad_value);
-        for (int c = 0; c < in.c; ++c)
-          for (int yy = 0; yy < in.h; ++yy)
-            for (int xx = 0; xx < in.w; ++xx)
-              y[(static_cast<size_t>(c + op.pad_lo[0]) * out.h + yy + op.pad_lo[1]) * out.w + xx + op.pad_lo[2]] =
-                  x[(static_cast<size_t>(c) * in.h + yy) * in.w + xx];
-        break;
-    }
+    if (op.kind == OpKind::Linear)
+      linear_op(m, op, backend, v[op.in[0]], v[op.out], trace, cols, prod);
+    else
+      digital_op(op, m.values[op.in[0]], m.values[op.out], v[op.in[0]], op.in.size() > 1 ? &v[op.in[1]] : nullptr,
+                 v[op.out]);
   }
   const std::vector<float>& o = v[m.output];
   return Eigen::Map<const Eigen::VectorXf>(o.data(), static_cast<Eigen::Index>(o.size()));

@@ -50,6 +50,11 @@ struct LayerTrace {
 };
 
 /// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
+/// One digital (non-linear-layer) op on one image: ReLU, Add (second input `x2`),
+/// BatchNorm as affine, max/average pooling, global average pooling, flatten, slice, pad.
+void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x,
+                const std::vector<float>* x2, std::vector<float>& y);
+
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend,
                           LayerTrace* trace = nullptr);
 

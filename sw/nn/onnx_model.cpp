@@ -264,246 +264,275 @@ class Loader {
       return;
     }
     require_io(n, 1);
-    if (t == "Conv") {
-      require_io(n, 2);
-      check_known_attrs(n, {"dilations", "group", "kernel_shape", "pads", "strides", "auto_pad"});
-      const auto* ap = attr(n, "auto_pad");
-      if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
-      if (int_attr(n, "group", 1) != 1) reject(n, "group != 1");
-      checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
-      const int in_id = value(n.input(0), ctx);
-      const Init& w = init(n.input(1), ctx);
-      if (w.dims.size() != 4) reject(n, "weight rank");
-      for (auto d : w.dims)
-        if (d < 1 || d > kMaxDim) reject(n, "weight dims");
-      LinearLayer L;
-      L.c_out = static_cast<int>(w.dims[0]);
-      L.c_in = static_cast<int>(w.dims[1]);
-      L.k_h = static_cast<int>(w.dims[2]);
-      L.k_w = static_cast<int>(w.dims[3]);
-      if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{L.k_h, L.k_w})
-        reject(n, "kernel_shape that differs from the weight");
-      const Shape in = model_.values[in_id];
-      if (in.c != L.c_in) reject(n, "input channels (" + std::to_string(in.c) + ") != weight channels");
-      const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
-      const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
-      L.stride_h = st[0];
-      L.stride_w = st[1];
-      L.pad_t = p[0];
-      L.pad_l = p[1];
-      L.pad_b = p[2];
-      L.pad_r = p[3];
-      L.out = {L.c_out, window_out(n, in.h, L.pad_t, L.pad_b, L.k_h, L.stride_h),
-               window_out(n, in.w, L.pad_l, L.pad_r, L.k_w, L.stride_w)};
-      const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(L.rows()) * L.c_out);
-      const std::vector<float>* b = has_input(n, 2) ? &floats(n.input(2), ctx, L.c_out) : nullptr;
-      add_linear(n, std::move(L), in_id, wf, b);
-    } else if (t == "Gemm" || t == "MatMul") {
-      if (t == "Gemm") {
-        check_known_attrs(n, {"alpha", "beta", "transA", "transB"});
-        if (int_attr(n, "transA", 0) != 0) reject(n, "transA = 1");
-      } else {
-        check_known_attrs(n, {});
-      }
-      require_io(n, 2);
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      if (in.h != 1 || in.w != 1) reject(n, "input that is not a flat vector (insert Flatten)");
-      const Init& w = init(n.input(1), ctx);
-      if (w.dims.size() != 2 || w.dims[0] < 1 || w.dims[1] < 1 || w.dims[0] > kMaxDim * 64 || w.dims[1] > kMaxDim)
-        reject(n, "weight rank or dims");
-      const bool trans_b = t == "Gemm" && int_attr(n, "transB", 0) != 0;
-      const int K = static_cast<int>(trans_b ? w.dims[1] : w.dims[0]);
-      const int N = static_cast<int>(trans_b ? w.dims[0] : w.dims[1]);
-      if (K != in.c) reject(n, "inner dimension " + std::to_string(K) + " vs input " + std::to_string(in.c));
-      const float alpha = t == "Gemm" ? float_attr(n, "alpha", 1.0f) : 1.0f;
-      const float beta = t == "Gemm" ? float_attr(n, "beta", 1.0f) : 1.0f;
-      if (!std::isfinite(alpha) || !std::isfinite(beta)) reject(n, "non-finite alpha or beta");
-      const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(K) * N);
-      std::vector<float> w_oi(static_cast<size_t>(N) * K);  // as OIHW with H = W = 1
-      for (int o = 0; o < N; ++o)
-        for (int k = 0; k < K; ++k)
-          w_oi[static_cast<size_t>(o) * K + k] =
-              alpha * (trans_b ? wf[static_cast<size_t>(o) * K + k] : wf[static_cast<size_t>(k) * N + o]);
-      std::vector<float> bias;
-      if (has_input(n, 2))
-        for (float v : floats(n.input(2), ctx, N)) bias.push_back(beta * v);
-      LinearLayer L;
-      L.is_conv = false;
-      L.c_in = K;
-      L.c_out = N;
-      L.out = {N, 1, 1};
-      add_linear(n, std::move(L), in_id, w_oi, bias.empty() ? nullptr : &bias);
-    } else if (t == "Relu") {
-      check_known_attrs(n, {});
-      const int in_id = value(n.input(0), ctx);
-      Op op = make_op(OpKind::Relu, n.name(), {in_id});
-      op.out = define(n.output(0), model_.values[in_id]);
-      model_.ops.push_back(op);
-    } else if (t == "Add") {
-      check_known_attrs(n, {});
-      require_io(n, 2);
-      const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
-      if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
-      Op op = make_op(OpKind::Add, n.name(), {a, b});
-      op.out = define(n.output(0), model_.values[a]);
-      model_.ops.push_back(op);
-    } else if (t == "MaxPool" || t == "AveragePool") {
-      check_known_attrs(n, {"kernel_shape", "strides", "pads", "ceil_mode", "dilations", "storage_order",
-                            "count_include_pad", "auto_pad"});
-      const auto* ap = attr(n, "auto_pad");
-      if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
-      if (int_attr(n, "ceil_mode", 0) != 0) reject(n, "ceil_mode = 1");
-      if (int_attr(n, "count_include_pad", 0) != 0) reject(n, "count_include_pad = 1");
-      checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      const auto k = checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim);
-      const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
-      const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
-      Op op = make_op(t == "MaxPool" ? OpKind::MaxPool : OpKind::AvgPool, n.name(), {in_id});
-      op.k_h = k[0];
-      op.k_w = k[1];
-      op.s_h = st[0];
-      op.s_w = st[1];
-      op.p_t = p[0];
-      op.p_l = p[1];
-      op.p_b = p[2];
-      op.p_r = p[3];
-      if (op.p_t >= op.k_h || op.p_b >= op.k_h || op.p_l >= op.k_w || op.p_r >= op.k_w)
-        reject(n, "pads as large as the pooling window");
-      const Shape out{in.c, window_out(n, in.h, op.p_t, op.p_b, op.k_h, op.s_h),
-                      window_out(n, in.w, op.p_l, op.p_r, op.k_w, op.s_w)};
-      op.out = define(n.output(0), out);
-      model_.ops.push_back(op);
-    } else if (t == "GlobalAveragePool") {
-      check_known_attrs(n, {});
-      const int in_id = value(n.input(0), ctx);
-      Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
-      op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
-      model_.ops.push_back(op);
-    } else if (t == "Flatten" || t == "Reshape") {
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      Shape out{in.size(), 1, 1};
-      if (t == "Flatten") {
-        check_known_attrs(n, {"axis"});
-        if (int_attr(n, "axis", 1) != 1) reject(n, "axis != 1");
-      } else {
-        check_known_attrs(n, {"allowzero"});
-        require_io(n, 2);
-        std::vector<int64_t> d = integers(n.input(1), ctx);
-        if (d.size() == 2 || d.size() == 4) {
-          int64_t known = 1, infer = -1;
-          for (size_t q = 1; q < d.size(); ++q) {
-            if (d[q] == 0) d[q] = q == 1 ? in.c : q == 2 ? in.h : in.w;
-            if (d[q] == -1 && infer < 0)
-              infer = static_cast<int64_t>(q);
-            else if (d[q] < 1 || d[q] > kMaxDim * 64 || (known *= d[q]) > in.size())
-              reject(n, "target shape");
-          }
-          if (infer > 0) {
-            if (in.size() % known != 0) reject(n, "target shape that does not divide the input");
-            d[infer] = in.size() / known;
-          }
-          for (size_t q = 1; q < d.size(); ++q)
-            if (d[q] > kMaxDim * 64) reject(n, "target shape");
-          out = d.size() == 2 ? Shape{static_cast<int>(d[1]), 1, 1}
-                              : Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
-        } else {
-          reject(n, "target rank (only N x K or N x C x H x W)");
-        }
-        if (out.size() != in.size()) reject(n, "reshape that changes the element count");
-      }
-      // Data stay in C, H, W order: a pure relabelling of the shape.
-      Op op = make_op(OpKind::Flatten, n.name(), {in_id});
-      op.out = define(n.output(0), out);
-      model_.ops.push_back(op);
-    } else if (t == "Slice") {
-      check_known_attrs(n, {});
-      require_io(n, 3);
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      const std::vector<int64_t>& starts = integers(n.input(1), ctx);
-      const std::vector<int64_t>& ends = integers(n.input(2), ctx);
-      std::vector<int64_t> axes;
-      if (has_input(n, 3)) axes = integers(n.input(3), ctx);
-      for (size_t q = axes.size(); q < starts.size(); ++q) axes.push_back(static_cast<int64_t>(q));
-      std::vector<int64_t> steps(starts.size(), 1);
-      if (has_input(n, 4)) steps = integers(n.input(4), ctx);
-      if (ends.size() != starts.size() || axes.size() != starts.size() || steps.size() != starts.size())
-        reject(n, "starts/ends/axes/steps of different lengths");
-      Op op = make_op(OpKind::Slice, n.name(), {in_id});
-      const int dims[3] = {in.c, in.h, in.w};
-      int out_dims[3] = {in.c, in.h, in.w};
-      for (size_t q = 0; q < starts.size(); ++q) {
-        int64_t ax = axes[q] < 0 ? axes[q] + 4 : axes[q];
-        if (ax == 0) {
-          if (starts[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
-          continue;
-        }
-        if (ax < 1 || ax > 3) reject(n, "axis " + std::to_string(axes[q]));
-        if (steps[q] < 1 || steps[q] > kMaxDim) reject(n, "step outside [1, " + std::to_string(kMaxDim) + "]");
-        const int d = dims[ax - 1];
-        auto clampi = [&](int64_t v) {
-          if (v < 0) v = v < -d ? 0 : v + d;
-          return std::max<int64_t>(0, std::min<int64_t>(d, v));
-        };
-        const int64_t b = clampi(starts[q]), e = clampi(ends[q]);
-        op.start[ax - 1] = static_cast<int>(b);
-        op.step[ax - 1] = static_cast<int>(steps[q]);
-        out_dims[ax - 1] = e > b ? static_cast<int>((e - b + steps[q] - 1) / steps[q]) : 0;
-      }
-      if (out_dims[0] < 1 || out_dims[1] < 1 || out_dims[2] < 1) reject(n, "empty slice");
-      op.out = define(n.output(0), Shape{out_dims[0], out_dims[1], out_dims[2]});
-      model_.ops.push_back(op);
-    } else if (t == "Pad") {
-      check_known_attrs(n, {"mode"});
-      const auto* mode = attr(n, "mode");
-      if (mode && mode->s() != "constant") reject(n, "mode '" + mode->s() + "'");
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      require_io(n, 2);
-      const std::vector<int64_t>& p = integers(n.input(1), ctx);
-      if (p.size() != 8) reject(n, "pads that are not 4-D");
-      if (p[0] != 0 || p[4] != 0) reject(n, "padding of the batch axis");
-      Op op = make_op(OpKind::Pad, n.name(), {in_id});
-      for (int q = 0; q < 3; ++q) {
-        if (p[1 + q] < 0 || p[5 + q] < 0 || p[1 + q] > kMaxDim || p[5 + q] > kMaxDim)
-          reject(n, "pads outside [0, " + std::to_string(kMaxDim) + "]");
-        op.pad_lo[q] = static_cast<int>(p[1 + q]);
-        op.pad_hi[q] = static_cast<int>(p[5 + q]);
-      }
-      if (has_input(n, 2)) op.pad_value = floats(n.input(2), ctx, 1)[0];
-      op.out = define(n.output(0), Shape{in.c + op.pad_lo[0] + op.pad_hi[0], in.h + op.pad_lo[1] + op.pad_hi[1],
-                                         in.w + op.pad_lo[2] + op.pad_hi[2]});
-      model_.ops.push_back(op);
-    } else if (t == "BatchNormalization") {
-      check_known_attrs(n, {"epsilon", "momentum", "training_mode"});
-      if (int_attr(n, "training_mode", 0) != 0) reject(n, "training_mode = 1");
-      require_io(n, 5);
-      const int in_id = value(n.input(0), ctx);
-      const Shape in = model_.values[in_id];
-      const std::vector<float>&sc = floats(n.input(1), ctx, in.c), &b = floats(n.input(2), ctx, in.c),
-                 &mu = floats(n.input(3), ctx, in.c), &var = floats(n.input(4), ctx, in.c);
-      const float eps = float_attr(n, "epsilon", 1e-5f);
-      if (!(eps >= 0) || !std::isfinite(eps)) reject(n, "epsilon");
-      Op op = make_op(OpKind::Affine, n.name(), {in_id});
-      op.scale.resize(in.c);
-      op.shift.resize(in.c);
-      for (int c = 0; c < in.c; ++c) {
-        if (!(var[c] + eps > 0)) reject(n, "variance + epsilon <= 0 in channel " + std::to_string(c));
-        op.scale(c) = sc[c] / std::sqrt(var[c] + eps);
-        op.shift(c) = b[c] - mu[c] * op.scale(c);
-        if (!std::isfinite(op.scale(c)) || !std::isfinite(op.shift(c))) reject(n, "parameters (non-finite result)");
-      }
-      op.out = define(n.output(0), in);
-      model_.ops.push_back(op);
-    } else {
+    using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
+    static const std::map<std::string, Adder> kOps = {
+        {"Conv", &Loader::add_conv},       {"Gemm", &Loader::add_gemm},          {"MatMul", &Loader::add_gemm},
+        {"Relu", &Loader::add_relu},       {"Add", &Loader::add_add},            {"MaxPool", &Loader::add_pool},
+        {"AveragePool", &Loader::add_pool}, {"GlobalAveragePool", &Loader::add_global_avg_pool},
+        {"Flatten", &Loader::add_reshape}, {"Reshape", &Loader::add_reshape},    {"Slice", &Loader::add_slice},
+        {"Pad", &Loader::add_pad},         {"BatchNormalization", &Loader::add_batch_norm}};
+    const auto it = kOps.find(t);
+    if (it == kOps.end())
       reject(n, "operator (supported: Conv, Gemm, MatMul, BatchNormalization, Relu, Add, MaxPool, AveragePool, "
                 "GlobalAveragePool, Flatten, Reshape, Slice, Pad, Constant)");
-    }
+    (this->*it->second)(n, t, ctx);
   }
+
+  void add_conv(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    require_io(n, 2);
+    check_known_attrs(n, {"dilations", "group", "kernel_shape", "pads", "strides", "auto_pad"});
+    const auto* ap = attr(n, "auto_pad");
+    if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
+    if (int_attr(n, "group", 1) != 1) reject(n, "group != 1");
+    checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
+    const int in_id = value(n.input(0), ctx);
+    const Init& w = init(n.input(1), ctx);
+    if (w.dims.size() != 4) reject(n, "weight rank");
+    for (auto d : w.dims)
+      if (d < 1 || d > kMaxDim) reject(n, "weight dims");
+    LinearLayer L;
+    L.c_out = static_cast<int>(w.dims[0]);
+    L.c_in = static_cast<int>(w.dims[1]);
+    L.k_h = static_cast<int>(w.dims[2]);
+    L.k_w = static_cast<int>(w.dims[3]);
+    if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{L.k_h, L.k_w})
+      reject(n, "kernel_shape that differs from the weight");
+    const Shape in = model_.values[in_id];
+    if (in.c != L.c_in) reject(n, "input channels (" + std::to_string(in.c) + ") != weight channels");
+    const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
+    const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
+    L.stride_h = st[0];
+    L.stride_w = st[1];
+    L.pad_t = p[0];
+    L.pad_l = p[1];
+    L.pad_b = p[2];
+    L.pad_r = p[3];
+    L.out = {L.c_out, window_out(n, in.h, L.pad_t, L.pad_b, L.k_h, L.stride_h),
+             window_out(n, in.w, L.pad_l, L.pad_r, L.k_w, L.stride_w)};
+    const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(L.rows()) * L.c_out);
+    const std::vector<float>* b = has_input(n, 2) ? &floats(n.input(2), ctx, L.c_out) : nullptr;
+    add_linear(n, std::move(L), in_id, wf, b);
+  }
+
+  void add_gemm(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    if (t == "Gemm") {
+      check_known_attrs(n, {"alpha", "beta", "transA", "transB"});
+      if (int_attr(n, "transA", 0) != 0) reject(n, "transA = 1");
+    } else {
+      check_known_attrs(n, {});
+    }
+    require_io(n, 2);
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    if (in.h != 1 || in.w != 1) reject(n, "input that is not a flat vector (insert Flatten)");
+    const Init& w = init(n.input(1), ctx);
+    if (w.dims.size() != 2 || w.dims[0] < 1 || w.dims[1] < 1 || w.dims[0] > kMaxDim * 64 || w.dims[1] > kMaxDim)
+      reject(n, "weight rank or dims");
+    const bool trans_b = t == "Gemm" && int_attr(n, "transB", 0) != 0;
+    const int K = static_cast<int>(trans_b ? w.dims[1] : w.dims[0]);
+    const int N = static_cast<int>(trans_b ? w.dims[0] : w.dims[1]);
+    if (K != in.c) reject(n, "inner dimension " + std::to_string(K) + " vs input " + std::to_string(in.c));
+    const float alpha = t == "Gemm" ? float_attr(n, "alpha", 1.0f) : 1.0f;
+    const float beta = t == "Gemm" ? float_attr(n, "beta", 1.0f) : 1.0f;
+    if (!std::isfinite(alpha) || !std::isfinite(beta)) reject(n, "non-finite alpha or beta");
+    const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(K) * N);
+    std::vector<float> w_oi(static_cast<size_t>(N) * K);  // as OIHW with H = W = 1
+    for (int o = 0; o < N; ++o)
+      for (int k = 0; k < K; ++k)
+        w_oi[static_cast<size_t>(o) * K + k] =
+            alpha * (trans_b ? wf[static_cast<size_t>(o) * K + k] : wf[static_cast<size_t>(k) * N + o]);
+    std::vector<float> bias;
+    if (has_input(n, 2))
+      for (float v : floats(n.input(2), ctx, N)) bias.push_back(beta * v);
+    LinearLayer L;
+    L.is_conv = false;
+    L.c_in = K;
+    L.c_out = N;
+    L.out = {N, 1, 1};
+    add_linear(n, std::move(L), in_id, w_oi, bias.empty() ? nullptr : &bias);
+  }
+
+  void add_relu(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {});
+    const int in_id = value(n.input(0), ctx);
+    Op op = make_op(OpKind::Relu, n.name(), {in_id});
+    op.out = define(n.output(0), model_.values[in_id]);
+    model_.ops.push_back(op);
+  }
+
+  void add_add(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {});
+    require_io(n, 2);
+    const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
+    if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
+    Op op = make_op(OpKind::Add, n.name(), {a, b});
+    op.out = define(n.output(0), model_.values[a]);
+    model_.ops.push_back(op);
+  }
+
+  void add_pool(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    check_known_attrs(n, {"kernel_shape", "strides", "pads", "ceil_mode", "dilations", "storage_order",
+                          "count_include_pad", "auto_pad"});
+    const auto* ap = attr(n, "auto_pad");
+    if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
+    if (int_attr(n, "ceil_mode", 0) != 0) reject(n, "ceil_mode = 1");
+    if (int_attr(n, "count_include_pad", 0) != 0) reject(n, "count_include_pad = 1");
+    checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    const auto k = checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim);
+    const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
+    const auto p = checked_ints(n, "pads", {0, 0, 0, 0}, 4, 0, kMaxDim);
+    Op op = make_op(t == "MaxPool" ? OpKind::MaxPool : OpKind::AvgPool, n.name(), {in_id});
+    op.k_h = k[0];
+    op.k_w = k[1];
+    op.s_h = st[0];
+    op.s_w = st[1];
+    op.p_t = p[0];
+    op.p_l = p[1];
+    op.p_b = p[2];
+    op.p_r = p[3];
+    if (op.p_t >= op.k_h || op.p_b >= op.k_h || op.p_l >= op.k_w || op.p_r >= op.k_w)
+      reject(n, "pads as large as the pooling window");
+    const Shape out{in.c, window_out(n, in.h, op.p_t, op.p_b, op.k_h, op.s_h),
+                    window_out(n, in.w, op.p_l, op.p_r, op.k_w, op.s_w)};
+    op.out = define(n.output(0), out);
+    model_.ops.push_back(op);
+  }
+
+  void add_global_avg_pool(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {});
+    const int in_id = value(n.input(0), ctx);
+    Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
+    op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
+    model_.ops.push_back(op);
+  }
+
+  void add_reshape(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    Shape out{in.size(), 1, 1};
+    if (t == "Flatten") {
+      check_known_attrs(n, {"axis"});
+      if (int_attr(n, "axis", 1) != 1) reject(n, "axis != 1");
+    } else {
+      check_known_attrs(n, {"allowzero"});
+      require_io(n, 2);
+      std::vector<int64_t> d = integers(n.input(1), ctx);
+      if (d.size() == 2 || d.size() == 4) {
+        int64_t known = 1, infer = -1;
+        for (size_t q = 1; q < d.size(); ++q) {
+          if (d[q] == 0) d[q] = q == 1 ? in.c : q == 2 ? in.h : in.w;
+          if (d[q] == -1 && infer < 0)
+            infer = static_cast<int64_t>(q);
+          else if (d[q] < 1 || d[q] > kMaxDim * 64 || (known *= d[q]) > in.size())
+            reject(n, "target shape");
+        }
+        if (infer > 0) {
+          if (in.size() % known != 0) reject(n, "target shape that does not divide the input");
+          d[infer] = in.size() / known;
+        }
+        for (size_t q = 1; q < d.size(); ++q)
+          if (d[q] > kMaxDim * 64) reject(n, "target shape");
+        out = d.size() == 2 ? Shape{static_cast<int>(d[1]), 1, 1}
+                            : Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
+      } else {
+        reject(n, "target rank (only N x K or N x C x H x W)");
+      }
+      if (out.size() != in.size()) reject(n, "reshape that changes the element count");
+    }
+    // Data stay in C, H, W order: a pure relabelling of the shape.
+    Op op = make_op(OpKind::Flatten, n.name(), {in_id});
+    op.out = define(n.output(0), out);
+    model_.ops.push_back(op);
+  }
+
+  void add_slice(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {});
+    require_io(n, 3);
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    const std::vector<int64_t>& starts = integers(n.input(1), ctx);
+    const std::vector<int64_t>& ends = integers(n.input(2), ctx);
+    std::vector<int64_t> axes;
+    if (has_input(n, 3)) axes = integers(n.input(3), ctx);
+    for (size_t q = axes.size(); q < starts.size(); ++q) axes.push_back(static_cast<int64_t>(q));
+    std::vector<int64_t> steps(starts.size(), 1);
+    if (has_input(n, 4)) steps = integers(n.input(4), ctx);
+    if (ends.size() != starts.size() || axes.size() != starts.size() || steps.size() != starts.size())
+      reject(n, "starts/ends/axes/steps of different lengths");
+    Op op = make_op(OpKind::Slice, n.name(), {in_id});
+    const int dims[3] = {in.c, in.h, in.w};
+    int out_dims[3] = {in.c, in.h, in.w};
+    for (size_t q = 0; q < starts.size(); ++q) {
+      int64_t ax = axes[q] < 0 ? axes[q] + 4 : axes[q];
+      if (ax == 0) {
+        if (starts[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
+        continue;
+      }
+      if (ax < 1 || ax > 3) reject(n, "axis " + std::to_string(axes[q]));
+      if (steps[q] < 1 || steps[q] > kMaxDim) reject(n, "step outside [1, " + std::to_string(kMaxDim) + "]");
+      const int d = dims[ax - 1];
+      auto clampi = [&](int64_t v) {
+        if (v < 0) v = v < -d ? 0 : v + d;
+        return std::max<int64_t>(0, std::min<int64_t>(d, v));
+      };
+      const int64_t b = clampi(starts[q]), e = clampi(ends[q]);
+      op.start[ax - 1] = static_cast<int>(b);
+      op.step[ax - 1] = static_cast<int>(steps[q]);
+      out_dims[ax - 1] = e > b ? static_cast<int>((e - b + steps[q] - 1) / steps[q]) : 0;
+    }
+    if (out_dims[0] < 1 || out_dims[1] < 1 || out_dims[2] < 1) reject(n, "empty slice");
+    op.out = define(n.output(0), Shape{out_dims[0], out_dims[1], out_dims[2]});
+    model_.ops.push_back(op);
+  }
+
+  void add_pad(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"mode"});
+    const auto* mode = attr(n, "mode");
+    if (mode && mode->s() != "constant") reject(n, "mode '" + mode->s() + "'");
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    require_io(n, 2);
+    const std::vector<int64_t>& p = integers(n.input(1), ctx);
+    if (p.size() != 8) reject(n, "pads that are not 4-D");
+    if (p[0] != 0 || p[4] != 0) reject(n, "padding of the batch axis");
+    Op op = make_op(OpKind::Pad, n.name(), {in_id});
+    for (int q = 0; q < 3; ++q) {
+      if (p[1 + q] < 0 || p[5 + q] < 0 || p[1 + q] > kMaxDim || p[5 + q] > kMaxDim)
+        reject(n, "pads outside [0, " + std::to_string(kMaxDim) + "]");
+      op.pad_lo[q] = static_cast<int>(p[1 + q]);
+      op.pad_hi[q] = static_cast<int>(p[5 + q]);
+    }
+    if (has_input(n, 2)) op.pad_value = floats(n.input(2), ctx, 1)[0];
+    op.out = define(n.output(0), Shape{in.c + op.pad_lo[0] + op.pad_hi[0], in.h + op.pad_lo[1] + op.pad_hi[1],
+                                       in.w + op.pad_lo[2] + op.pad_hi[2]});
+    model_.ops.push_back(op);
+  }
+
+  void add_batch_norm(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"epsilon", "momentum", "training_mode"});
+    if (int_attr(n, "training_mode", 0) != 0) reject(n, "training_mode = 1");
+    require_io(n, 5);
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    const std::vector<float>&sc = floats(n.input(1), ctx, in.c), &b = floats(n.input(2), ctx, in.c),
+               &mu = floats(n.input(3), ctx, in.c), &var = floats(n.input(4), ctx, in.c);
+    const float eps = float_attr(n, "epsilon", 1e-5f);
+    if (!(eps >= 0) || !std::isfinite(eps)) reject(n, "epsilon");
+    Op op = make_op(OpKind::Affine, n.name(), {in_id});
+    op.scale.resize(in.c);
+    op.shift.resize(in.c);
+    for (int c = 0; c < in.c; ++c) {
+      if (!(var[c] + eps > 0)) reject(n, "variance + epsilon <= 0 in channel " + std::to_string(c));
+      op.scale(c) = sc[c] / std::sqrt(var[c] + eps);
+      op.shift(c) = b[c] - mu[c] * op.scale(c);
+      if (!std::isfinite(op.scale(c)) || !std::isfinite(op.shift(c))) reject(n, "parameters (non-finite result)");
+    }
+    op.out = define(n.output(0), in);
+    model_.ops.push_back(op);
+  }
+
 
   const onnx::ModelProto& m_;
   std::string path_;
