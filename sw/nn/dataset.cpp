@@ -97,7 +97,7 @@ Dataset load_mnist(const std::string& images, const std::string& labels, int off
   const int total = static_cast<int>(total32), rows = static_cast<int>(rows32), cols = static_cast<int>(cols32);
   if (be32(lb, 4) != total32) throw InputError("MNIST image and label counts differ");
   if (im.size() < 16 + static_cast<size_t>(total) * rows * cols || lb.size() < 8 + static_cast<size_t>(total))
-    throw InputError("MNIST files are truncated");
+    throw InputError("MNIST files '" + images + "' / '" + labels + "' are truncated");
   clamp_range(total, offset, count, images);
   Dataset d;
   d.name = "mnist";
