@@ -95,15 +95,33 @@ void BM_GeffFromScratch(benchmark::State& st, const char* name, int threads) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_FromScratch, line_linear, "line", false)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_FromScratch, direct_linear, "direct", false)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_FromScratch, line_nonlinear, "line", true)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_FromScratch, direct_nonlinear, "direct", true)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FromScratch, line_linear, "line", false)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FromScratch, direct_linear, "direct", false)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FromScratch, line_nonlinear, "line", true)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FromScratch, direct_nonlinear, "direct", true)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Reused, line, "line")->Args({576, 64})->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Reused, direct_factorization, "direct")->Args({576, 64})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GeffReused)->Args({576, 64})->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_GeffFromScratch, line_1thread, "line", 1)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_GeffFromScratch, line_all_threads, "line", 0)->Args({128, 64})->Args({576, 64})->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_GeffFromScratch, line_1thread, "line", 1)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_GeffFromScratch, line_all_threads, "line", 0)
+    ->Args({128, 64})
+    ->Args({576, 64})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_GeffFromScratch, direct, "direct", 0)->Args({576, 64})->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

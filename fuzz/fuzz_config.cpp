@@ -55,7 +55,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const size_t nl = text.find('\n');
     const std::string line = text.substr(0, nl);
     expect_input_error_only([&] { cfg.apply_override(line); });
-    if (nl != std::string::npos) expect_input_error_only([&] { cfg.merge_yaml_text(text.substr(nl + 1), "fuzz rest"); });
+    if (nl != std::string::npos)
+      expect_input_error_only([&] { cfg.merge_yaml_text(text.substr(nl + 1), "fuzz rest"); });
     read_some(cfg);
   }
   return 0;

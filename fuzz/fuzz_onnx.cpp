@@ -16,12 +16,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const int nv = static_cast<int>(m.values.size());
     XBARSIM_FUZZ_CHECK(m.output >= 0 && m.output < nv);
     // Every value has a positive C x H x W (what the executor sizes its buffers from).
-    for (const auto& s : m.values)
-      XBARSIM_FUZZ_CHECK(s.c >= 1 && s.h >= 1 && s.w >= 1);
+    for (const auto& s : m.values) XBARSIM_FUZZ_CHECK(s.c >= 1 && s.h >= 1 && s.w >= 1);
     for (const auto& op : m.ops) {
       XBARSIM_FUZZ_CHECK(op.out >= 0 && op.out < nv);
-      for (int v : op.in)
-        XBARSIM_FUZZ_CHECK(v >= 0 && v < nv);
+      for (int v : op.in) XBARSIM_FUZZ_CHECK(v >= 0 && v < nv);
     }
   } catch (const xbarsim::InputError&) {
   }

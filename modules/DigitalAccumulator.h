@@ -27,7 +27,8 @@ class DigitalAccumulator : public sc_core::sc_module {
       return;
     }
     job->y.setZero(job->iterations(), job->analog->outputs());
-    for (int b = 0; b < job->analog->crossbars(); ++b) job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
+    for (int b = 0; b < job->analog->crossbars(); ++b)
+      job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
     // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
     long long per_iteration = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;

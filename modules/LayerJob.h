@@ -21,11 +21,11 @@ struct LayerJob {
   bool detailed = true;               ///< timing mode
   int replication = 1;
 
-  AnalogLayer::RowMat<float> xq;           ///< iterations x K: shift-register contents, then DAC codes
-  std::vector<Eigen::MatrixXf> currents;   ///< per crossbar: iterations x physical columns
-  Eigen::MatrixXf y;                       ///< iterations x c_out (without bias)
+  AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC codes
+  std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: iterations x physical columns
+  Eigen::MatrixXf y;                      ///< iterations x c_out (without bias)
 
-  std::vector<double> stage_ns[kStages];   ///< per-iteration latency of each stage (detailed mode)
+  std::vector<double> stage_ns[kStages];  ///< per-iteration latency of each stage (detailed mode)
   long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
 
   int iterations() const { return layer->out.h * layer->out.w; }

@@ -43,8 +43,8 @@ class Accelerator::PlatformBackend : public LinearBackend {
 };
 
 Accelerator::Accelerator(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
-                         const PlatformConfig& cfg, std::function<void(int, float*)> image,
-                         const std::string& vcd_path, std::function<void(int)> progress)
+                         const PlatformConfig& cfg, std::function<void(int, float*)> image, const std::string& vcd_path,
+                         std::function<void(int)> progress)
     : sc_module(name),
       model_(model),
       programmed_(programmed),

@@ -22,8 +22,8 @@ namespace xbarsim {
 
 /// What a simulation measured.
 struct SimulationResult {
-  std::vector<Eigen::VectorXf> logits;             ///< per image
-  std::vector<double> image_latency_ns;            ///< per image, input transfer to logits
+  std::vector<Eigen::VectorXf> logits;                ///< per image
+  std::vector<double> image_latency_ns;               ///< per image, input transfer to logits
   std::vector<std::vector<double>> layer_latency_ns;  ///< per image, per linear layer
 };
 

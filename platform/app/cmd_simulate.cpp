@@ -32,8 +32,9 @@ Dataset synthetic_images(const Shape& s, int count, uint64_t seed) {
 
 /// Units of one layer times its replication (the buffer holds one copy of the activations).
 LayerInventory replicated(LayerInventory v, int r) {
-  for (auto f : {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
-                 &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
+  for (auto f :
+       {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
+        &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
     v.*f *= r;
   return v;
 }
@@ -81,8 +82,9 @@ int cmd_simulate(int argc, char** argv) {
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const DataForRun data = simulation_data(args, cfg, model, pc.images);
   if (!ac.xbar.is_linear())
-    std::fprintf(stderr, "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
-                         "(slow); consider --images 1\n");
+    std::fprintf(stderr,
+                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
+                 "(slow); consider --images 1\n");
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
@@ -107,15 +109,25 @@ int cmd_simulate(int argc, char** argv) {
   j["replication"] = pc.replication;
   j["images"] = images;
   j["layers"] = nlohmann::json::array();
-  const Table table({{"layer", -30}, {"kernel", -12}, {"rows", 6}, {"cols", 5}, {"xbars", 6}, {"ADCs", 6},
-                     {"DACs", 6}, {"iters", 8}, {"cycles", 9}, {"latency_us", 11, 3}, {"energy_uJ", 10, 4}});
+  const Table table({{"layer", -30},
+                     {"kernel", -12},
+                     {"rows", 6},
+                     {"cols", 5},
+                     {"xbars", 6},
+                     {"ADCs", 6},
+                     {"DACs", 6},
+                     {"iters", 8},
+                     {"cycles", 9},
+                     {"latency_us", 11, 3},
+                     {"energy_uJ", 10, 4}});
   table.print_header(stdout);
   CostReport cost;
   long long iterations = 0;
   double slowest_ns = 0;
   for (size_t l = 0; l < model.linear.size(); ++l) {
     const LinearLayer& L = model.linear[l];
-    const LayerInventory v = replicated(layer_inventory(L, MappingScheme::Dense, ac.mapping, hw.columns_per_adc), pc.replication);
+    const LayerInventory v =
+        replicated(layer_inventory(L, MappingScheme::Dense, ac.mapping, hw.columns_per_adc), pc.replication);
     ActionCounts a = acc.tile(static_cast<int>(l)).actions();
     for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts,
                       &a.buffer_read_bytes, &a.buffer_write_bytes})
@@ -159,11 +171,12 @@ int cmd_simulate(int argc, char** argv) {
   j["component_library"] = hw.lib.source;
   j["simulation_wall_time_s"] = sim_s;
   j["simulated_images_per_wall_s"] = images / std::max(sim_s, 1e-9);
-  std::printf("\n%s, %s timing, %s schedule: %lld iterations/image, %lld cycles/image, latency %.3f us, %.0f images/s "
-              "(modelled)\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
-              model.path.c_str(), pc.detailed ? "detailed" : "ideal", pc.pipelined ? "pipelined" : "sequential",
-              iterations, j["cycles_total"].get<long long>(), latency_ns * 1e-3, throughput, cost.energy_uj().total(),
-              cost.avg_power_mw(), cost.peak_power_mw.total(), cost.area_mm2.total());
+  std::printf(
+      "\n%s, %s timing, %s schedule: %lld iterations/image, %lld cycles/image, latency %.3f us, %.0f images/s "
+      "(modelled)\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
+      model.path.c_str(), pc.detailed ? "detailed" : "ideal", pc.pipelined ? "pipelined" : "sequential", iterations,
+      j["cycles_total"].get<long long>(), latency_ns * 1e-3, throughput, cost.energy_uj().total(), cost.avg_power_mw(),
+      cost.peak_power_mw.total(), cost.area_mm2.total());
   std::printf("simulation: %d images in %.2f s wall (%.1f images/s), programming excluded\n", images, sim_s,
               images / std::max(sim_s, 1e-9));
   if (data.labelled) {
@@ -179,17 +192,29 @@ int cmd_simulate(int argc, char** argv) {
   if (args.has("--json")) write_json(args.get("--json"), j);
   if (args.has("--csv")) {
     OutputFile csv(args.get("--csv"));
-    const Table t({{"layer", 0}, {"k_h", 0}, {"k_w", 0}, {"c_in", 0}, {"c_out", 0}, {"rows", 0}, {"cols", 0},
-                   {"crossbars", 0}, {"iterations", 0}, {"cycles", 0}, {"latency_us", 0}, {"adcs", 0}, {"dacs", 0},
-                   {"energy_uj", 0}, {"area_mm2", 0}});
+    const Table t({{"layer", 0},
+                   {"k_h", 0},
+                   {"k_w", 0},
+                   {"c_in", 0},
+                   {"c_out", 0},
+                   {"rows", 0},
+                   {"cols", 0},
+                   {"crossbars", 0},
+                   {"iterations", 0},
+                   {"cycles", 0},
+                   {"latency_us", 0},
+                   {"adcs", 0},
+                   {"dacs", 0},
+                   {"energy_uj", 0},
+                   {"area_mm2", 0}});
     t.csv_header(csv.stream());
     for (const auto& l : j["layers"])
-      t.csv_row(csv.stream(), {l["name"].get<std::string>(), l["kernel"][0].get<long long>(),
-                               l["kernel"][1].get<long long>(), l["kernel"][2].get<long long>(),
-                               l["kernel"][3].get<long long>(), l["rows"].get<long long>(), l["cols"].get<long long>(),
-                               l["crossbars"].get<long long>(), l["iterations"].get<long long>(),
-                               l["cycles"].get<long long>(), l["latency_us"].get<double>(), l["adcs"].get<long long>(),
-                               l["dacs"].get<long long>(), l["energy_uj"].get<double>(), l["area_mm2"].get<double>()});
+      t.csv_row(csv.stream(),
+                {l["name"].get<std::string>(), l["kernel"][0].get<long long>(), l["kernel"][1].get<long long>(),
+                 l["kernel"][2].get<long long>(), l["kernel"][3].get<long long>(), l["rows"].get<long long>(),
+                 l["cols"].get<long long>(), l["crossbars"].get<long long>(), l["iterations"].get<long long>(),
+                 l["cycles"].get<long long>(), l["latency_us"].get<double>(), l["adcs"].get<long long>(),
+                 l["dacs"].get<long long>(), l["energy_uj"].get<double>(), l["area_mm2"].get<double>()});
     csv.commit();
   }
   return 0;

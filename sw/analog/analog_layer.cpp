@@ -99,13 +99,14 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   for (size_t b = 0; b < blocks_.size(); ++b) {
     const Block& blk = blocks_[b];
     auto xb = std::make_unique<Crossbar>();
-    static_cast<MappedWeights&>(*xb) = map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk,
-                                                   cfg_.mapping, cfg_.xbar);
+    static_cast<MappedWeights&>(*xb) =
+        map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
     xb->beta = Eigen::VectorXd::Ones(xb->pcols);
     xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
-    const ProgrammingInputs in{cal.middleCols(blk.row0, blk.rows),
-                               calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(),
-                               cal, cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
+    const ProgrammingInputs in{
+        cal.middleCols(blk.row0, blk.rows),
+        calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
+        cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
     CrossbarReport rep;
     rep.block = blk;
     rep.physical_cols = xb->pcols;
@@ -234,7 +235,8 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
     } else {
       const S k = static_cast<S>(1.0 / (x.beta(j) * x.s));
       const S* ic = iq.col(j).data();
-      for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ((ic[r] * inv_alpha - gmin * sx[r]) * k + w_lo * sx[r]) + off;
+      for (Eigen::Index r = 0; r < n; ++r)
+        out[r] += gain * ((ic[r] * inv_alpha - gmin * sx[r]) * k + w_lo * sx[r]) + off;
     }
   }
 }
@@ -281,12 +283,12 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   return y;
 }
 
-#define XBARSIM_INSTANTIATE(S)                                                                                  \
-  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;                               \
-  template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                                           \
-  template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                                                \
-  template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;                                 \
-  template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const;                            \
+#define XBARSIM_INSTANTIATE(S)                                                     \
+  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
+  template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
+  template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
+  template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
+  template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;
 XBARSIM_INSTANTIATE(float)
 XBARSIM_INSTANTIATE(double)

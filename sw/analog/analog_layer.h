@@ -43,10 +43,10 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
 
 /// Statistics of one programmed crossbar.
 struct CrossbarReport {
-  Block block;                 ///< rows/columns of W it holds
-  int physical_cols = 0;       ///< columns incl. differential pairs / sum column
-  int out_of_range_cells = 0;  ///< conversion wanted G' outside [g_min, g_max] (clipped)
-  double min_column_gain = 1;  ///< matrix conversion column scaling (1 = full range)
+  Block block;                      ///< rows/columns of W it holds
+  int physical_cols = 0;            ///< columns incl. differential pairs / sum column
+  int out_of_range_cells = 0;       ///< conversion wanted G' outside [g_min, g_max] (clipped)
+  double min_column_gain = 1;       ///< matrix conversion column scaling (1 = full range)
   double conversion_amplitude = 0;  ///< constant-signal amplitude used (fraction of v_in_max)
   double conversion_residual = 0;   ///< matrix conversion max |G_eff - T| / max T
 };

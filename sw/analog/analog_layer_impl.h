@@ -9,11 +9,11 @@ namespace xbarsim {
 /// A crossbar after programming: the mapped weights, the conductances written (after
 /// conversion and noise), the solver over them and what the forward stages use.
 struct AnalogLayer::Crossbar : MappedWeights {
-  Eigen::VectorXd beta;     ///< per physical column gain of matrix conversion (1 otherwise)
-  Eigen::MatrixXd g_prog;   ///< S, programmed conductances
+  Eigen::VectorXd beta;    ///< per physical column gain of matrix conversion (1 otherwise)
+  Eigen::MatrixXd g_prog;  ///< S, programmed conductances
   std::unique_ptr<CrossbarSolver> solver;
-  Eigen::MatrixXd geff_d;   ///< alpha * G_eff (A per input unit), linear devices
-  Eigen::MatrixXf geff_f;   ///< the same in float for network inference
+  Eigen::MatrixXd geff_d;          ///< alpha * G_eff (A per input unit), linear devices
+  Eigen::MatrixXf geff_f;          ///< the same in float for network inference
   Eigen::VectorXd adc_lo, adc_hi;  ///< A, per physical column
   Eigen::VectorXd adc_offset;      ///< per physical column: offset current per unit sum(X) removed before the ADC
   ColumnFit fit;

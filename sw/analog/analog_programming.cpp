@@ -18,7 +18,9 @@ namespace {
 struct ConversionController {
   /// The paper's constant-signal amplitudes (fraction of v_in_max) by crossbar rows: 0.1 up
   /// to 150 rows, 0.05 up to 300, 0.01 up to 600, 0.001 beyond (its tables).
-  static double paper_amplitude(int rows) { return rows <= 150 ? 0.1 : rows <= 300 ? 0.05 : rows <= 600 ? 0.01 : 0.001; }
+  static double paper_amplitude(int rows) {
+    return rows <= 150 ? 0.1 : rows <= 300 ? 0.05 : rows <= 600 ? 0.01 : 0.001;
+  }
   /// Amplitudes tried by conversion.amplitude = optimize (fraction of v_in_max).
   static constexpr double kOptimizeAmplitudes[] = {1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
   /// Matrix conversion's linearisation point without calibration inputs (fraction of v_in_max).
@@ -49,10 +51,11 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
     }
     return Eigen::VectorXd::Constant(x.blk.rows, amplitude * p.v_in_max_v);
   };
-  std::vector<double> amps = {cs.amplitude_mode == AmplitudeMode::Paper ? ConversionController::paper_amplitude(x.blk.rows)
-                                                                        : cs.amplitude};
+  std::vector<double> amps = {
+      cs.amplitude_mode == AmplitudeMode::Paper ? ConversionController::paper_amplitude(x.blk.rows) : cs.amplitude};
   if (cs.amplitude_mode == AmplitudeMode::Optimize && cs.signal == ConversionSignal::Constant)
-    amps.assign(std::begin(ConversionController::kOptimizeAmplitudes), std::end(ConversionController::kOptimizeAmplitudes));
+    amps.assign(std::begin(ConversionController::kOptimizeAmplitudes),
+                std::end(ConversionController::kOptimizeAmplitudes));
   double best = std::numeric_limits<double>::infinity();
   Eigen::MatrixXd best_g;
   for (double a : amps) {
@@ -86,8 +89,8 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
       mo.tolerance = cfg_.conversion.tolerance;
       const Eigen::VectorXd v_op =
           in.cal_b.rows() ? Eigen::VectorXd(alpha_ * in.cal_b.cwiseAbs().colwise().mean().transpose())
-                          : Eigen::VectorXd::Constant(x.blk.rows,
-                                                      ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
+                          : Eigen::VectorXd::Constant(
+                                x.blk.rows, ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
       const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
       x.beta = r.column_gain;
       rep.out_of_range_cells = r.out_of_range();

@@ -69,7 +69,8 @@ MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar
   m.sum_x = require_enum<SumX>(cfg, "mapping.sum_x", {{"digital", SumX::Digital}, {"analog", SumX::Analog}});
   m.g_headroom = cfg.get_double("mapping.g_headroom");
   if (xbar.g_max_s * (1 - m.g_headroom) <= xbar.g_min_s)
-    throw InputError("configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");
+    throw InputError(
+        "configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");
   m.scheme = require_enum<MappingScheme>(cfg, "mapping.scheme",
                                          {{"dense", MappingScheme::Dense}, {"sparse", MappingScheme::Sparse}});
   m.logical_columns_per_crossbar();  // validates max_cols against the column layout

@@ -32,8 +32,14 @@ struct MappingSpec {
 };
 
 enum class ConversionKind { None, Signal, Matrix };
-enum class Mitigation { None, Calibration, Conversion, ConversionCalibration, MatrixConversion,
-                        MatrixConversionCalibration };
+enum class Mitigation {
+  None,
+  Calibration,
+  Conversion,
+  ConversionCalibration,
+  MatrixConversion,
+  MatrixConversionCalibration
+};
 
 /// Section `mitigation.` (or `study.method`): the mitigation method.
 struct MitigationSpec {

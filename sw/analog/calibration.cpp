@@ -27,8 +27,6 @@ ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& idea
   return f;
 }
 
-ColumnFit identity_fit(int n) {
-  return {Eigen::VectorXd::Ones(n), Eigen::VectorXd::Zero(n)};
-}
+ColumnFit identity_fit(int n) { return {Eigen::VectorXd::Ones(n), Eigen::VectorXd::Zero(n)}; }
 
 }  // namespace xbarsim

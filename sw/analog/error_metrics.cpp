@@ -5,9 +5,7 @@
 
 namespace xbarsim {
 
-double bit_accuracy(double re) {
-  return re > 0 ? std::log2(1.0 / re + 1.0) : std::numeric_limits<double>::infinity();
-}
+double bit_accuracy(double re) { return re > 0 ? std::log2(1.0 / re + 1.0) : std::numeric_limits<double>::infinity(); }
 double ErrorStats::bit_accuracy_mean() const { return bit_accuracy(mean_relative_error); }
 double ErrorStats::bit_accuracy_worst() const { return bit_accuracy(worst_relative_error); }
 

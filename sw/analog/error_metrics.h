@@ -9,10 +9,10 @@
 namespace xbarsim {
 
 struct ErrorStats {
-  double mean_relative_error = 0;   ///< over all outputs
-  double worst_relative_error = 0;  ///< max over all outputs
-  Eigen::VectorXd column_mean;      ///< per column
-  Eigen::VectorXd column_worst;     ///< per column
+  double mean_relative_error = 0;     ///< over all outputs
+  double worst_relative_error = 0;    ///< max over all outputs
+  Eigen::VectorXd column_mean;        ///< per column
+  Eigen::VectorXd column_worst;       ///< per column
   double bit_accuracy_mean() const;   ///< log2(1/mean + 1)
   double bit_accuracy_worst() const;  ///< log2(1/worst + 1)
 };

@@ -13,11 +13,11 @@ namespace xbarsim {
 
 struct MappedWeights {
   Block blk;
-  int pcols = 0;       ///< physical columns (MappingSpec::physical_columns(blk.cols))
-  double s = 1;        ///< S per weight unit
-  double w_lo = 0;     ///< shift: A = W - w_lo
-  double a_sum = 0;    ///< analog sum column: its constant A
-  Eigen::MatrixXd a;   ///< non-negative mapped matrix, rows x pcols
+  int pcols = 0;             ///< physical columns (MappingSpec::physical_columns(blk.cols))
+  double s = 1;              ///< S per weight unit
+  double w_lo = 0;           ///< shift: A = W - w_lo
+  double a_sum = 0;          ///< analog sum column: its constant A
+  Eigen::MatrixXd a;         ///< non-negative mapped matrix, rows x pcols
   Eigen::MatrixXd g_target;  ///< S, g_min + s * a
 };
 

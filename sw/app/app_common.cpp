@@ -60,10 +60,22 @@ std::ostream& SweepCsv::row(int run, const std::vector<std::pair<std::string, st
   return os;
 }
 
-namespace {
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+SweepOutputs::SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
+                           const std::string& csv_columns)
+    : json_path_(args.get("--json")), csv_(args.get("--csv"), first_point, csv_columns) {}
+
+void SweepOutputs::add(nlohmann::json j, const std::vector<std::pair<std::string, std::string>>& point) {
+  for (const auto& kv : point) j["sweep"][kv.first] = kv.second;
+  all_.push_back(std::move(j));
 }
+
+void SweepOutputs::finish() {
+  csv_.commit();
+  if (!json_path_.empty()) write_json(json_path_, all_.size() == 1 ? all_[0] : all_);
+}
+
+namespace {
+double now_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 }  // namespace
 
 ProgressBar::ProgressBar(int total, std::string label)
@@ -79,8 +91,8 @@ void ProgressBar::update(int done) {
   const int width = 30;
   const int fill = total_ > 0 ? static_cast<int>(static_cast<double>(width) * done / total_) : width;
   const double rate = done / std::max(t - start_, 1e-9);
-  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.1f/s ", label_.c_str(), fill, "==============================",
-               width - fill, "", done, total_, rate);
+  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.1f/s ", label_.c_str(), fill,
+               "==============================", width - fill, "", done, total_, rate);
   std::fflush(stderr);
 }
 

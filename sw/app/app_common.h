@@ -42,6 +42,23 @@ class SweepCsv {
   std::unique_ptr<OutputFile> out_;
 };
 
+/// What a sweeping command writes: one JSON object per point (with its "sweep" values;
+/// the object alone for a single point, a list otherwise) and its CSV rows.
+class SweepOutputs {
+ public:
+  SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
+               const std::string& csv_columns);
+  SweepCsv& csv() { return csv_; }
+  void add(nlohmann::json j, const std::vector<std::pair<std::string, std::string>>& point);
+  /// Completes the CSV and writes the JSON (--json).
+  void finish();
+
+ private:
+  std::string json_path_;
+  SweepCsv csv_;
+  nlohmann::json all_ = nlohmann::json::array();
+};
+
 /// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.
 class ProgressBar {
  public:

@@ -17,8 +17,8 @@ void print_layers(const EvalResult& r) {
   std::printf("\n");
   t.print_header(stdout);
   for (const auto& l : r.layers)
-    t.print_row(stdout, {l.name, l.inventory.rows, l.inventory.cols, l.inventory.crossbars,
-                         100 * l.mean_relative_error, 100 * l.worst_relative_error});
+    t.print_row(stdout, {l.name, l.inventory.rows, l.inventory.cols, l.inventory.crossbars, 100 * l.mean_relative_error,
+                         100 * l.worst_relative_error});
 }
 
 int cmd_eval(int argc, char** argv) {
@@ -40,18 +40,23 @@ int cmd_eval(int argc, char** argv) {
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
   if (!data.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
 
-  SweepCsv csv(args.get("--csv"), points.front(),
-               "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
-  const Table table({{"run", -44}, {"images", 7}, {"software_%", 10, 2}, {"crossbar_%", 10, 2}, {"xbars", 8},
-                     {"oor", 7}, {"img/s", 9, 1}});
+  SweepOutputs out(args, points.front(),
+                   "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
+  const Table table({{"run", -44},
+                     {"images", 7},
+                     {"software_%", 10, 2},
+                     {"crossbar_%", 10, 2},
+                     {"xbars", 8},
+                     {"oor", 7},
+                     {"img/s", 9, 1}});
   table.print_header(stdout);
-  nlohmann::json all = nlohmann::json::array();
   for (size_t run = 0; run < points.size(); ++run) {
     const std::string label = sweep_label(points[run]);
     ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + label);
     ProgressBar eval_bar(data.test.count(), "evaluating  " + label);
     const EvalResult r = run_eval(model, designs[run], spec, data.test, data.calib,
-                                  {[&](int d, int) { prog.update(d); }, [&](int d, int) {
+                                  {[&](int d, int) { prog.update(d); },
+                                   [&](int d, int) {
                                      prog.finish();
                                      eval_bar.update(d);
                                    }});
@@ -62,19 +67,17 @@ int cmd_eval(int argc, char** argv) {
     table.print_row(stdout, {label, static_cast<long long>(r.images), 100 * r.software_accuracy,
                              100 * r.crossbar_accuracy, r.cost.crossbars, oor, j["images_per_s"].get<double>()});
     if (points.size() == 1) print_layers(r);
-    if (csv.enabled())
+    if (out.csv().enabled())
       for (size_t l = 0; l < r.layers.size(); ++l) {
         const EvalLayer& el = r.layers[l];
-        csv.row(static_cast<int>(run), points[run])
+        out.csv().row(static_cast<int>(run), points[run])
             << "," << l << "," << el.name << "," << el.inventory.rows << "," << el.inventory.cols << ","
             << el.inventory.crossbars << "," << el.inventory.adcs << "," << el.inventory.dacs << ","
             << el.mean_relative_error << "," << el.worst_relative_error << "\n";
       }
-    for (const auto& kv : points[run]) j["sweep"][kv.first] = kv.second;
-    all.push_back(j);
+    out.add(std::move(j), points[run]);
   }
-  csv.commit();
-  if (args.has("--json")) write_json(args.get("--json"), points.size() == 1 ? all[0] : all);
+  out.finish();
   return 0;
 }
 

@@ -34,8 +34,10 @@ int cmd_netlist(int argc, char** argv) {
 }  // namespace
 
 namespace {
-const CommandRegistrar kRegister{"netlist", cmd_netlist,
-                                 "netlist --conductances G.csv --inputs V.csv [--out NET.cir] [--config F] [--set k=v]...\n      the equivalent SPICE netlist; `ngspice -b NET.cir` prints the column currents"};
+const CommandRegistrar kRegister{
+    "netlist", cmd_netlist,
+    "netlist --conductances G.csv --inputs V.csv [--out NET.cir] [--config F] [--set k=v]...\n      the equivalent "
+    "SPICE netlist; `ngspice -b NET.cir` prints the column currents"};
 }  // namespace
 
 }  // namespace xbarsim

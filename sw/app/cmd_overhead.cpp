@@ -16,9 +16,20 @@ namespace {
 std::vector<Table::Cell> cells(const std::string& name, const std::string& kernel, const std::string& input,
                                const std::string& map, const MappingOverhead& c) {
   const LayerInventory& v = c.inv;
-  return {name, kernel, input, map, std::to_string(v.rows) + " x " + std::to_string(v.cols), v.crossbars, v.adcs,
-          v.dacs, v.utilization(), c.peak_power_mw.crossbar, c.area_mm2.crossbar,
-          c.peak_power_mw.arrays_and_converters(), c.area_mm2.arrays_and_converters(), v.iterations};
+  return {name,
+          kernel,
+          input,
+          map,
+          std::to_string(v.rows) + " x " + std::to_string(v.cols),
+          v.crossbars,
+          v.adcs,
+          v.dacs,
+          v.utilization(),
+          c.peak_power_mw.crossbar,
+          c.area_mm2.crossbar,
+          c.peak_power_mw.arrays_and_converters(),
+          c.area_mm2.arrays_and_converters(),
+          v.iterations};
 }
 
 int cmd_overhead(int argc, char** argv) {
@@ -32,18 +43,32 @@ int cmd_overhead(int argc, char** argv) {
   const OverheadReport rep = overhead_study(m, hw);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s: %zu linear layers, crossbars at most %s x %s, ADC %d bit, DAC %d bit, %d columns per ADC (%s)\n",
-              m.path.c_str(), rep.layers.size(), hw.mapping.max_rows ? std::to_string(hw.mapping.max_rows).c_str() : "unbounded",
-              hw.mapping.max_cols ? std::to_string(hw.mapping.max_cols).c_str() : "unbounded", hw.cost.adc_bits_priced(),
-              hw.cost.dac_bits_priced(), hw.columns_per_adc, hw.lib.source.c_str());
-  const Table table({{"layer", -30}, {"kernel", -12}, {"input", -9}, {"map", -6}, {"rows x cols", 19}, {"xbars", 8},
-                     {"ADCs", 8}, {"DACs", 9}, {"util", 6, 3}, {"xbar_P_mW", 12, 4}, {"xbar_A_mm2", 12, 6},
-                     {"total_P_mW", 12, 4}, {"total_A_mm2", 12, 6}, {"iters", 9}});
+              m.path.c_str(), rep.layers.size(),
+              hw.mapping.max_rows ? std::to_string(hw.mapping.max_rows).c_str() : "unbounded",
+              hw.mapping.max_cols ? std::to_string(hw.mapping.max_cols).c_str() : "unbounded",
+              hw.cost.adc_bits_priced(), hw.cost.dac_bits_priced(), hw.columns_per_adc, hw.lib.source.c_str());
+  const Table table({{"layer", -30},
+                     {"kernel", -12},
+                     {"input", -9},
+                     {"map", -6},
+                     {"rows x cols", 19},
+                     {"xbars", 8},
+                     {"ADCs", 8},
+                     {"DACs", 9},
+                     {"util", 6, 3},
+                     {"xbar_P_mW", 12, 4},
+                     {"xbar_A_mm2", 12, 6},
+                     {"total_P_mW", 12, 4},
+                     {"total_A_mm2", 12, 6},
+                     {"iters", 9}});
   table.print_header(stdout);
   std::unique_ptr<OutputFile> csv;
-  const Table csv_table({{"layer", 0}, {"k_h", 0}, {"k_w", 0}, {"c_in", 0}, {"c_out", 0}, {"in_h", 0}, {"in_w", 0},
-                         {"mapping", 0}, {"rows", 0}, {"cols", 0}, {"crossbars", 0}, {"adcs", 0}, {"dacs", 0},
-                         {"cells_used", 0}, {"cells_present", 0}, {"utilization", 0}, {"xbar_power_mw", 0},
-                         {"xbar_area_mm2", 0}, {"total_power_mw", 0}, {"total_area_mm2", 0}, {"iterations", 0}});
+  const Table csv_table(
+      {{"layer", 0},       {"k_h", 0},           {"k_w", 0},           {"c_in", 0},           {"c_out", 0},
+       {"in_h", 0},        {"in_w", 0},          {"mapping", 0},       {"rows", 0},           {"cols", 0},
+       {"crossbars", 0},   {"adcs", 0},          {"dacs", 0},          {"cells_used", 0},     {"cells_present", 0},
+       {"utilization", 0}, {"xbar_power_mw", 0}, {"xbar_area_mm2", 0}, {"total_power_mw", 0}, {"total_area_mm2", 0},
+       {"iterations", 0}});
   if (args.has("--csv")) {
     csv = std::make_unique<OutputFile>(args.get("--csv"));
     csv_table.csv_header(csv->stream());
@@ -57,13 +82,27 @@ int cmd_overhead(int argc, char** argv) {
     if (csv)
       for (const auto* c : {&l.dense, &l.sparse}) {
         const LayerInventory& v = c->inv;
-        csv_table.csv_row(csv->stream(),
-                          {l.name, (long long)l.k_h, (long long)l.k_w, (long long)l.c_in, (long long)l.c_out,
-                           (long long)l.input.h, (long long)l.input.w, std::string(c == &l.dense ? "dense" : "sparse"),
-                           v.rows, v.cols, v.crossbars, v.adcs, v.dacs, v.cells_used, v.cells_present,
-                           v.utilization(), c->peak_power_mw.crossbar, c->area_mm2.crossbar,
-                           c->peak_power_mw.arrays_and_converters(), c->area_mm2.arrays_and_converters(),
-                           v.iterations});
+        csv_table.csv_row(csv->stream(), {l.name,
+                                          (long long)l.k_h,
+                                          (long long)l.k_w,
+                                          (long long)l.c_in,
+                                          (long long)l.c_out,
+                                          (long long)l.input.h,
+                                          (long long)l.input.w,
+                                          std::string(c == &l.dense ? "dense" : "sparse"),
+                                          v.rows,
+                                          v.cols,
+                                          v.crossbars,
+                                          v.adcs,
+                                          v.dacs,
+                                          v.cells_used,
+                                          v.cells_present,
+                                          v.utilization(),
+                                          c->peak_power_mw.crossbar,
+                                          c->area_mm2.crossbar,
+                                          c->peak_power_mw.arrays_and_converters(),
+                                          c->area_mm2.arrays_and_converters(),
+                                          v.iterations});
       }
   }
   table.print_row(stdout, cells("TOTAL", "", "", "dense", rep.dense_total));

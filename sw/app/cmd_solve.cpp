@@ -80,8 +80,10 @@ int cmd_solve(int argc, char** argv) {
 }  // namespace
 
 namespace {
-const CommandRegistrar kRegister{"solve", cmd_solve,
-                                 "solve --conductances G.csv --inputs V.csv [--out I.csv] [--config F] [--set k=v]... [--json F]\n      column currents (A) of one crossbar for each input vector (one line of n per vector)"};
+const CommandRegistrar kRegister{
+    "solve", cmd_solve,
+    "solve --conductances G.csv --inputs V.csv [--out I.csv] [--config F] [--set k=v]... [--json F]\n      column "
+    "currents (A) of one crossbar for each input vector (one line of n per vector)"};
 }  // namespace
 
 }  // namespace xbarsim

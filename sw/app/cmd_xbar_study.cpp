@@ -31,11 +31,17 @@ int cmd_xbar_study(int argc, char** argv) {
       },
       [&](int d, int) { check_bar.update(d); });
   check_bar.finish();
-  SweepCsv csv(args.get("--csv"), points.front(), "vector,column,ideal,actual");
-  const Table table({{"run", -40}, {"xbars", 8}, {"oor_cells", 9}, {"mean_RE_%", 11}, {"worst_RE_%", 11},
-                     {"bits_m", 7, 2}, {"bits_w", 7, 2}, {"min_gain", 9}, {"time_s", 6, 2}});
+  SweepOutputs out(args, points.front(), "vector,column,ideal,actual");
+  const Table table({{"run", -40},
+                     {"xbars", 8},
+                     {"oor_cells", 9},
+                     {"mean_RE_%", 11},
+                     {"worst_RE_%", 11},
+                     {"bits_m", 7, 2},
+                     {"bits_w", 7, 2},
+                     {"min_gain", 9},
+                     {"time_s", 6, 2}});
   table.print_header(stdout);
-  nlohmann::json all = nlohmann::json::array();
   for (size_t run = 0; run < points.size(); ++run) {
     const std::string label = sweep_label(points[run]);
     if (points.size() > 1) std::fprintf(stderr, "[%zu/%zu] %s\n", run + 1, points.size(), label.c_str());
@@ -43,17 +49,15 @@ int cmd_xbar_study(int argc, char** argv) {
     table.print_row(stdout, {label, r.inventory.crossbars, r.out_of_range_cells, 100 * r.error.mean_relative_error,
                              100 * r.error.worst_relative_error, r.error.bit_accuracy_mean(),
                              r.error.bit_accuracy_worst(), r.min_column_gain, r.program_time_s + r.evaluate_time_s});
-    if (csv.enabled())
+    if (out.csv().enabled())
       for (Eigen::Index a = 0; a < r.ideal.rows(); ++a)
         for (Eigen::Index c = 0; c < r.ideal.cols(); ++c)
-          csv.row(static_cast<int>(run), points[run]) << "," << a << "," << c << "," << r.ideal(a, c) << ","
-                                                      << r.actual(a, c) << "\n";
+          out.csv().row(static_cast<int>(run), points[run])
+              << "," << a << "," << c << "," << r.ideal(a, c) << "," << r.actual(a, c) << "\n";
     nlohmann::json j = r.to_json();
-    for (const auto& kv : points[run]) j["sweep"][kv.first] = kv.second;
-    all.push_back(j);
+    out.add(std::move(j), points[run]);
   }
-  csv.commit();
-  if (args.has("--json")) write_json(args.get("--json"), points.size() == 1 ? all[0] : all);
+  out.finish();
   return 0;
 }
 

@@ -14,8 +14,8 @@ class Table {
   using Cell = std::variant<long long, double, std::string>;
   struct Column {
     std::string name;
-    int width;            ///< printed width (negative = left aligned)
-    int precision = 4;    ///< digits after the point for doubles (table); CSV keeps 12 significant
+    int width;          ///< printed width (negative = left aligned)
+    int precision = 4;  ///< digits after the point for doubles (table); CSV keeps 12 significant
   };
   explicit Table(std::vector<Column> columns) : columns_(std::move(columns)) {}
 

@@ -14,8 +14,7 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   p.g_max_s = require_positive(cfg, "crossbar.g_max");
   if (!(p.g_max_s > p.g_min_s)) {
     std::ostringstream os;
-    os << "configuration key 'crossbar.g_max' (" << p.g_max_s << ") must exceed 'crossbar.g_min' (" << p.g_min_s
-       << ")";
+    os << "configuration key 'crossbar.g_max' (" << p.g_max_s << ") must exceed 'crossbar.g_min' (" << p.g_min_s << ")";
     throw InputError(os.str());
   }
   p.v_in_max_v = require_positive(cfg, "crossbar.v_in_max");
@@ -24,15 +23,14 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   p.memristor.k_per_v = require_positive(cfg, "crossbar.memristor.k");
   p.memristor.v_read_v = require_positive(cfg, "crossbar.memristor.v_read");
   const std::string tr = require_one_of(cfg, "crossbar.transistor.model", {"none", "linear", "level1"});
-  p.transistor.model = tr == "none" ? TransistorModel::None
+  p.transistor.model = tr == "none"     ? TransistorModel::None
                        : tr == "linear" ? TransistorModel::Linear
                                         : TransistorModel::Level1;
   p.transistor.r_on_ohm = require_positive(cfg, "crossbar.transistor.r_on");
   p.transistor.vg_v = cfg.get_double("crossbar.transistor.vg");
   p.transistor.vth_v = cfg.get_double("crossbar.transistor.vth");
   p.transistor.kp_a_per_v2 = require_positive(cfg, "crossbar.transistor.kp");
-  if (p.transistor.model == TransistorModel::Level1 &&
-      !(p.transistor.vg_v - p.transistor.vth_v > p.v_in_max_v)) {
+  if (p.transistor.model == TransistorModel::Level1 && !(p.transistor.vg_v - p.transistor.vth_v > p.v_in_max_v)) {
     std::ostringstream os;
     os << "crossbar.transistor: vg - vth (" << p.transistor.vg_v - p.transistor.vth_v
        << " V) must exceed crossbar.v_in_max (" << p.v_in_max_v

@@ -61,8 +61,8 @@ SolverMethod solver_method_from_name(const std::string& name);
 /// Options of the circuit solvers (configuration keys under `solver.`).
 struct SolverOptions {
   SolverMethod method = SolverMethod::Auto;  ///< auto (= line) | line | direct
-  double tolerance = 1e-12;     ///< relative preconditioned residual of linear solves
-  int max_iterations = 2000;    ///< iterations of the structured solver per linear solve
+  double tolerance = 1e-12;                  ///< relative preconditioned residual of linear solves
+  int max_iterations = 2000;                 ///< iterations of the structured solver per linear solve
   int newton_max_iterations = 60;
   double newton_tolerance = 1e-12;  ///< max |dV| / max |V_in| at convergence (and KCL reltol)
   double newton_abstol_a = 1e-12;   ///< A, KCL residual allowed at every node at convergence

@@ -85,9 +85,8 @@ Eigen::MatrixXd CrossbarSolver::column_currents(const Eigen::MatrixXd& v_in) con
     out.noalias() = v_in * effective_matrix();
     return out;
   }
-  parallel_for(static_cast<int>(v_in.rows()), resolve_threads(options_.threads), [&](int k) {
-    out.row(k) = solve(v_in.row(k).transpose()).column_current.transpose();
-  });
+  parallel_for(static_cast<int>(v_in.rows()), resolve_threads(options_.threads),
+               [&](int k) { out.row(k) = solve(v_in.row(k).transpose()).column_current.transpose(); });
   return out;
 }
 

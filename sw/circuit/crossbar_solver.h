@@ -23,9 +23,9 @@ struct CircuitSolution {
 /// Solves the m x n 1T1M crossbar circuit for programmed conductances.
 class CrossbarSolver {
  public:
-  static constexpr int kMaxDimension = 1 << 20;         ///< rows or columns of one crossbar
-  static constexpr double kMaxCellToWireRatio = 1e4;    ///< cell conductance / wire conductance
-  static constexpr double kMaxInputVoltage = 1e3;       ///< V
+  static constexpr int kMaxDimension = 1 << 20;       ///< rows or columns of one crossbar
+  static constexpr double kMaxCellToWireRatio = 1e4;  ///< cell conductance / wire conductance
+  static constexpr double kMaxInputVoltage = 1e3;     ///< V
 
   virtual ~CrossbarSolver() = default;
 

@@ -21,15 +21,19 @@ double dot(const double* a, const double* b, int n) {
 struct LineSolver::Workspace {
   /// `krylov_basis`: GMRES (Newton steps) needs its restart basis; CG does not.
   Workspace(int mn, bool krylov_basis)
-      : a(mn), b(mn), s(mn), r(mn), z(mn), p(mn), q(mn),
+      : a(mn),
+        b(mn),
+        s(mn),
+        r(mn),
+        z(mn),
+        p(mn),
+        q(mn),
         v(krylov_basis ? (kGmresRestart + 1) * static_cast<size_t>(mn) : 0) {}
-  static double doubles(int mn, bool krylov_basis) {
-    return (7.0 + (krylov_basis ? kGmresRestart + 1 : 0)) * mn;
-  }
-  std::vector<double> a, b;           // schur_apply scratch
-  std::vector<double> s;              // Schur right-hand side
-  std::vector<double> r, z, p, q;     // Krylov vectors
-  std::vector<double> v;              // GMRES basis
+  static double doubles(int mn, bool krylov_basis) { return (7.0 + (krylov_basis ? kGmresRestart + 1 : 0)) * mn; }
+  std::vector<double> a, b;        // schur_apply scratch
+  std::vector<double> s;           // Schur right-hand side
+  std::vector<double> r, z, p, q;  // Krylov vectors
+  std::vector<double> v;           // GMRES basis
 };
 
 LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
@@ -149,8 +153,8 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w)
     for (int k = 0; k < mn; ++k) p[k] = z[k] + beta * p[k];
   }
   std::ostringstream os;
-  os << "line solver (CG) did not reach relative residual " << options_.tolerance << " in "
-     << options_.max_iterations << " iterations (solver.max_iterations)";
+  os << "line solver (CG) did not reach relative residual " << options_.tolerance << " in " << options_.max_iterations
+     << " iterations (solver.max_iterations)";
   throw SolverError(os.str());
 }
 
@@ -281,8 +285,7 @@ double LineSolver::memory_doubles(int m, int n) const {
   const int threads = std::max(1, std::min(resolve_threads(options_.threads), std::min(m, n)));
   // g, cell conductances, the linear system (5), one solution (5 matrices), G_eff; per
   // thread a workspace; Newton adds its ~20 per-node arrays.
-  return (1 + 1 + 5 + 5 + 1) * mn + threads * (Workspace::doubles(m * n, newton) + 4 * mn) +
-         (newton ? 20 * mn : 0.0);
+  return (1 + 1 + 5 + 5 + 1) * mn + threads * (Workspace::doubles(m * n, newton) + 4 * mn) + (newton ? 20 * mn : 0.0);
 }
 
 CircuitSolution LineSolver::solve(const Eigen::VectorXd& v_in) const {
@@ -318,8 +321,28 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
 /// Node voltages, KCL residuals and device derivatives of one Newton solve (T, M, B nodes).
 struct LineSolver::NewtonState {
   explicit NewtonState(int mn)
-      : vt(mn, 0.0), vm(mn, 0.0), vb(mn, 0.0), ft(mn), fm(mn), fb(mn), gm(mn), ga(mn), gb(mn), jtt(mn), jbb(mn),
-        rt(mn), rb(mn), dt(mn), db(mn), dm(mn), tt(mn), tm(mn), tb(mn), tft(mn), tfm(mn), tfb(mn) {
+      : vt(mn, 0.0),
+        vm(mn, 0.0),
+        vb(mn, 0.0),
+        ft(mn),
+        fm(mn),
+        fb(mn),
+        gm(mn),
+        ga(mn),
+        gb(mn),
+        jtt(mn),
+        jbb(mn),
+        rt(mn),
+        rb(mn),
+        dt(mn),
+        db(mn),
+        dm(mn),
+        tt(mn),
+        tm(mn),
+        tb(mn),
+        tft(mn),
+        tfm(mn),
+        tfb(mn) {
     sys.symmetric = false;
     sys.p_inv.resize(mn);
     sys.q_diag.resize(mn);
@@ -327,9 +350,9 @@ struct LineSolver::NewtonState {
     sys.cx.resize(mn);
     sys.cy.resize(mn);
   }
-  std::vector<double> vt, vm, vb;  ///< V, current iterate
-  std::vector<double> ft, fm, fb;  ///< A, KCL residuals at the iterate
-  std::vector<double> gm, ga, gb;  ///< memristor dI/dV, transistor dI/dV_M, dI/dV_B
+  std::vector<double> vt, vm, vb;                    ///< V, current iterate
+  std::vector<double> ft, fm, fb;                    ///< A, KCL residuals at the iterate
+  std::vector<double> gm, ga, gb;                    ///< memristor dI/dV, transistor dI/dV_M, dI/dV_B
   std::vector<double> jtt, jbb, rt, rb, dt, db, dm;  ///< condensed Jacobian, right-hand sides, update
   std::vector<double> tt, tm, tb, tft, tfm, tfb;     ///< trial iterate of the line search and its residuals
   System sys;
@@ -349,7 +372,8 @@ double LineSolver::newton_residual(const Eigen::VectorXd& v_in, NewtonState& st,
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
       const double tk = t[k], bk = b[k];
-      double ft_k = (j == 0 ? g_s_ * (tk - v_in(i)) : g_w_ * (tk - t[k - 1])) + (j + 1 < n_ ? g_w_ * (tk - t[k + 1]) : 0.0);
+      double ft_k =
+          (j == 0 ? g_s_ * (tk - v_in(i)) : g_w_ * (tk - t[k - 1])) + (j + 1 < n_ ? g_w_ * (tk - t[k + 1]) : 0.0);
       double fb_k = (i > 0 ? g_w_ * (bk - b[k - n_]) : 0.0) + (i + 1 < m_ ? g_w_ * (bk - b[k + n_]) : g_d_ * bk);
       const double mk = short_tr ? bk : mid[k];
       double im, dim, it = 0, dia = 0, dib = 0;
@@ -475,8 +499,7 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
 }
 
 Eigen::MatrixXd LineSolver::effective_matrix() const {
-  if (!params_.is_linear())
-    throw SolverError("the effective conductance matrix exists only for linear devices");
+  if (!params_.is_linear()) throw SolverError("the effective conductance matrix exists only for linear devices");
   if (g_.size() == 0) throw InputError("crossbar solver used before program()");
   std::lock_guard<std::mutex> lock(geff_mutex_);
   if (geff_cache_.size() == 0) geff_cache_ = compute_effective_matrix();

@@ -36,11 +36,11 @@ class LineSolver : public CrossbarSolver {
  private:
   /// Operator data of one linear system in the T/B form above.
   struct System {
-    std::vector<double> p_inv;  ///< inverse pivots of the row tridiagonals (P)
-    std::vector<double> q_diag; ///< diagonal of Q
-    std::vector<double> q_inv;  ///< inverse pivots of the column tridiagonals (Q, from the grounded end)
-    std::vector<double> cx;     ///< X diagonal (row equation, column unknown)
-    std::vector<double> cy;     ///< Y diagonal (column equation, row unknown)
+    std::vector<double> p_inv;   ///< inverse pivots of the row tridiagonals (P)
+    std::vector<double> q_diag;  ///< diagonal of Q
+    std::vector<double> q_inv;   ///< inverse pivots of the column tridiagonals (Q, from the grounded end)
+    std::vector<double> cx;      ///< X diagonal (row equation, column unknown)
+    std::vector<double> cy;      ///< Y diagonal (column equation, row unknown)
     bool symmetric = true;
   };
   void factor_rows(const double* extra, double* p_inv) const;
@@ -71,8 +71,8 @@ class LineSolver : public CrossbarSolver {
   double g_w_ = 1, g_s_ = 0.5, g_d_ = 0.5;  ///< wire, source-side and ground-side conductances (S)
   MemristorDevice memristor_;
   TransistorDevice transistor_;
-  System linear_;                           ///< linear devices: the nodal system itself
-  std::vector<double> g_cell_;              ///< linear cell conductances (S)
+  System linear_;               ///< linear devices: the nodal system itself
+  std::vector<double> g_cell_;  ///< linear cell conductances (S)
   mutable std::mutex geff_mutex_;
   mutable Eigen::MatrixXd geff_cache_;
 };

@@ -36,9 +36,8 @@ void NodalSolver::program(const Eigen::MatrixXd& g_s) {
     // Unknowns, the wire matrix and its sparse factor (fill grows with the shorter side).
     const double nodes = 3.0 * g_s.size() + 2.0 * (g_s.rows() + g_s.cols());
     const double fill = std::min<double>(g_s.rows(), g_s.cols()) + 16;
-    check_memory(nodes * (12.0 * 8 + 12.0 * fill + 64),
-                 "the direct solver on a " + std::to_string(g_s.rows()) + " x " + std::to_string(g_s.cols()) +
-                     " crossbar");
+    check_memory(nodes * (12.0 * 8 + 12.0 * fill + 64), "the direct solver on a " + std::to_string(g_s.rows()) + " x " +
+                                                            std::to_string(g_s.cols()) + " crossbar");
   }
   m_ = static_cast<int>(g_s.rows());
   n_ = static_cast<int>(g_s.cols());
@@ -54,8 +53,7 @@ void NodalSolver::program(const Eigen::MatrixXd& g_s) {
   }
   for (int j = 0; j < n_; ++j) {
     add_conductance(wire_triplets_, node_col_top(j), node_bottom(0, j), gw);
-    for (int i = 0; i + 1 < m_; ++i)
-      add_conductance(wire_triplets_, node_bottom(i, j), node_bottom(i + 1, j), gw);
+    for (int i = 0; i + 1 < m_; ++i) add_conductance(wire_triplets_, node_bottom(i, j), node_bottom(i + 1, j), gw);
     add_conductance(wire_triplets_, node_bottom(m_ - 1, j), node_col_bottom(j), gw);
     add_conductance(wire_triplets_, node_col_bottom(j), -1, 1.0 / params_.r_out_ohm);
   }
@@ -118,8 +116,7 @@ CircuitSolution NodalSolver::solve(const Eigen::VectorXd& v_in) const {
 }
 
 Eigen::MatrixXd NodalSolver::effective_matrix() const {
-  if (!params_.is_linear())
-    throw SolverError("the effective conductance matrix exists only for linear devices");
+  if (!params_.is_linear()) throw SolverError("the effective conductance matrix exists only for linear devices");
   // Unit input on each row: row i of G_eff is the column-current response.
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(unknowns_, m_);
   for (int i = 0; i < m_; ++i) rhs(node_row_left(i), i) = 1.0 / params_.r_in_ohm;

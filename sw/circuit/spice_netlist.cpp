@@ -90,8 +90,7 @@ Eigen::MatrixXd parse_ngspice_currents(const std::string& output, int vectors, i
     int j;
     char rest[64];
     double v;
-    if (std::sscanf(line.c_str(), " i(vsense_%d) = %lf%63s", &j, &v, rest) >= 2 && j >= 0 && j < cols)
-      out(k, j) = v;
+    if (std::sscanf(line.c_str(), " i(vsense_%d) = %lf%63s", &j, &v, rest) >= 2 && j >= 0 && j < cols) out(k, j) = v;
   }
   for (int r = 0; r < vectors; ++r)
     for (int c = 0; c < cols; ++c)

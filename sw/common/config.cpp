@@ -48,8 +48,7 @@ class StructureCheck : public YAML::EventHandler {
  public:
   explicit StructureCheck(std::string origin) : origin_(std::move(origin)) {}
   void OnDocumentStart(const YAML::Mark& m) override {
-    if (++documents_ > 1)
-      fail(m, "a second YAML document ('---') is not allowed; put every setting in one document");
+    if (++documents_ > 1) fail(m, "a second YAML document ('---') is not allowed; put every setting in one document");
   }
   void OnDocumentEnd() override {}
   void OnNull(const YAML::Mark& m, YAML::anchor_t) override { item(m, false, ""); }
@@ -109,9 +108,7 @@ struct NumericRange {
   double lo = 0, hi = 0;
   bool lo_open = false, hi_open = false;
   std::string text;
-  bool contains(double v) const {
-    return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
-  }
+  bool contains(double v) const { return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi); }
 };
 
 bool parse_range(const std::string& comment, NumericRange& r) {
@@ -185,8 +182,7 @@ std::string scalar_text(const YAML::Node& n) {
 void merge_node(YAML::Node dst, const YAML::Node& def, const YAML::Node& src, const std::string& prefix,
                 const std::string& origin) {
   if (!src.IsMap()) {
-    throw InputError(origin + ": '" + (prefix.empty() ? std::string("<top>") : prefix) +
-                     "' must be a mapping of keys");
+    throw InputError(origin + ": '" + (prefix.empty() ? std::string("<top>") : prefix) + "' must be a mapping of keys");
   }
   for (auto it = src.begin(); it != src.end(); ++it) {
     const std::string name = it->first.as<std::string>();
@@ -199,15 +195,14 @@ void merge_node(YAML::Node dst, const YAML::Node& def, const YAML::Node& src, co
     const YAML::Node v = it->second;
     if (d.IsMap()) {
       if (!v.IsMap())
-        throw InputError(origin + ": '" + key + "' must be a section with keys (" + known_children(d) +
-                         "), got '" + scalar_text(v) + "'");
+        throw InputError(origin + ": '" + key + "' must be a section with keys (" + known_children(d) + "), got '" +
+                         scalar_text(v) + "'");
       merge_node(dst[name], d, v, key, origin);
     } else {
       if (v.IsMap()) throw InputError(origin + ": '" + key + "' takes a value, not a section");
       if (v.IsSequence() && !d.IsSequence()) {
         for (const auto& item : v)
-          if (!item.IsScalar())
-            throw InputError(origin + ": '" + key + "' sweep values must be scalars");
+          if (!item.IsScalar()) throw InputError(origin + ": '" + key + "' sweep values must be scalars");
         if (v.size() == 0) throw InputError(origin + ": '" + key + "' sweep list is empty");
       }
       dst[name] = YAML::Clone(v);
@@ -282,8 +277,7 @@ void ConfigTree::merge_yaml_text(const std::string& text, const std::string& ori
 
 void ConfigTree::apply_override(const std::string& assignment) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw InputError("--set expects key=value, got '" + assignment + "'");
+  if (eq == std::string::npos || eq == 0) throw InputError("--set expects key=value, got '" + assignment + "'");
   set(assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
@@ -394,7 +388,8 @@ std::set<std::string> ConfigTree::read_keys() const { return *impl_->read; }
 
 std::vector<std::string> ConfigTree::leaf_keys() const {
   std::vector<std::string> out;
-  std::function<void(const YAML::Node&, const std::string&)> walk = [&](const YAML::Node& n, const std::string& prefix) {
+  std::function<void(const YAML::Node&, const std::string&)> walk = [&](const YAML::Node& n,
+                                                                        const std::string& prefix) {
     for (auto it = n.begin(); it != n.end(); ++it) {
       const std::string key = (prefix.empty() ? "" : prefix + ".") + it->first.as<std::string>();
       if (it->second.IsMap())

@@ -75,12 +75,10 @@ void check_yaml_structure(const std::string& text, const std::string& origin);
 /// Validation helpers: throw InputError naming the key and the bad value.
 double require_positive(const ConfigTree& cfg, const std::string& key);
 double require_nonnegative(const ConfigTree& cfg, const std::string& key);
-std::string require_one_of(const ConfigTree& cfg, const std::string& key,
-                           const std::vector<std::string>& allowed);
+std::string require_one_of(const ConfigTree& cfg, const std::string& key, const std::vector<std::string>& allowed);
 /// The enumerator named by the value at `key`; InputError listing the names otherwise.
 template <typename E>
-E require_enum(const ConfigTree& cfg, const std::string& key,
-               const std::vector<std::pair<std::string, E>>& names) {
+E require_enum(const ConfigTree& cfg, const std::string& key, const std::vector<std::pair<std::string, E>>& names) {
   const std::string v = cfg.get_string(key);
   std::string list;
   for (const auto& n : names) {

@@ -37,8 +37,8 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path) {
       cell = (b == std::string::npos) ? "" : cell.substr(b, e - b + 1);
       double v = 0;
       if (!parse_finite_double(cell, v))
-        throw InputError(path + ":" + std::to_string(lineno) + ": column " + std::to_string(col) +
-                         ": '" + cell + "' is not a finite number");
+        throw InputError(path + ":" + std::to_string(lineno) + ": column " + std::to_string(col) + ": '" + cell +
+                         "' is not a finite number");
       row.push_back(v);
       if (comma == std::string::npos) break;
       pos = comma + 1;

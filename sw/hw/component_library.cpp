@@ -66,7 +66,8 @@ class Section {
     if (s == "exponential") return Scaling::Exponential;
     if (s == "linear") return Scaling::Linear;
     if (s == "constant") return Scaling::Constant;
-    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s + "'");
+    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s +
+                     "'");
   }
   /// Rejects keys that were not read (a misspelt key would otherwise be ignored).
   void finish() const {
@@ -119,8 +120,7 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     const std::string k = it->first.as<std::string>();
     if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
         std::end(kSections))
-      throw InputError(origin + ": unknown section '" + k +
-                       "' (adc, dac, cell, accumulator, shift_register, buffer)");
+      throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator, shift_register, buffer)");
   }
   ComponentLibrary lib;
   lib.source = origin;

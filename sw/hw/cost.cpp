@@ -21,8 +21,13 @@ ComponentBreakdown ComponentBreakdown::operator*(double k) const {
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
-  return {{"crossbar", crossbar},           {"adc", adc},       {"dac", dac}, {"accumulator", accumulator},
-          {"shift_register", shift_register}, {"buffer", buffer}, {"total", total()}};
+  return {{"crossbar", crossbar},
+          {"adc", adc},
+          {"dac", dac},
+          {"accumulator", accumulator},
+          {"shift_register", shift_register},
+          {"buffer", buffer},
+          {"total", total()}};
 }
 
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
@@ -91,8 +96,8 @@ ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_
   a.shifts = static_cast<double>(shifted_entries);
   // Inputs come from the layer's buffer (into the shift register, or straight to the DACs
   // of a sparse layer); outputs are written to the next layer's buffer.
-  a.buffer_read_bytes = v.scheme == MappingScheme::Dense ? static_cast<double>(shifted_entries)
-                                                         : static_cast<double>(v.rows);
+  a.buffer_read_bytes =
+      v.scheme == MappingScheme::Dense ? static_cast<double>(shifted_entries) : static_cast<double>(v.rows);
   a.buffer_write_bytes = n * v.cols;
   return a;
 }

@@ -22,11 +22,11 @@ long long add(long long a, long long b) {
 }  // namespace
 
 LayerInventory& LayerInventory::operator+=(const LayerInventory& o) {
-  for (auto f : {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks,
-                 &LayerInventory::col_blocks, &LayerInventory::physical_cols, &LayerInventory::crossbars,
-                 &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
-                 &LayerInventory::cells_present, &LayerInventory::cells_used, &LayerInventory::iterations,
-                 &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes})
+  for (auto f :
+       {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks, &LayerInventory::col_blocks,
+        &LayerInventory::physical_cols, &LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
+        &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::cells_used,
+        &LayerInventory::iterations, &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes})
     this->*f = add(this->*f, o.*f);
   return *this;
 }
@@ -54,9 +54,8 @@ LayerInventory matrix_inventory(long long rows, long long cols, long long iterat
   const long long phys_big = mapping.physical_columns(static_cast<int>(std::min(cb + 1, cols)));
   const long long phys_small = cb > 0 ? mapping.physical_columns(static_cast<int>(cb)) : 0;
   v.physical_cols = add(mul(big, phys_big), mul(small, phys_small));
-  const long long adcs_per_row_block =
-      add(mul(big, adcs_for_columns(phys_big, columns_per_adc)),
-          mul(small, cb > 0 ? adcs_for_columns(phys_small, columns_per_adc) : 0));
+  const long long adcs_per_row_block = add(mul(big, adcs_for_columns(phys_big, columns_per_adc)),
+                                           mul(small, cb > 0 ? adcs_for_columns(phys_small, columns_per_adc) : 0));
   v.adcs = mul(v.row_blocks, adcs_per_row_block);
   v.dacs = mul(rows, pc);
   v.accumulators = v.crossbars;
@@ -82,9 +81,10 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
     // Toeplitz of the valid convolution on the layer's input: every output (pixel, channel)
     // is one column holding the K weights of its window.
     if (L.is_conv && (L.in.h < L.k_h || L.in.w < L.k_w))
-      throw InputError("layer '" + L.name + "': its " + std::to_string(L.in.h) + "x" + std::to_string(L.in.w) +
-                       " input is smaller than its " + std::to_string(L.k_h) + "x" + std::to_string(L.k_w) +
-                       " kernel, so the sparse (valid-convolution Toeplitz) mapping has no outputs; use a larger input");
+      throw InputError(
+          "layer '" + L.name + "': its " + std::to_string(L.in.h) + "x" + std::to_string(L.in.w) +
+          " input is smaller than its " + std::to_string(L.k_h) + "x" + std::to_string(L.k_w) +
+          " kernel, so the sparse (valid-convolution Toeplitz) mapping has no outputs; use a larger input");
     const long long oh = L.is_conv ? (L.in.h - L.k_h) / L.stride_h + 1 : 1;
     const long long ow = L.is_conv ? (L.in.w - L.k_w) / L.stride_w + 1 : 1;
     v = matrix_inventory(mul(mul(L.in.h, L.in.w), L.c_in), mul(mul(oh, ow), L.c_out), 1, mapping, columns_per_adc);

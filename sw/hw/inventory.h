@@ -21,15 +21,15 @@ struct LayerInventory {
   int k_h = 1, k_w = 1, c_in = 0, c_out = 0;
   Shape input, output;
   MappingScheme scheme = MappingScheme::Dense;
-  long long rows = 0, cols = 0;           ///< logical matrix (inputs x weight columns)
+  long long rows = 0, cols = 0;  ///< logical matrix (inputs x weight columns)
   long long row_blocks = 0, col_blocks = 0;
-  long long physical_cols = 0;            ///< physical columns of one row of crossbars (all column blocks)
+  long long physical_cols = 0;               ///< physical columns of one row of crossbars (all column blocks)
   long long array_rows = 0, array_cols = 0;  ///< one physical array
   long long crossbars = 0, dacs = 0, adcs = 0, accumulators = 0;
   long long cells_present = 0, cells_used = 0;
-  long long iterations = 0;               ///< crossbar reads per image
-  long long shift_register_entries = 0;   ///< dense: the unrolled window; sparse: none
-  long long buffer_bytes = 0;             ///< the layer's input activations (one byte per value)
+  long long iterations = 0;              ///< crossbar reads per image
+  long long shift_register_entries = 0;  ///< dense: the unrolled window; sparse: none
+  long long buffer_bytes = 0;            ///< the layer's input activations (one byte per value)
   int columns_per_adc = 128;
   double utilization() const { return cells_present ? static_cast<double>(cells_used) / cells_present : 0.0; }
   /// Sums the counts of `o` (names and shapes are kept).

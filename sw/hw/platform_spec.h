@@ -10,8 +10,8 @@ namespace xbarsim {
 
 struct PlatformConfig {
   double clock_mhz = 100;
-  bool detailed = true;          ///< platform.timing
-  bool pipelined = false;        ///< platform.schedule
+  bool detailed = true;    ///< platform.timing
+  bool pipelined = false;  ///< platform.schedule
   int replication = 1;
   int adc_columns_per_unit = 128;  ///< converters.adc_columns_per_adc resolved with the library
   double adc_rate_gsps = 1.28;     ///< the library's adc.sample_rate_gsps

@@ -12,8 +12,7 @@ namespace xbarsim {
 
 CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg) : model_(m), cfg_(cfg) {}
 
-void CrossbarBackend::program(const Dataset& calib, int max_samples,
-                              const std::function<void(int, int)>& progress) {
+void CrossbarBackend::program(const Dataset& calib, int max_samples, const std::function<void(int, int)>& progress) {
   gather_statistics(calib, max_samples);
   program_layers(progress);
 }
@@ -74,7 +73,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       st.signed_inputs = st.signed_inputs || ty.sign[l];
       st.out_lo = st.out_lo.cwiseMin(ty.lo[l]);
       st.out_hi = st.out_hi.cwiseMax(ty.hi[l]);
-      for (int s = 0; s < per_image && k * per_image + s < n; ++s) st.samples.row(k * per_image + s) = ty.rows[l].row(s);
+      for (int s = 0; s < per_image && k * per_image + s < n; ++s)
+        st.samples.row(k * per_image + s) = ty.rows[l].row(s);
     }
     if (!(st.x_max > 0)) st.x_max = 1.0;  // a layer that only ever sees zeros
   }

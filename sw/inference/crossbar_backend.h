@@ -13,9 +13,9 @@ namespace xbarsim {
 
 /// Per-layer input ranges and calibration vectors gathered from software activations.
 struct LayerStatistics {
-  double x_max = 0;          ///< largest |input| over the calibration images
+  double x_max = 0;  ///< largest |input| over the calibration images
   bool signed_inputs = false;
-  Eigen::MatrixXd samples;   ///< up to `max_samples` im2col rows (real inputs)
+  Eigen::MatrixXd samples;         ///< up to `max_samples` im2col rows (real inputs)
   Eigen::VectorXd out_lo, out_hi;  ///< per output channel: range of the software outputs
 };
 
@@ -25,8 +25,7 @@ class CrossbarBackend : public LinearBackend {
 
   /// Runs the software model on the calibration images, then maps, converts and
   /// calibrates every layer. `progress(done, total)` is called per programmed layer.
-  void program(const Dataset& calib, int max_samples = 2048,
-               const std::function<void(int, int)>& progress = nullptr);
+  void program(const Dataset& calib, int max_samples = 2048, const std::function<void(int, int)>& progress = nullptr);
 
   void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override;
   /// Quantizes the activation once (DAC codes; zero padding stays zero), then im2col.

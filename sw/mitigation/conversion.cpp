@@ -82,7 +82,8 @@ ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::Matri
       const double u = vt(i, j) - vm;
       double gp = std::numeric_limits<double>::infinity();
       if (std::isfinite(u) && u * c > 0)
-        gp = p.memristor.model == MemristorModel::Linear ? c / u : c / (sinh_scale * std::sinh(p.memristor.k_per_v * u));
+        gp =
+            p.memristor.model == MemristorModel::Linear ? c / u : c / (sinh_scale * std::sinh(p.memristor.k_per_v * u));
       if (!(gp <= p.g_max_s)) {
         ++r.above_max;
         if (clip) gp = p.g_max_s;
@@ -107,8 +108,7 @@ ConversionResult matrix_linear(const CrossbarParams& lin, const SolverOptions& o
   ConversionResult r;
   Eigen::VectorXd beta = beta_start.size() == n ? beta_start : Eigen::VectorXd::Ones(n);
   Eigen::MatrixXd target = c_target;
-  for (int j = 0; j < n; ++j)
-    target.col(j) = (c_floor + beta(j) * (c_target.col(j).array() - c_floor)).matrix();
+  for (int j = 0; j < n; ++j) target.col(j) = (c_floor + beta(j) * (c_target.col(j).array() - c_floor)).matrix();
   Eigen::MatrixXd gp = c_start.cwiseMax(c_lo).cwiseMin(c_hi);
   auto solver = make_crossbar_solver(lin, o);
   double best = std::numeric_limits<double>::infinity();
@@ -225,8 +225,8 @@ ConversionResult convert_matrix(const CrossbarParams& p, const SolverOptions& o,
           kappa(i, j) = std::abs(dv) > 1e-12 ? s.cell_current(i, j) / (gp(i, j) * dv)
                                              : linear_cell_conductance(p, gp(i, j)) / gp(i, j);
         }
-      r = matrix_linear(lin, o, g, gp.cwiseProduct(kappa), lo.cwiseProduct(kappa), hi.cwiseProduct(kappa),
-                        p.g_min_s, mo);
+      r = matrix_linear(lin, o, g, gp.cwiseProduct(kappa), lo.cwiseProduct(kappa), hi.cwiseProduct(kappa), p.g_min_s,
+                        mo);
       gp = r.g_prime.cwiseQuotient(kappa).cwiseMax(lo).cwiseMin(hi);
     }
     r.g_prime = gp;

@@ -11,12 +11,12 @@ namespace xbarsim {
 /// Outcome of a conversion: the conductances to program and how many of them the
 /// programmable range [g_min, g_max] could not hold (those are clipped).
 struct ConversionResult {
-  Eigen::MatrixXd g_prime;   ///< S, m x n, clipped to [g_min, g_max]
-  int above_max = 0;         ///< cells that needed G' > g_max (or an infinite/negative G')
-  int below_min = 0;         ///< cells that needed G' < g_min
-  int undetermined = 0;      ///< cells with zero conversion current (kept at G)
-  int iterations = 0;        ///< matrix conversion: fixed-point iterations
-  double residual = 0;       ///< matrix conversion: max |G_eff(G') - T| / max T
+  Eigen::MatrixXd g_prime;  ///< S, m x n, clipped to [g_min, g_max]
+  int above_max = 0;        ///< cells that needed G' > g_max (or an infinite/negative G')
+  int below_min = 0;        ///< cells that needed G' < g_min
+  int undetermined = 0;     ///< cells with zero conversion current (kept at G)
+  int iterations = 0;       ///< matrix conversion: fixed-point iterations
+  double residual = 0;      ///< matrix conversion: max |G_eff(G') - T| / max T
   /// Matrix conversion with column scaling: per-column gain beta_j of the realised target
   /// T(:,j) = g_min + beta_j (G(:,j) - g_min). All ones otherwise. The digital recovery
   /// divides the weight part of column j by beta_j (see WeightMapping).
@@ -36,8 +36,8 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
 /// Options of the matrix conversion.
 struct MatrixConversionOptions {
   int max_iterations = 60;
-  double tolerance = 1e-9;   ///< stop when max |G_eff - T| / max T falls below this
-  double relaxation = 1.5;   ///< exponent of the multiplicative update (0 < omega < 2)
+  double tolerance = 1e-9;  ///< stop when max |G_eff - T| / max T falls below this
+  double relaxation = 1.5;  ///< exponent of the multiplicative update (0 < omega < 2)
   /// Allow a per-column gain beta_j <= 1 on the weight part of the target so that every
   /// G' fits in [g_min, g_max] (IR drop needs G' > T; lowering the column's currents also
   /// lowers its IR drop). The gain is exact and removed digitally; it costs signal range.

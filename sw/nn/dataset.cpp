@@ -162,8 +162,7 @@ std::string resolve_models_dir(const ConfigTree& cfg) {
   return resolve_data_dir(cfg) + "/../models";
 }
 
-Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset,
-                     int count) {
+Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
   if (name == "cifar10") {
     const std::string file = dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin");
     if (!exists(file)) throw InputError("CIFAR-10 file not found: looked for '" + file + "'");

@@ -37,13 +37,13 @@ enum class OpKind { Linear, Relu, Add, MaxPool, AvgPool, GlobalAvgPool, Flatten,
 
 struct Op {
   OpKind kind = OpKind::Relu;
-  std::string name;      ///< ONNX node name
-  std::vector<int> in;   ///< value ids
-  int out = -1;          ///< value id
-  int linear = -1;       ///< index into Model::linear (Linear)
+  std::string name;                                                            ///< ONNX node name
+  std::vector<int> in;                                                         ///< value ids
+  int out = -1;                                                                ///< value id
+  int linear = -1;                                                             ///< index into Model::linear (Linear)
   int k_h = 1, k_w = 1, s_h = 1, s_w = 1, p_t = 0, p_l = 0, p_b = 0, p_r = 0;  ///< pooling
-  int start[3] = {0, 0, 0}, step[3] = {1, 1, 1};   ///< Slice over (C, H, W)
-  int pad_lo[3] = {0, 0, 0}, pad_hi[3] = {0, 0, 0};  ///< Pad over (C, H, W)
+  int start[3] = {0, 0, 0}, step[3] = {1, 1, 1};                               ///< Slice over (C, H, W)
+  int pad_lo[3] = {0, 0, 0}, pad_hi[3] = {0, 0, 0};                            ///< Pad over (C, H, W)
   float pad_value = 0;
   Eigen::VectorXf scale, shift;  ///< Affine (BatchNormalization): y = x * scale[c] + shift[c]
 };

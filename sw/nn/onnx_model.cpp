@@ -21,7 +21,7 @@ struct Init {
 };
 
 constexpr int64_t kMaxTensorElements = int64_t{1} << 31;  ///< far above any CNN layer here
-constexpr int64_t kMaxDim = 1 << 20;                        ///< one spatial/channel dimension
+constexpr int64_t kMaxDim = 1 << 20;                      ///< one spatial/channel dimension
 
 /// Copies `count` elements of a repeated field or of raw_data (little-endian) into `out`,
 /// checking that exactly `count` are present.
@@ -265,16 +265,24 @@ class Loader {
     }
     require_io(n, 1);
     using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
-    static const std::map<std::string, Adder> kOps = {
-        {"Conv", &Loader::add_conv},       {"Gemm", &Loader::add_gemm},          {"MatMul", &Loader::add_gemm},
-        {"Relu", &Loader::add_relu},       {"Add", &Loader::add_add},            {"MaxPool", &Loader::add_pool},
-        {"AveragePool", &Loader::add_pool}, {"GlobalAveragePool", &Loader::add_global_avg_pool},
-        {"Flatten", &Loader::add_reshape}, {"Reshape", &Loader::add_reshape},    {"Slice", &Loader::add_slice},
-        {"Pad", &Loader::add_pad},         {"BatchNormalization", &Loader::add_batch_norm}};
+    static const std::map<std::string, Adder> kOps = {{"Conv", &Loader::add_conv},
+                                                      {"Gemm", &Loader::add_gemm},
+                                                      {"MatMul", &Loader::add_gemm},
+                                                      {"Relu", &Loader::add_relu},
+                                                      {"Add", &Loader::add_add},
+                                                      {"MaxPool", &Loader::add_pool},
+                                                      {"AveragePool", &Loader::add_pool},
+                                                      {"GlobalAveragePool", &Loader::add_global_avg_pool},
+                                                      {"Flatten", &Loader::add_reshape},
+                                                      {"Reshape", &Loader::add_reshape},
+                                                      {"Slice", &Loader::add_slice},
+                                                      {"Pad", &Loader::add_pad},
+                                                      {"BatchNormalization", &Loader::add_batch_norm}};
     const auto it = kOps.find(t);
     if (it == kOps.end())
-      reject(n, "operator (supported: Conv, Gemm, MatMul, BatchNormalization, Relu, Add, MaxPool, AveragePool, "
-                "GlobalAveragePool, Flatten, Reshape, Slice, Pad, Constant)");
+      reject(n,
+             "operator (supported: Conv, Gemm, MatMul, BatchNormalization, Relu, Add, MaxPool, AveragePool, "
+             "GlobalAveragePool, Flatten, Reshape, Slice, Pad, Constant)");
     (this->*it->second)(n, t, ctx);
   }
 
@@ -517,7 +525,7 @@ class Loader {
     const int in_id = value(n.input(0), ctx);
     const Shape in = model_.values[in_id];
     const std::vector<float>&sc = floats(n.input(1), ctx, in.c), &b = floats(n.input(2), ctx, in.c),
-               &mu = floats(n.input(3), ctx, in.c), &var = floats(n.input(4), ctx, in.c);
+          &mu = floats(n.input(3), ctx, in.c), &var = floats(n.input(4), ctx, in.c);
     const float eps = float_attr(n, "epsilon", 1e-5f);
     if (!(eps >= 0) || !std::isfinite(eps)) reject(n, "epsilon");
     Op op = make_op(OpKind::Affine, n.name(), {in_id});
@@ -532,7 +540,6 @@ class Loader {
     op.out = define(n.output(0), in);
     model_.ops.push_back(op);
   }
-
 
   const onnx::ModelProto& m_;
   std::string path_;

@@ -42,8 +42,9 @@ EvalPoint parse_eval_point(const ConfigTree& cfg) {
   EvalPoint p;
   p.ac = parse_analog_config(cfg);
   if (p.ac.mapping.scheme == MappingScheme::Sparse)
-    throw InputError("configuration key 'mapping.scheme': eval computes the dense mapping; 'sparse' (Toeplitz) is "
-                     "costed by overhead and simulate");
+    throw InputError(
+        "configuration key 'mapping.scheme': eval computes the dense mapping; 'sparse' (Toeplitz) is "
+        "costed by overhead and simulate");
   p.hw = make_hardware_context(cfg, p.ac);
   return p;
 }
@@ -99,7 +100,8 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
       t.sw_correct[k] = a == test.labels[k];
       t.xb_correct[k] = b == test.labels[k];
       for (int l = 0; l < L; ++l)
-        t.layer[static_cast<size_t>(k) * L + l] = layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
+        t.layer[static_cast<size_t>(k) * L + l] =
+            layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
       std::lock_guard<std::mutex> lock(mu);
       if (progress) progress(++done, images);
     }

@@ -36,7 +36,9 @@ nlohmann::json OverheadReport::to_json() const {
 
 OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
   OverheadReport r;
-  auto priced = [&](const LayerInventory& v) { return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)}; };
+  auto priced = [&](const LayerInventory& v) {
+    return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)};
+  };
   for (const LinearLayer& L : m.linear) {
     LayerOverhead o;
     o.name = L.name;

@@ -8,12 +8,12 @@
 namespace xbarsim {
 
 struct RunSpec {
-  EvalPoint design;       ///< crossbar, solver, mapping, mitigation, conversion, calibration, converters,
-                          ///< noise, components, platform
-  XbarStudySpec study;    ///< study.*
-  EvalSpec eval;          ///< eval.*
-  Preprocessing preprocessing;  ///< preprocessing.* applied to the defaults (3 channels)
-  uint64_t synthetic_seed = 0;  ///< data.synthetic_seed
+  EvalPoint design;                     ///< crossbar, solver, mapping, mitigation, conversion, calibration, converters,
+                                        ///< noise, components, platform
+  XbarStudySpec study;                  ///< study.*
+  EvalSpec eval;                        ///< eval.*
+  Preprocessing preprocessing;          ///< preprocessing.* applied to the defaults (3 channels)
+  uint64_t synthetic_seed = 0;          ///< data.synthetic_seed
   unsigned long long sweep_points = 1;  ///< limits.max_sweep_points checked
   std::string data_dir, models_dir;     ///< data.dir, data.models_dir ("" when none is found)
 };

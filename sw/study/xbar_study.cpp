@@ -26,8 +26,9 @@ XbarStudySpec parse_xbar_study_spec(const ConfigTree& cfg) {
     throw InputError("study.vectors x study.rows = " + std::to_string(static_cast<long long>(values)) +
                      " input values is more than a study holds (2e9); use fewer vectors");
   if (s.ac.mapping.scheme == MappingScheme::Sparse)
-    throw InputError("configuration key 'mapping.scheme': xbar-study maps one weight matrix; 'sparse' (Toeplitz) "
-                     "applies to convolutions (overhead, simulate)");
+    throw InputError(
+        "configuration key 'mapping.scheme': xbar-study maps one weight matrix; 'sparse' (Toeplitz) "
+        "applies to convolutions (overhead, simulate)");
   return s;
 }
 
@@ -52,7 +53,10 @@ nlohmann::json XbarStudyResult::to_json() const {
   j["crossbars"] = nlohmann::json::array();
   for (const auto& x : crossbars) {
     const Block& b = x.report.block;
-    j["crossbars"].push_back({{"row0", b.row0}, {"rows", b.rows}, {"col0", b.col0}, {"cols", b.cols},
+    j["crossbars"].push_back({{"row0", b.row0},
+                              {"rows", b.rows},
+                              {"col0", b.col0},
+                              {"cols", b.cols},
                               {"physical_cols", x.report.physical_cols},
                               {"out_of_range_cells", x.report.out_of_range_cells},
                               {"min_column_gain", x.report.min_column_gain},

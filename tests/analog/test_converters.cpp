@@ -15,10 +15,10 @@ TEST(Quantizer, ThreeBitsOnZeroToPointFour) {
   const Quantizer q{3, 0.0, 0.4};  // step 0.4/7
   EXPECT_EQ(q.code(0.1), 2);       // 0.1 / 0.0571 = 1.75 -> 2
   EXPECT_NEAR(q.apply(0.1), 0.8 / 7, 1e-15);
-  EXPECT_EQ(q.code(0.0285), 0);    // 0.499 steps
-  EXPECT_EQ(q.code(0.0286), 1);    // 0.5005 steps
-  EXPECT_EQ(q.code(0.5), 7);       // clipped high
-  EXPECT_EQ(q.code(-1.0), 0);      // clipped low
+  EXPECT_EQ(q.code(0.0285), 0);  // 0.499 steps
+  EXPECT_EQ(q.code(0.0286), 1);  // 0.5005 steps
+  EXPECT_EQ(q.code(0.5), 7);     // clipped high
+  EXPECT_EQ(q.code(-1.0), 0);    // clipped low
   EXPECT_DOUBLE_EQ(q.apply(0.4), 0.4);
 }
 

@@ -44,7 +44,8 @@ TEST(EvalCommand, IdealCrossbarReproducesSoftware) {
   ASSERT_EQ(run("eval --model lenet_mnist --images 300 --set crossbar.r_wire=1e-9 --set crossbar.r_in=1e-9 "
                 "--set crossbar.r_out=1e-9 --set converters.dac_bits=none --set converters.adc_bits=none "
                 "--set mitigation.method=none --set mapping.max_rows=unbounded --set mapping.max_cols=unbounded "
-                "--json " + json,
+                "--json " +
+                    json,
                 &out),
             0)
       << out;
@@ -99,9 +100,9 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   std::string out;
   ASSERT_EQ(run("simulate --preset resnet20 --timing ideal --json " + json, &out), 0) << out;
   const auto j = read_json(json);
-  for (const char* k : {"clock_mhz", "iterations_total", "cycles_total", "latency_us", "throughput_images_per_s",
-                        "energy_uj_per_image", "energy_breakdown_uj", "avg_power_mw", "peak_power_mw", "area_mm2",
-                        "area_breakdown_mm2", "layers"})
+  for (const char* k :
+       {"clock_mhz", "iterations_total", "cycles_total", "latency_us", "throughput_images_per_s", "energy_uj_per_image",
+        "energy_breakdown_uj", "avg_power_mw", "peak_power_mw", "area_mm2", "area_breakdown_mm2", "layers"})
     EXPECT_TRUE(j.contains(k)) << k;
   for (const auto& l : j["layers"])
     for (const char* k : {"adcs", "dacs", "crossbars", "energy_uj"}) EXPECT_TRUE(l.contains(k)) << k;

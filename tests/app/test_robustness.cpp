@@ -103,7 +103,8 @@ TEST(Robustness, OutputFilesAreCheckedBeforeWorkAndNeverClobberInputs) {  // ite
   expect_clean_error(run(base + " --out " + v), 2, "refusing to overwrite", "item 11 --out onto input");
   EXPECT_EQ(slurp(v), "0.1,0.2\n");
   const std::string cfg = file("cfg.yaml", "study:\n  rows: 16\n");
-  expect_clean_error(run("xbar-study --config " + cfg + " --json " + cfg), 2, "refusing to overwrite", "json onto config");
+  expect_clean_error(run("xbar-study --config " + cfg + " --json " + cfg), 2, "refusing to overwrite",
+                     "json onto config");
   // An unwritable --json is reported before the study runs (no result table printed).
   const Result r = run("xbar-study --json /nonexistent/dir/out.json");
   expect_clean_error(r, 2, "does not exist", "item 11 unwritable json");
@@ -115,10 +116,13 @@ TEST(Robustness, InputProblemsAreInputErrors) {  // items 12, 14 and 15
                      "item 12 complex key");
   expect_clean_error(run("xbar-study --config " + file("dup.yaml", "study:\n  rows: 8\n  rows: 9\n")), 2,
                      "dup.yaml:3: duplicate key 'rows'", "item 14 duplicate");
-  expect_clean_error(run("xbar-study --config " + file("docs.yaml", "study:\n  rows: 8\n---\nstudy:\n  rows: 9\n")),
-                     2, "docs.yaml:3", "item 14 documents");
+  expect_clean_error(run("xbar-study --config " + file("docs.yaml", "study:\n  rows: 8\n---\nstudy:\n  rows: 9\n")), 2,
+                     "docs.yaml:3", "item 14 documents");
   const std::string v = file("v15.csv", "0.1,1e-320\n");
-  const Result bom = run("solve --conductances " + file("bom.csv", "\xEF\xBB\xBF" "5e-5,6e-5\n4e-5,3e-5\n") +
+  const Result bom = run("solve --conductances " +
+                         file("bom.csv",
+                              "\xEF\xBB\xBF"
+                              "5e-5,6e-5\n4e-5,3e-5\n") +
                          " --inputs " + v);
   EXPECT_EQ(bom.code, 0) << bom.out;
   expect_clean_error(run("solve --conductances " + file("gbig.csv", "5e-5,1e300\n4e-5,3e-5\n") + " --inputs " + v), 2,
@@ -135,17 +139,19 @@ TEST(Robustness, ResourceBombsAreRefusedQuicklyWithTheirSize) {  // item 13
                                 "solver:\n  threads: *v\n");
   const auto t0 = std::chrono::steady_clock::now();
   expect_clean_error(run("xbar-study --config " + bomb), 2, "1000000000 points", "item 13 anchors");
-  expect_clean_error(run("xbar-study --set 'study.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'noise.seed=[1,2,3,4,5,6,7,8,9,10]'"
-                         " --set 'calibration.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'study.vectors=[1,2,3,4,5,6,7,8,9,10]'"
-                         " --set 'solver.threads=[1,2,3,4,5,6,7,8,9,10]'"),
-                     2, "100000 points", "item 13 1e5 sweep");
+  expect_clean_error(
+      run("xbar-study --set 'study.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'noise.seed=[1,2,3,4,5,6,7,8,9,10]'"
+          " --set 'calibration.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'study.vectors=[1,2,3,4,5,6,7,8,9,10]'"
+          " --set 'solver.threads=[1,2,3,4,5,6,7,8,9,10]'"),
+      2, "100000 points", "item 13 1e5 sweep");
   // Functional bound, not a speed test: a refusal must not first expand the product.
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 30.0);
 }
 
 TEST(Robustness, RerunsWithNoiseAreByteIdenticalApartFromTiming) {  // determinism
-  const std::string args = "xbar-study --set study.rows=64 --set study.cols=8 --set study.vectors=50 "
-                           "--set noise.sigma_us=0.5 --set crossbar.memristor.model=[linear,sinh]";
+  const std::string args =
+      "xbar-study --set study.rows=64 --set study.cols=8 --set study.vectors=50 "
+      "--set noise.sigma_us=0.5 --set crossbar.memristor.model=[linear,sinh]";
   ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_a.json").code, 0);
   ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_b.json --set solver.threads=1").code, 0);
   auto strip = [](const std::string& path) {

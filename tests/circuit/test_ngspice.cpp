@@ -27,8 +27,8 @@ std::string run(const std::string& cmd) {
 bool have_ngspice() { return run("command -v ngspice").find("ngspice") != std::string::npos; }
 
 Eigen::MatrixXd ngspice_currents(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::MatrixXd& v) {
-  const std::string path = "/tmp/xbarsim_ngspice_" + std::to_string(g.rows()) + "x" + std::to_string(g.cols()) +
-                           "_" + to_string(p.memristor.model) + "_" + to_string(p.transistor.model) + ".cir";
+  const std::string path = "/tmp/xbarsim_ngspice_" + std::to_string(g.rows()) + "x" + std::to_string(g.cols()) + "_" +
+                           to_string(p.memristor.model) + "_" + to_string(p.transistor.model) + ".cir";
   {
     std::ofstream f(path);
     write_spice_netlist(f, p, g, v);
@@ -73,8 +73,7 @@ TEST_P(Ngspice, ColumnCurrentsAgree) {
     for (int j = 0; j < c.n; ++j) {
       const double rel = std::abs(got(k, j) - ref(k, j)) / std::abs(ref(k, j));
       worst = std::max(worst, rel);
-      EXPECT_LT(rel, tol) << "vector " << k << " column " << j << ": xbarsim " << got(k, j) << " ngspice "
-                          << ref(k, j);
+      EXPECT_LT(rel, tol) << "vector " << k << " column " << j << ": xbarsim " << got(k, j) << " ngspice " << ref(k, j);
     }
   RecordProperty("worst_relative_difference", std::to_string(worst));
   std::cout << "[ ngspice ] " << c.m << "x" << c.n << (c.nonlinear ? " sinh+level1" : " linear")
@@ -83,8 +82,7 @@ TEST_P(Ngspice, ColumnCurrentsAgree) {
 
 INSTANTIATE_TEST_SUITE_P(Sizes, Ngspice,
                          ::testing::Values(Case{8, 4, 3, false}, Case{8, 4, 3, true}, Case{32, 32, 2, false},
-                                           Case{32, 32, 2, true}, Case{128, 64, 1, false},
-                                           Case{128, 64, 1, true}),
+                                           Case{32, 32, 2, true}, Case{128, 64, 1, false}, Case{128, 64, 1, true}),
                          [](const auto& info) {
                            return std::to_string(info.param.m) + "x" + std::to_string(info.param.n) +
                                   (info.param.nonlinear ? "_nonlinear" : "_linear");

@@ -56,9 +56,7 @@ TEST(Config, ListsAreSweeps) {
   EXPECT_DOUBLE_EQ(cfg.get_double("crossbar.r_wire"), 4.0);
 }
 
-TEST(Config, MissingFileIsAnError) {
-  EXPECT_THROW(ConfigTree::load("/nonexistent/x.yaml", {}), InputError);
-}
+TEST(Config, MissingFileIsAnError) { EXPECT_THROW(ConfigTree::load("/nonexistent/x.yaml", {}), InputError); }
 
 TEST(Config, ValidationHelpers) {
   ConfigTree cfg = ConfigTree::load("", {"crossbar.r_wire=-1", "crossbar.memristor.model=foo"});

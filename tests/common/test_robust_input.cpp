@@ -92,11 +92,14 @@ TEST(ConfigRanges, EveryNumericDefaultHasADocumentedRange) {
 
 TEST(ConfigRanges, OutOfRangeAndHugeIntegersNameKeyRangeAndValue) {
   const std::pair<const char*, const char*> bad[] = {
-      {"study.vectors=2147483648", "study.vectors"},         {"study.vectors=4294967297", "study.vectors"},
+      {"study.vectors=2147483648", "study.vectors"},
+      {"study.vectors=4294967297", "study.vectors"},
       {"solver.max_iterations=4294967297", "solver.max_iterations"},
       {"platform.replication=2147483648", "platform.replication"},
-      {"platform.clock_mhz=1e300", "platform.clock_mhz"},   {"eval.images=4294967298", "eval.images"},
-      {"eval.offset=4294967296", "eval.offset"},           {"study.sparsity=1", "study.sparsity"},
+      {"platform.clock_mhz=1e300", "platform.clock_mhz"},
+      {"eval.images=4294967298", "eval.images"},
+      {"eval.offset=4294967296", "eval.offset"},
+      {"study.sparsity=1", "study.sparsity"},
       {"crossbar.r_wire=0", "crossbar.r_wire"},
   };
   for (const auto& b : bad) {
@@ -139,7 +142,9 @@ TEST(ConfigYaml, AnchorBombIsCountedNotExpanded) {
 }
 
 TEST(CsvReader, ByteOrderMarkSubnormalsAndOverflow) {
-  const Eigen::MatrixXd m = read_csv_matrix(tmp_file("bom.csv", "\xEF\xBB\xBF" "1,2\n3,1e-320\n"));
+  const Eigen::MatrixXd m = read_csv_matrix(tmp_file("bom.csv",
+                                                     "\xEF\xBB\xBF"
+                                                     "1,2\n3,1e-320\n"));
   EXPECT_EQ(m(0, 0), 1.0);
   EXPECT_GT(m(1, 1), 0.0);
   EXPECT_CONTAINS(input_error([] { read_csv_matrix(tmp_file("big.csv", "1,1e400\n")); }),
@@ -150,8 +155,7 @@ TEST(OutputFiles, CheckedBeforeWorkAndWrittenAtomically) {
   const std::string in = tmp_file("in.csv", "1,2\n");
   EXPECT_CONTAINS(input_error([&] { check_output_path(in, "--json", {in}); }), "refusing to overwrite");
   EXPECT_CONTAINS(input_error([&] { check_output_path("/tmp", "--json", {}); }), "is a directory");
-  EXPECT_CONTAINS(input_error([&] { check_output_path("/nonexistent/dir/x.json", "--json", {}); }),
-                  "does not exist");
+  EXPECT_CONTAINS(input_error([&] { check_output_path("/nonexistent/dir/x.json", "--json", {}); }), "does not exist");
   EXPECT_CONTAINS(input_error([&] { check_output_path("", "--json", {}); }), "needs a file name");
   EXPECT_NO_THROW(check_output_path("/tmp/xbarsim_robust_new.json", "--json", {in}));
   // A full disk is an error, not a silent success.

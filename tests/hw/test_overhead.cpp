@@ -55,8 +55,8 @@ MappingCost mapping_cost(long long rows, long long cols, long long cells_used, l
   const LayerInventory v = matrix_inventory(rows, cols, iterations, m, l.adc_columns_per_unit);
   CostModel cm{l, hw.dac_bits, hw.adc_bits, 100.0};
   const ComponentBreakdown p = cm.peak_power_mw(v), a = cm.area_mm2(v);
-  return {v.crossbars, v.adcs, v.dacs, v.cells_present, cells_used, v.iterations, p.crossbar, a.crossbar,
-          p.arrays_and_converters(), a.arrays_and_converters()};
+  return {v.crossbars,  v.adcs,     v.dacs,     v.cells_present,           cells_used,
+          v.iterations, p.crossbar, a.crossbar, p.arrays_and_converters(), a.arrays_and_converters()};
 }
 
 std::string run_cli(const std::string& args) {
@@ -217,14 +217,15 @@ TEST(ComponentLibrary, ExponentialRuleFromTheOneBitDac) {
   // The rule 2^(bits - reference_bits) takes it to 8 bits by 2^7 (0.5 mW); the paper
   // multiplied by 2^8 (1 mW). The built-in library records the paper's 8-bit figure.
   const ComponentLibrary l = parse_component_library(
-      library(kAdc8, "{area_mm2: 1.66015625e-7, leakage_mw: 0, conversion_pj: 0.0390625, reference_bits: 1, "
-                     "energy_scaling: exponential, area_scaling: exponential}"),
+      library(kAdc8,
+              "{area_mm2: 1.66015625e-7, leakage_mw: 0, conversion_pj: 0.0390625, reference_bits: 1, "
+              "energy_scaling: exponential, area_scaling: exponential}"),
       "test");
   EXPECT_NEAR(l.dac.conversion_pj_at(8) * 0.1, 4.0 / 1024 * 128, 1e-12);
   EXPECT_NEAR(l.dac.area_at(8), 0.00017 / 1024 * 128, 1e-15);
   EXPECT_NEAR(lib().dac.conversion_pj_at(8), 2 * l.dac.conversion_pj_at(8), 1e-12);
   EXPECT_NEAR(lib().dac.conversion_pj_at(1) * 0.1, 1.0 / 128, 1e-15);  // the built-in from 8 bits down
-  EXPECT_NEAR(l.adc.conversion_pj_at(7), 1.5625 / 2, 1e-12);          // exponential is the default
+  EXPECT_NEAR(l.adc.conversion_pj_at(7), 1.5625 / 2, 1e-12);           // exponential is the default
   EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Linear), 1.5, 1e-15);
   EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Constant), 3.0, 1e-15);
   EXPECT_NEAR(scale_by_bits(3.0, 8, 10, Scaling::Exponential), 12.0, 1e-15);
@@ -270,8 +271,9 @@ TEST(ComponentLibrary, AdcSharing) {
 
 TEST(ComponentLibrary, RejectsBadFiles) {
   const std::string dac = "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}";
-  const std::string adc = "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5, columns_per_unit: 128, "
-                          "sample_rate_gsps: 1, ";
+  const std::string adc =
+      "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5, columns_per_unit: 128, "
+      "sample_rate_gsps: 1, ";
   EXPECT_NO_THROW(parse_component_library(library(adc + "reference_bits: 8}", dac), "ok"));
   EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8.5}", dac), "bad"), InputError);
   EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, energy_scalling: linear}", dac), "bad"),

@@ -15,7 +15,8 @@ inline std::string shared_data_dir() {
   }
 }
 
-#define REQUIRE_SHARED_DATA(dir)                                                                  \
-  const std::string dir = shared_data_dir();                                                      \
-  if (dir.empty()) GTEST_SKIP() << "shared data directory not found (set XBARSIM_DATA_DIR or "   \
-                                   "place ../shared/data beside the repository); test skipped"
+#define REQUIRE_SHARED_DATA(dir)                                              \
+  const std::string dir = shared_data_dir();                                  \
+  if (dir.empty())                                                            \
+  GTEST_SKIP() << "shared data directory not found (set XBARSIM_DATA_DIR or " \
+                  "place ../shared/data beside the repository); test skipped"

@@ -86,8 +86,7 @@ TEST_P(SharedModel, FullTestSetAccuracyMatchesMetadata) {
     });
   for (auto& th : pool) th.join();
   const double acc = (correct[0] + correct[1]) / 10000.0;
-  std::cout << "[ models ] " << name << ": software accuracy " << acc << " (metadata " << m.reference_accuracy
-            << ")\n";
+  std::cout << "[ models ] " << name << ": software accuracy " << acc << " (metadata " << m.reference_accuracy << ")\n";
   EXPECT_NEAR(acc, m.reference_accuracy, 0.0005);
 }
 

@@ -160,8 +160,9 @@ TEST(OnnxRobustness, ShortWrongTypeAndNonFiniteInitializers) {
 }
 
 TEST(OnnxRobustness, NodesWithMissingInputsOrOutputs) {
-  expect_rejected([](auto& m) { node(m, "Conv")->mutable_input()->RemoveLast(), node(m, "Conv")->mutable_input()->RemoveLast(); },
-                  "needs 2 input");
+  expect_rejected(
+      [](auto& m) { node(m, "Conv")->mutable_input()->RemoveLast(), node(m, "Conv")->mutable_input()->RemoveLast(); },
+      "needs 2 input");
   expect_rejected([](auto& m) { node(m, "BatchNormalization")->mutable_input()->RemoveLast(); }, "needs 5 input");
   expect_rejected([](auto& m) { node(m, "Relu")->clear_output(); }, "has no output");
   expect_rejected([](auto& m) { node(m, "Gemm")->mutable_input()->RemoveLast(); }, "needs 2 input");
@@ -223,9 +224,7 @@ TEST(DatasetRobustness, TruncatedAndImplausibleFilesAreInputErrors) {
   EXPECT_THROW(load_cifar10(cifar), InputError);
   std::ofstream(cifar, std::ios::binary) << std::string(3073, '\x0b');  // label 11
   EXPECT_THROW(load_cifar10(cifar), InputError);
-  auto be = [](uint32_t v) {
-    return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)};
-  };
+  auto be = [](uint32_t v) { return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)}; };
   const std::string im = "/tmp/xbarsim_bad_im.idx", lb = "/tmp/xbarsim_bad_lb.idx";
   std::ofstream(lb, std::ios::binary) << be(2049) + be(2) + std::string(2, '\0');
   std::ofstream(im, std::ios::binary) << be(2050) + be(2) + be(28) + be(28);  // wrong magic

@@ -13,7 +13,7 @@ using namespace xbarsim;
 namespace {
 
 bool g_elaborated = false;
-#define ONE_SIMULATION_PER_PROCESS()                                                               \
+#define ONE_SIMULATION_PER_PROCESS()                                                                   \
   if (g_elaborated) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone"; \
   g_elaborated = true
 
@@ -147,8 +147,10 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   const double adc_ns = std::ceil(20.0 / 2) / pc.adc_rate_gsps;  // 20 columns per crossbar, 2 ADCs
   const double refill_ns = std::ceil(72.0 / pc.shift_entries_per_cycle) * clk;
   const double shift_ns = std::ceil(24.0 / pc.shift_entries_per_cycle) * clk;
-  const double fill = std::ceil((refill_ns + pc.dac_latency_ns + pc.crossbar_settle_ns + adc_ns +
-                                 pc.accumulator_latency_ns) / clk - 1e-9) * clk;
+  const double fill =
+      std::ceil((refill_ns + pc.dac_latency_ns + pc.crossbar_settle_ns + adc_ns + pc.accumulator_latency_ns) / clk -
+                1e-9) *
+      clk;
   double steady = 0;
   for (int k = 1; k < n; ++k) {
     const double sr = (k % L.out.w == 0) ? refill_ns : shift_ns;

@@ -43,8 +43,8 @@ const char* kSets = "--set mapping.max_rows=64 --set mapping.max_cols=48 --set c
 }  // namespace
 
 TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
-  const ConfigTree cfg = ConfigTree::load(
-      "", {"mapping.max_rows=64", "mapping.max_cols=48", "converters.adc_columns_per_adc=32"});
+  const ConfigTree cfg =
+      ConfigTree::load("", {"mapping.max_rows=64", "mapping.max_cols=48", "converters.adc_columns_per_adc=32"});
   const EvalPoint point = parse_eval_point(cfg);
   const Model model = make_preset("lenet", 3);
   // overhead
@@ -72,13 +72,15 @@ TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
   EXPECT_NEAR(ev.cost.area_mm2.total(), area, 1e-12 * area);
   // xbar-study of one 150 x 100 matrix: the same rule.
   const nlohmann::json xs = run_json(std::string("xbar-study --set study.rows=150 --set study.cols=100 "
-                                                 "--set study.vectors=4 ") + kSets, "xbar");
+                                                 "--set study.vectors=4 ") +
+                                         kSets,
+                                     "xbar");
   const LayerInventory m = matrix_inventory(150, 100, 4, point.ac.mapping, 32);
   EXPECT_EQ(xs["crossbar_count"], m.crossbars);
   EXPECT_EQ(xs["crossbars"].size(), static_cast<size_t>(m.crossbars));  // really programmed
   EXPECT_EQ(xs["adc_count"], m.adcs);
   EXPECT_EQ(xs["dac_count"], m.dacs);
-  EXPECT_EQ(m.crossbars, 3 * 3);  // ceil(150/64) x ceil(100/48)
+  EXPECT_EQ(m.crossbars, 3 * 3);           // ceil(150/64) x ceil(100/48)
   EXPECT_EQ(m.adcs, 3 * (2 * 2 + 1 * 2));  // column blocks 34, 33, 33 -> 2 ADCs each at 32 per ADC
 }
 
@@ -108,8 +110,8 @@ TEST(Consistency, KnobsMoveCostInTheDocumentedDirection) {
   EXPECT_GT(lenet_diff.inv.crossbars, lenet.inv.crossbars);
   EXPECT_GT(lenet_diff.area_mm2.total(), lenet.area_mm2.total());
   const nlohmann::json e1 = run_json("simulate --preset resnet20 --timing ideal", "energy_base");
-  const nlohmann::json e2 = run_json("simulate --preset resnet20 --timing ideal --set mapping.negative=differential",
-                                     "energy_diff");
+  const nlohmann::json e2 =
+      run_json("simulate --preset resnet20 --timing ideal --set mapping.negative=differential", "energy_diff");
   EXPECT_GT(e2["energy_breakdown_uj"]["adc"].get<double>(), 1.9 * e1["energy_breakdown_uj"]["adc"].get<double>());
   EXPECT_GT(e2["energy_breakdown_uj"]["crossbar"].get<double>(),
             1.9 * e1["energy_breakdown_uj"]["crossbar"].get<double>());
@@ -141,8 +143,8 @@ TEST(Consistency, SmallLayerEnergyByHand) {
   EXPECT_EQ(a.adc_conversions, 25 * 4);
   EXPECT_EQ(a.shifts, 5 * (18 + 4 * 6));  // a full window per output row, then 3 x 2 entries per step
   // Library figures (configs/components/isaac_paper.yaml) in pJ per action.
-  const double hand = 450 * 10.0 + 1800 * 1.46484375e-3 + 100 * 1.5625 + 100 * 0.0 + 210 * 0.0323 +
-                      210 * 0.539 + 100 * 0.539;
+  const double hand =
+      450 * 10.0 + 1800 * 1.46484375e-3 + 100 * 1.5625 + 100 * 0.0 + 210 * 0.0323 + 210 * 0.539 + 100 * 0.539;
   const ComponentBreakdown e = p.hw.cost.dynamic_energy_pj(a);
   EXPECT_NEAR(e.total(), hand, 1e-9 * hand);
   EXPECT_NEAR(e.dac, 4500.0, 1e-9);

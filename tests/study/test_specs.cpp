@@ -29,8 +29,9 @@ TEST(Specs, EveryKeyRejectsABadValueNamingIt) {
 
 TEST(Specs, EnumsNotStrings) {
   const RunSpec r = parse_run_spec(ConfigTree::load(
-      "", {"mapping.negative=differential", "mapping.sum_x=analog", "mitigation.method=matrix-conversion",
-           "conversion.signal=mean_input", "calibration.signal=random", "solver.method=direct", "study.kernel=ternary"}));
+      "",
+      {"mapping.negative=differential", "mapping.sum_x=analog", "mitigation.method=matrix-conversion",
+       "conversion.signal=mean_input", "calibration.signal=random", "solver.method=direct", "study.kernel=ternary"}));
   const AnalogConfig& ac = r.design.ac;
   EXPECT_EQ(ac.mapping.negative, NegativeWeights::Differential);
   EXPECT_EQ(ac.mapping.sum_x, SumX::Analog);
@@ -43,7 +44,7 @@ TEST(Specs, EnumsNotStrings) {
   // A differential crossbar of 128 physical columns holds 64 weight columns; with the
   // sum(X) column, 63.
   EXPECT_EQ(ac.mapping.logical_columns_per_crossbar(), 63);
-  EXPECT_THROW(parse_run_spec(ConfigTree::load("", {"mapping.max_cols=2", "mapping.negative=differential",
-                                                    "mapping.sum_x=analog"})),
+  EXPECT_THROW(parse_run_spec(ConfigTree::load(
+                   "", {"mapping.max_cols=2", "mapping.negative=differential", "mapping.sum_x=analog"})),
                InputError);
 }
