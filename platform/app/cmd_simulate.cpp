@@ -18,18 +18,6 @@ namespace xbarsim {
 
 namespace {
 
-/// Seeded random images (pixels uniform 0..255) for runs without data.
-Dataset synthetic_images(const Shape& s, int count, uint64_t seed) {
-  Dataset d;
-  d.name = "synthetic";
-  d.shape = s;
-  d.pixels.resize(static_cast<size_t>(count) * s.size());
-  d.labels.assign(count, 0);
-  std::mt19937_64 rng(seed);
-  for (auto& p : d.pixels) p = static_cast<uint8_t>(rng() & 0xff);
-  return d;
-}
-
 /// Units of one layer times its replication (the buffer holds one copy of the activations).
 LayerInventory replicated(LayerInventory v, int r) {
   for (auto f :
@@ -54,8 +42,8 @@ DataForRun simulation_data(const CliArgs& args, const ConfigTree& cfg, const Mod
     d.labelled = true;
   } else {
     const uint64_t seed = static_cast<uint64_t>(cfg.get_int("data.synthetic_seed"));
-    d.test = synthetic_images(model.input, images, derive_seed(seed, {1}));
-    d.calib = synthetic_images(model.input, 20, derive_seed(seed, {2}));
+    d.test = random_dataset(model.input, images, derive_seed(seed, {1}));
+    d.calib = random_dataset(model.input, 20, derive_seed(seed, {2}));
   }
   return d;
 }

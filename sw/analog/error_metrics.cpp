@@ -9,6 +9,13 @@ double bit_accuracy(double re) { return re > 0 ? std::log2(1.0 / re + 1.0) : std
 double ErrorStats::bit_accuracy_mean() const { return bit_accuracy(mean_relative_error); }
 double ErrorStats::bit_accuracy_worst() const { return bit_accuracy(worst_relative_error); }
 
+ErrorTally& ErrorTally::operator+=(const ErrorTally& o) {
+  sum += o.sum;
+  worst = std::max(worst, o.worst);
+  count += o.count;
+  return *this;
+}
+
 ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal) {
   const Eigen::Index k = ideal.rows(), n = ideal.cols();
   ErrorStats s;
@@ -24,17 +31,11 @@ ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& 
   if (fallback == 0) fallback = 1;
   double total = 0;
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double r = range(j) > 0 ? range(j) : fallback;
-    double sum = 0, worst = 0;
-    for (Eigen::Index a = 0; a < k; ++a) {
-      const double e = std::abs(actual(a, j) - ideal(a, j)) / r;
-      sum += e;
-      worst = std::max(worst, e);
-    }
-    s.column_mean(j) = sum / k;
-    s.column_worst(j) = worst;
-    total += sum;
-    s.worst_relative_error = std::max(s.worst_relative_error, worst);
+    const ErrorTally t = column_error(actual.col(j), ideal.col(j), range(j) > 0 ? range(j) : fallback);
+    s.column_mean(j) = t.mean();
+    s.column_worst(j) = t.worst;
+    total += t.sum;
+    s.worst_relative_error = std::max(s.worst_relative_error, t.worst);
   }
   s.mean_relative_error = total / (static_cast<double>(k) * n);
   return s;

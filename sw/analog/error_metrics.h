@@ -4,6 +4,8 @@
 ///   bit accuracy = log2(1 / relative error + 1),
 /// where the output range of a column (kernel) is max - min of its ideal outputs.
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace xbarsim {
@@ -20,6 +22,27 @@ struct ErrorStats {
 /// Statistics of `actual` against `ideal` (vectors x columns). Columns whose ideal output
 /// range is zero use the largest range of the other columns (or 1 if all are constant).
 ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal);
+
+/// Sum, worst and count of relative errors |actual - ideal| / range(column), for streaming
+/// (e.g. one image at a time against ranges fixed beforehand).
+struct ErrorTally {
+  double sum = 0, worst = 0;
+  long long count = 0;
+  ErrorTally& operator+=(const ErrorTally& o);
+  double mean() const { return count ? sum / count : 0.0; }
+};
+/// The tally of one column's errors; `range` > 0.
+template <typename A, typename B>
+ErrorTally column_error(const A& actual, const B& ideal, double range) {
+  ErrorTally t;
+  for (Eigen::Index a = 0; a < ideal.size(); ++a) {
+    const double e = std::abs(static_cast<double>(actual(a)) - static_cast<double>(ideal(a))) / range;
+    t.sum += e;
+    t.worst = std::max(t.worst, e);
+  }
+  t.count = ideal.size();
+  return t;
+}
 
 double bit_accuracy(double relative_error);
 

@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <cstdlib>
+#include <random>
 #include <fstream>
 #include <sys/stat.h>
 
@@ -58,6 +59,17 @@ void Dataset::preprocess(int index, const Preprocessing& p, float* out) const {
     const double sd = p.std.size() == 1 ? p.std[0] : p.std.at(c);
     for (int k = 0; k < hw; ++k) out[c * hw + k] = static_cast<float>((px[c * hw + k] * p.scale - mean) / sd);
   }
+}
+
+Dataset random_dataset(const Shape& s, int count, uint64_t seed) {
+  Dataset d;
+  d.name = "random";
+  d.shape = s;
+  d.pixels.resize(static_cast<size_t>(count) * s.size());
+  d.labels.assign(count, 0);
+  std::mt19937_64 rng(seed);
+  for (auto& p : d.pixels) p = static_cast<uint8_t>(rng() & 0xff);
+  return d;
 }
 
 Dataset load_cifar10(const std::string& file, int offset, int count) {

@@ -19,6 +19,10 @@ struct Dataset {
   void preprocess(int index, const Preprocessing& p, float* out) const;
 };
 
+/// `count` images of shape `s` with pixels uniform in 0..255 from `seed` (labels 0), for runs
+/// and tests without data.
+Dataset random_dataset(const Shape& s, int count, uint64_t seed);
+
 /// CIFAR-10 binary file (1 label byte + 3072 bytes per record): records [offset, offset+count).
 /// count < 0 = to the end. Throws InputError with the path on a missing/short file.
 Dataset load_cifar10(const std::string& file, int offset = 0, int count = -1);

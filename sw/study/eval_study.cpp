@@ -1,5 +1,7 @@
 #include "sw/study/eval_study.h"
 
+#include "sw/analog/error_metrics.h"
+
 #include <chrono>
 #include <mutex>
 
@@ -51,38 +53,26 @@ EvalPoint parse_eval_point(const ConfigTree& cfg) {
 
 namespace {
 
-struct LayerTally {
-  double sum = 0, worst = 0;
-  long long count = 0;
-};
-
 /// Relative errors of one image's layer output (crossbar vs software), each normalised by
-/// the output channel's calibration range.
-LayerTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
-  LayerTally ty;
-  for (Eigen::Index col = 0; col < s.cols(); ++col) {
-    const double range = std::max(st.out_hi(col) - st.out_lo(col), 1e-30);
-    for (Eigen::Index r = 0; r < s.rows(); ++r) {
-      const double e = std::abs(static_cast<double>(c(r, col)) - s(r, col)) / range;
-      ty.sum += e;
-      ty.worst = std::max(ty.worst, e);
-    }
-  }
-  ty.count = s.size();
-  return ty;
+/// the output channel's range over the calibration images.
+ErrorTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
+  ErrorTally t;
+  for (Eigen::Index col = 0; col < s.cols(); ++col)
+    t += column_error(c.col(col), s.col(col), std::max(st.out_hi(col) - st.out_lo(col), 1e-30));
+  return t;
 }
 
 /// Per image and layer error tallies and correct counts, evaluated in parallel; reduced in
 /// image order by the caller, so the figures do not depend on the number of threads.
 struct ImageTallies {
-  std::vector<LayerTally> layer;  // images x L
+  std::vector<ErrorTally> layer;  // images x L
   std::vector<char> sw_correct, xb_correct;
 };
 
 ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, const Dataset& test, int images,
                              int threads, const std::function<void(int, int)>& progress) {
   const int L = static_cast<int>(model.linear.size());
-  ImageTallies t{std::vector<LayerTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
+  ImageTallies t{std::vector<ErrorTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
                  std::vector<char>(images, 0)};
   std::mutex mu;
   int done = 0;
@@ -148,14 +138,9 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
     el.layer = &model.linear[l];
     el.name = model.linear[l].name;
     el.inventory = layer_inventory(model.linear[l], MappingScheme::Dense, ac.mapping, point.hw.columns_per_adc);
-    LayerTally sum;
-    for (int k = 0; k < r.images; ++k) {
-      const LayerTally& ty = t.layer[static_cast<size_t>(k) * L + l];
-      sum.sum += ty.sum;
-      sum.count += ty.count;
-      sum.worst = std::max(sum.worst, ty.worst);
-    }
-    el.mean_relative_error = sum.count ? sum.sum / sum.count : 0.0;
+    ErrorTally sum;
+    for (int k = 0; k < r.images; ++k) sum += t.layer[static_cast<size_t>(k) * L + l];
+    el.mean_relative_error = sum.mean();
     el.worst_relative_error = sum.worst;
     el.input_full_scale = xb.statistics(l).x_max;
     el.signed_inputs = xb.statistics(l).signed_inputs;

@@ -39,16 +39,6 @@ std::vector<float> random_activation(const Shape& s, unsigned seed) {
   return v;
 }
 
-Dataset random_images(const Shape& s, int n, unsigned seed) {
-  Dataset d;
-  d.shape = s;
-  d.pixels.resize(static_cast<size_t>(n) * s.size());
-  d.labels.assign(n, 0);
-  std::mt19937 rng(seed);
-  for (auto& p : d.pixels) p = static_cast<uint8_t>(rng() & 0xff);
-  return d;
-}
-
 AnalogConfig quantized_partitioned() {
   AnalogConfig c;
   c.mapping.max_rows = 64;
@@ -164,8 +154,8 @@ TEST(Platform, MatchesTheBatchEngineExactlyAndCountsIterations) {
   ONE_SIMULATION_PER_PROCESS();
   const Model m = make_preset("resnet20", 3);
   CrossbarBackend xb(m, quantized_partitioned());
-  xb.program(random_images(m.input, 8, 1), 512);
-  const Dataset images = random_images(m.input, 3, 2);
+  xb.program(random_dataset(m.input, 8, 1), 512);
+  const Dataset images = random_dataset(m.input, 3, 2);
   PlatformConfig pc;
   pc.images = images.count();
   pc.detailed = false;  // ideal timing: one clock cycle per iteration

@@ -27,17 +27,6 @@ nlohmann::json run_json(const std::string& args, const std::string& name) {
   return nlohmann::json::parse(in);
 }
 
-Dataset random_images(const Shape& s, int count, uint64_t seed) {
-  Dataset d;
-  d.name = "random";
-  d.shape = s;
-  d.pixels.resize(static_cast<size_t>(count) * s.size());
-  d.labels.assign(count, 0);
-  std::mt19937_64 rng(seed);
-  for (auto& p : d.pixels) p = static_cast<uint8_t>(rng() & 0xff);
-  return d;
-}
-
 const char* kSets = "--set mapping.max_rows=64 --set mapping.max_cols=48 --set converters.adc_columns_per_adc=32";
 
 }  // namespace
@@ -50,8 +39,8 @@ TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
   // overhead
   const OverheadReport over = overhead_study(model, point.hw);
   // eval (the crossbars it really programs, on random images)
-  const EvalResult ev = run_eval(model, point, EvalSpec{2, 0, 4, 64, 2}, random_images(model.input, 2, 1),
-                                 random_images(model.input, 4, 2));
+  const EvalResult ev = run_eval(model, point, EvalSpec{2, 0, 4, 64, 2}, random_dataset(model.input, 2, 1),
+                                 random_dataset(model.input, 4, 2));
   // simulate (the executable: the SystemC platform)
   const nlohmann::json sim = run_json(std::string("simulate --preset lenet ") + kSets, "simulate");
   ASSERT_EQ(over.layers.size(), ev.layers.size());
