@@ -1,18 +1,23 @@
-// xbarsim simulate: the SystemC/TLM-2.0 accelerator running a network. Argument parsing and
-// rendering; the timing comes from the platform, the counts from the shared inventory and
-// the energy from the modules' action counters priced by the component library.
+// xbarsim simulate: the SystemC/TLM-2.0 accelerator (platform/Pipeline.h) running a network.
+// Argument parsing and rendering; timing, stalls and throughput come from the simulation,
+// counts from the shared inventory, energy from the actions the processes counted.
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <systemc>
 
 #include <chrono>
 #include <cstdio>
-#include <random>
+#include <fstream>
+#include <numeric>
 
-#include "platform/Accelerator.h"
+#include "platform/Pipeline.h"
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
 #include "sw/common/seed.h"
 #include "sw/study/hardware.h"
+#include "sw/study/sweep.h"
 
 namespace xbarsim {
 
@@ -20,9 +25,8 @@ namespace {
 
 /// Units of one layer times its replication (the buffer holds one copy of the activations).
 LayerInventory replicated(LayerInventory v, int r) {
-  for (auto f :
-       {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
-        &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
+  for (auto f : {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
+                 &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
     v.*f *= r;
   return v;
 }
@@ -48,19 +52,75 @@ DataForRun simulation_data(const CliArgs& args, const ConfigTree& cfg, const Mod
   return d;
 }
 
-int cmd_simulate(int argc, char** argv) {
-  const CliArgs args(argc, argv, 0, {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd"});
-  check_outputs(args, {"--json", "--csv", "--vcd"});
-  const std::string vcd = args.get("--vcd");
-  if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
-    throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
-  std::vector<std::string> sets = args.sets();
-  if (args.has("--images")) sets.push_back("platform.images=" + args.get("--images"));
-  if (args.has("--timing")) sets.push_back("platform.timing=" + args.get("--timing"));
-  const ConfigTree cfg = ConfigTree::load(args.get("--config"), sets);
-  if (!cfg.sweep_keys().empty())
-    throw InputError("simulate runs one configuration per process (SystemC elaborates once); '" +
-                     cfg.sweep_keys().front() + "' is a list");
+std::string kernel_name(const LinearLayer& L) {
+  return std::to_string(L.k_h) + "x" + std::to_string(L.k_w) + "x" + std::to_string(L.c_in) + "x" +
+         std::to_string(L.c_out);
+}
+
+/// Per-layer JSON and the network's cost from the simulation's counters.
+nlohmann::json report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
+                      const std::vector<int>& replication, const Pipeline& pipe, bool print) {
+  const PlatformConfig& pc = hw.platform;
+  const double images = std::max<size_t>(r.logits.size(), 1), clk = pc.clock_ns();
+  const Table table({{"layer", -30}, {"kernel", -12}, {"xbars", 6}, {"rep", 4}, {"ADCs", 6}, {"DACs", 6},
+                     {"iters", 7}, {"busy_us", 9, 3}, {"stall_us", 9, 3}, {"buf_B", 8}, {"energy_uJ", 10, 4}});
+  if (print) table.print_header(stdout);
+  nlohmann::json layers = nlohmann::json::array();
+  CostReport cost;
+  long long iterations = 0;
+  int digital_units = 0;
+  ActionCounts platform;
+  for (const StageStats& st : r.stages) {
+    if (st.linear < 0) {
+      if (st.digital_ops > 0) ++digital_units;
+      platform.digital_ops += st.digital_ops / images;
+      continue;
+    }
+    const LinearLayer& L = model.linear[st.linear];
+    const LayerInventory v = replicated(
+        layer_inventory(L, MappingScheme::Dense, hw.mapping, hw.columns_per_adc), replication[st.linear]);
+    ActionCounts a = pipe.tile(st.linear).actions();
+    for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts,
+                      &a.buffer_read_bytes, &a.buffer_write_bytes})
+      *x /= images;
+    add_layer_cost(cost, hw, v, a);
+    const double e_uj = hw.cost.dynamic_energy_pj(a).total() * 1e-6;
+    iterations += L.iterations();
+    const double busy = st.busy_ns / images, stall = st.stall_ns / images;
+    layers.push_back({{"name", L.name},           {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
+                      {"rows", L.rows()},          {"cols", L.c_out},
+                      {"crossbars", v.crossbars},  {"replication", replication[st.linear]},
+                      {"adcs", v.adcs},            {"dacs", v.dacs},
+                      {"iterations", L.iterations()}, {"cycles", std::llround(busy / clk)},
+                      {"busy_us", busy * 1e-3},    {"stall_us", stall * 1e-3},
+                      {"buffer_bytes", st.buffer_bytes}, {"buffer_peak_bytes", st.buffer_peak_bytes},
+                      {"energy_uj", e_uj},         {"area_mm2", hw.cost.area_mm2(v).total()}});
+    if (print)
+      table.print_row(stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs,
+                               (long long)L.iterations(), busy * 1e-3, stall * 1e-3, st.buffer_bytes, e_uj});
+  }
+  platform.bus_bytes = r.bus_bytes / images;
+  platform.memory_bytes = r.memory_bytes / images;
+  cost.dynamic_energy_uj += hw.cost.dynamic_energy_pj(platform) * 1e-6;
+  cost.area_mm2 += hw.cost.platform_area_mm2(digital_units);
+  cost.leakage_mw += hw.cost.platform_leakage_mw(digital_units);
+  cost.time_ns = r.makespan_ns() / images;  // leakage runs for the whole run, shared by its images
+  nlohmann::json j;
+  j["iterations_total"] = iterations;
+  j["cycles_total"] = std::llround(r.latency_ns() / clk);
+  j["latency_us"] = r.latency_ns() * 1e-3;
+  j["makespan_us"] = r.makespan_ns() * 1e-3;
+  j["throughput_images_per_s"] = r.throughput_per_s();
+  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
+  j["bus_bytes_per_image"] = platform.bus_bytes;
+  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / r.makespan_ns() : 0.0;
+  j.update(cost.to_json());
+  j["layers"] = layers;
+  return j;
+}
+
+/// One simulation in this process (SystemC elaborates once per process).
+nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print) {
   const AnalogConfig ac = parse_analog_config(cfg);
   if (ac.mapping.scheme == MappingScheme::Sparse)
     throw InputError("configuration key 'mapping.scheme': the platform runs the dense mapping (sparse: see overhead)");
@@ -70,141 +130,140 @@ int cmd_simulate(int argc, char** argv) {
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const DataForRun data = simulation_data(args, cfg, model, pc.images);
   if (!ac.xbar.is_linear())
-    std::fprintf(stderr,
-                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
-                 "(slow); consider --images 1\n");
+    std::fprintf(stderr, "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
+                         "(slow); consider --images 1\n");
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
     programmed.program(data.calib, cfg.get_int32("eval.calibration_samples"), [&](int d, int) { bar.update(d); });
   }
-  const auto t_sim = std::chrono::steady_clock::now();
+  const std::vector<int> replication = resolve_replication(model, programmed, pc);
+  const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(data.test.count(), "simulating ");
-  Accelerator acc(
-      "accelerator", model, programmed, pc, [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, vcd,
-      [&](int done) { bar.update(done); });
+  Pipeline pipe("accelerator", model, programmed, pc, replication,
+                [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); });
+  if (args.has("--vcd")) pipe.trace(args.get("--vcd"), pc.vcd_images);
   sc_core::sc_start();
   bar.finish();
-  const double sim_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_sim).count();
-  const SimulationResult& r = acc.result();
-  const int images = static_cast<int>(r.logits.size());
-
-  nlohmann::json j;
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const PipelineResult& r = pipe.result();
+  if (!r.completed)
+    throw InputError("the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
+                     "for the schedule (deadlock)");
+  nlohmann::json j = report(model, hw, r, replication, pipe, print);
   j["model"] = model.path;
   j["clock_mhz"] = pc.clock_mhz;
   j["timing"] = pc.detailed ? "detailed" : "ideal";
   j["schedule"] = pc.pipelined ? "pipelined" : "sequential";
-  j["replication"] = pc.replication;
-  j["images"] = images;
-  j["layers"] = nlohmann::json::array();
-  const Table table({{"layer", -30},
-                     {"kernel", -12},
-                     {"rows", 6},
-                     {"cols", 5},
-                     {"xbars", 6},
-                     {"ADCs", 6},
-                     {"DACs", 6},
-                     {"iters", 8},
-                     {"cycles", 9},
-                     {"latency_us", 11, 3},
-                     {"energy_uJ", 10, 4}});
-  table.print_header(stdout);
-  CostReport cost;
-  long long iterations = 0;
-  double slowest_ns = 0;
-  for (size_t l = 0; l < model.linear.size(); ++l) {
-    const LinearLayer& L = model.linear[l];
-    const LayerInventory v =
-        replicated(layer_inventory(L, MappingScheme::Dense, ac.mapping, hw.columns_per_adc), pc.replication);
-    ActionCounts a = acc.tile(static_cast<int>(l)).actions();
-    for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts,
-                      &a.buffer_read_bytes, &a.buffer_write_bytes})
-      *x /= std::max(images, 1);  // per image
-    double ns = 0;
-    for (const auto& img : r.layer_latency_ns) ns += img[l];
-    ns /= std::max(images, 1);
-    add_layer_cost(cost, hw, v, a);
-    const double e_uj = hw.cost.energy_pj(a, v, ns).total() * 1e-6;
-    const long long cycles = std::llround(ns / pc.clock_ns());
-    iterations += L.iterations();
-    slowest_ns = std::max(slowest_ns, ns);
-    j["layers"].push_back({{"name", L.name},
-                           {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
-                           {"rows", L.rows()},
-                           {"cols", L.c_out},
-                           {"crossbars", v.crossbars},
-                           {"adcs", v.adcs},
-                           {"dacs", v.dacs},
-                           {"iterations", L.iterations()},
-                           {"cycles", cycles},
-                           {"latency_us", ns * 1e-3},
-                           {"busy_us", ns * 1e-3},
-                           {"energy_uj", e_uj},
-                           {"area_mm2", hw.cost.area_mm2(v).total()}});
-    const std::string kernel = std::to_string(L.k_h) + "x" + std::to_string(L.k_w) + "x" + std::to_string(L.c_in) +
-                               "x" + std::to_string(L.c_out);
-    table.print_row(stdout, {L.name, kernel, (long long)L.rows(), (long long)L.c_out, v.crossbars, v.adcs, v.dacs,
-                             (long long)L.iterations(), cycles, ns * 1e-3, e_uj});
-  }
-  double latency_ns = 0;
-  for (double t : r.image_latency_ns) latency_ns += t;
-  latency_ns /= std::max(images, 1);
-  cost.time_ns = latency_ns;  // leakage runs for the whole image
-  const double throughput = 1e9 / (pc.pipelined ? std::max(slowest_ns, 1e-9) : std::max(latency_ns, 1e-9));
-  j["iterations_total"] = iterations;
-  j["cycles_total"] = std::llround(latency_ns / pc.clock_ns());
-  j["latency_us"] = latency_ns * 1e-3;
-  j["throughput_images_per_s"] = throughput;
-  j.update(cost.to_json());
+  j["images"] = static_cast<int>(r.logits.size());
   j["component_library"] = hw.lib.source;
-  j["simulation_wall_time_s"] = sim_s;
-  j["simulated_images_per_wall_s"] = images / std::max(sim_s, 1e-9);
-  std::printf(
-      "\n%s, %s timing, %s schedule: %lld iterations/image, %lld cycles/image, latency %.3f us, %.0f images/s "
-      "(modelled)\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
-      model.path.c_str(), pc.detailed ? "detailed" : "ideal", pc.pipelined ? "pipelined" : "sequential", iterations,
-      j["cycles_total"].get<long long>(), latency_ns * 1e-3, throughput, cost.energy_uj().total(), cost.avg_power_mw(),
-      cost.peak_power_mw.total(), cost.area_mm2.total());
-  std::printf("simulation: %d images in %.2f s wall (%.1f images/s), programming excluded\n", images, sim_s,
-              images / std::max(sim_s, 1e-9));
+  j["simulation_wall_time_s"] = wall_s;
+  j["simulated_images_per_wall_s"] = r.logits.size() / std::max(wall_s, 1e-9);
   if (data.labelled) {
     int correct = 0;
-    for (int k = 0; k < images; ++k) {
+    for (size_t k = 0; k < r.logits.size(); ++k) {
       Eigen::Index a;
       r.logits[k].maxCoeff(&a);
       correct += a == data.test.labels[k];
     }
-    j["accuracy"] = static_cast<double>(correct) / images;
-    std::printf("accuracy %.2f %% on %d images\n", 100.0 * correct / images, images);
+    j["accuracy"] = static_cast<double>(correct) / r.logits.size();
   }
-  if (args.has("--json")) write_json(args.get("--json"), j);
-  if (args.has("--csv")) {
-    OutputFile csv(args.get("--csv"));
-    const Table t({{"layer", 0},
-                   {"k_h", 0},
-                   {"k_w", 0},
-                   {"c_in", 0},
-                   {"c_out", 0},
-                   {"rows", 0},
-                   {"cols", 0},
-                   {"crossbars", 0},
-                   {"iterations", 0},
-                   {"cycles", 0},
-                   {"latency_us", 0},
-                   {"adcs", 0},
-                   {"dacs", 0},
-                   {"energy_uj", 0},
-                   {"area_mm2", 0}});
-    t.csv_header(csv.stream());
-    for (const auto& l : j["layers"])
-      t.csv_row(csv.stream(),
-                {l["name"].get<std::string>(), l["kernel"][0].get<long long>(), l["kernel"][1].get<long long>(),
-                 l["kernel"][2].get<long long>(), l["kernel"][3].get<long long>(), l["rows"].get<long long>(),
-                 l["cols"].get<long long>(), l["crossbars"].get<long long>(), l["iterations"].get<long long>(),
-                 l["cycles"].get<long long>(), l["latency_us"].get<double>(), l["adcs"].get<long long>(),
-                 l["dacs"].get<long long>(), l["energy_uj"].get<double>(), l["area_mm2"].get<double>()});
-    csv.commit();
+  return j;
+}
+
+/// Runs one point in a child process (a fresh SystemC kernel) and returns its JSON.
+nlohmann::json simulate_in_child(const CliArgs& args, const ConfigTree& cfg) {
+  char path[] = "/tmp/xbarsim_simulate_XXXXXX";
+  const int fd = mkstemp(path);
+  if (fd < 0) throw std::runtime_error("cannot create a temporary file");
+  close(fd);
+  std::fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    int code = 0;
+    try {
+      std::ofstream(path) << simulate_once(args, cfg, false).dump();
+    } catch (const InputError& e) {
+      std::fprintf(stderr, "xbarsim simulate: error: %s\n", e.what());
+      code = 2;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "xbarsim simulate: %s\n", e.what());
+      code = 4;
+    }
+    std::fflush(nullptr);
+    _exit(code);
   }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  std::remove(path);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || text.empty())
+    throw InputError("a sweep point's simulation failed (see above)");
+  return nlohmann::json::parse(text);
+}
+
+void print_summary(const nlohmann::json& j) {
+  std::printf("\n%s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
+              "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
+              j["model"].get<std::string>().c_str(), j["timing"].get<std::string>().c_str(),
+              j["schedule"].get<std::string>().c_str(), j["images"].get<int>(), j["iterations_total"].get<long long>(),
+              j["latency_us"].get<double>(), j["makespan_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
+              j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["peak_power_mw"].get<double>(),
+              j["area_mm2"].get<double>());
+  std::printf("simulation: %.2f s wall (%.1f images/s), programming excluded\n", j["simulation_wall_time_s"].get<double>(),
+              j["simulated_images_per_wall_s"].get<double>());
+  if (j.contains("accuracy")) std::printf("accuracy %.2f %%\n", 100 * j["accuracy"].get<double>());
+}
+
+int cmd_simulate(int argc, char** argv) {
+  const CliArgs args(argc, argv, 0,
+                     {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images"});
+  check_outputs(args, {"--json", "--csv", "--vcd"});
+  const std::string vcd = args.get("--vcd");
+  if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
+    throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
+  std::vector<std::string> sets = args.sets();
+  if (args.has("--images")) sets.push_back("platform.images=" + args.get("--images"));
+  if (args.has("--timing")) sets.push_back("platform.timing=" + args.get("--timing"));
+  if (args.has("--vcd-images")) sets.push_back("platform.vcd_images=" + args.get("--vcd-images"));
+  const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
+  const auto points = sweep_points(base);
+  for (const auto& point : points) {  // every point validated before any runs
+    const ConfigTree cfg = sweep_config(base, point);
+    make_hardware_context(cfg, parse_analog_config(cfg));
+  }
+  SweepOutputs out(args, points.front(),
+                   "latency_us,makespan_us,throughput_images_per_s,energy_uj_per_image,avg_power_mw,peak_power_mw,"
+                   "area_mm2");
+  if (points.size() == 1) {
+    const nlohmann::json j = simulate_once(args, base, true);
+    print_summary(j);
+    if (out.csv().enabled()) {
+      out.csv().row(0, points[0]) << "," << j["latency_us"] << "," << j["makespan_us"] << ","
+                                  << j["throughput_images_per_s"] << "," << j["energy_uj_per_image"] << ","
+                                  << j["avg_power_mw"] << "," << j["peak_power_mw"] << "," << j["area_mm2"] << "\n";
+    }
+    out.add(j, points[0]);
+    out.finish();
+    return 0;
+  }
+  const Table table({{"run", -40}, {"latency_us", 11, 3}, {"img/s", 10, 1}, {"energy_uJ", 10, 3}, {"avg_mW", 9, 2},
+                     {"area_mm2", 9, 4}});
+  table.print_header(stdout);
+  for (size_t k = 0; k < points.size(); ++k) {
+    const nlohmann::json j = simulate_in_child(args, sweep_config(base, points[k]));
+    table.print_row(stdout, {sweep_label(points[k]), j["latency_us"].get<double>(),
+                             j["throughput_images_per_s"].get<double>(), j["energy_uj_per_image"].get<double>(),
+                             j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});
+    if (out.csv().enabled())
+      out.csv().row(static_cast<int>(k), points[k]) << "," << j["latency_us"] << "," << j["makespan_us"] << ","
+                                                     << j["throughput_images_per_s"] << "," << j["energy_uj_per_image"]
+                                                     << "," << j["avg_power_mw"] << "," << j["peak_power_mw"] << ","
+                                                     << j["area_mm2"] << "\n";
+    out.add(j, points[k]);
+  }
+  out.finish();
   return 0;
 }
 
@@ -214,8 +273,9 @@ namespace {
 const CommandRegistrar kRegister{
     "simulate", cmd_simulate,
     "simulate (--model M.onnx | --preset resnet20) [--dataset cifar10 --images N] [--timing ideal|detailed]\n"
-    "         [--vcd out.vcd] [--config F] [--set k=v]... [--json F] [--csv F]\n"
-    "      SystemC/TLM-2.0 accelerator: iterations, latency, throughput, energy, power, area, accuracy"};
+    "         [--vcd out.vcd [--vcd-images K]] [--config F] [--set k=v]... [--json F] [--csv F]\n"
+    "      SystemC/TLM-2.0 accelerator: latency, makespan, throughput, stalls, energy, power, area, accuracy;\n"
+    "      list values sweep (one process per point)"};
 }  // namespace
 
 }  // namespace xbarsim

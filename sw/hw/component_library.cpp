@@ -115,17 +115,19 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     throw InputError(origin + ": YAML syntax error: " + e.what());
   }
   if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
-  static const char* kSections[] = {"adc", "dac", "cell", "accumulator", "shift_register", "buffer"};
+  static const char* kSections[] = {"adc",    "dac",          "cell",    "accumulator", "shift_register",
+                                    "buffer", "interconnect", "digital", "memory"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string k = it->first.as<std::string>();
     if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
         std::end(kSections))
-      throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator, shift_register, buffer)");
+      throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator, shift_register, buffer, interconnect, digital, memory)");
   }
   ComponentLibrary lib;
   lib.source = origin;
   Section adc(root, "adc", origin), dac(root, "dac", origin), cell(root, "cell", origin),
-      acc(root, "accumulator", origin), sr(root, "shift_register", origin), buf(root, "buffer", origin);
+      acc(root, "accumulator", origin), sr(root, "shift_register", origin), buf(root, "buffer", origin),
+      noc(root, "interconnect", origin), dig(root, "digital", origin), mem(root, "memory", origin);
   lib.adc = converter(adc);
   lib.adc_columns_per_unit = adc.integer("columns_per_unit");
   lib.adc_sample_rate_gsps = adc.number("sample_rate_gsps", true);
@@ -135,7 +137,10 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   lib.shift_register = {sr.number("area_mm2_per_entry"), sr.number("leakage_mw_per_entry"), sr.number("shift_pj")};
   lib.buffer = {buf.number("area_mm2_per_kib"), buf.number("leakage_mw_per_kib"), buf.number("read_pj_per_byte"),
                 buf.number("write_pj_per_byte")};
-  for (const Section* s : {&adc, &dac, &cell, &acc, &sr, &buf}) s->finish();
+  lib.interconnect = {noc.number("area_mm2"), noc.number("leakage_mw"), noc.number("transfer_pj_per_byte")};
+  lib.digital = {dig.number("area_mm2"), dig.number("leakage_mw"), dig.number("op_pj")};
+  lib.memory = {mem.number("transfer_pj_per_byte")};
+  for (const Section* s : {&adc, &dac, &cell, &acc, &sr, &buf, &noc, &dig, &mem}) s->finish();
   return lib;
 }
 

@@ -44,6 +44,15 @@ struct ComponentLibrary {
   struct Buffer {
     double area_mm2_per_kib = 0, leakage_mw_per_kib = 0, read_pj_per_byte = 0, write_pj_per_byte = 0;
   } buffer;
+  struct Interconnect {
+    double area_mm2 = 0, leakage_mw = 0, transfer_pj_per_byte = 0;  ///< the shared bus
+  } interconnect;
+  struct Digital {
+    double area_mm2 = 0, leakage_mw = 0, op_pj = 0;  ///< one ReLU / Add / pooling unit
+  } digital;
+  struct Memory {
+    double transfer_pj_per_byte = 0;  ///< off-chip input/output
+  } memory;
 };
 
 /// Scales `value` from `ref` to `bits` by the rule.

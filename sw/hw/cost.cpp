@@ -13,21 +13,23 @@ ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) 
   accumulator += o.accumulator;
   shift_register += o.shift_register;
   buffer += o.buffer;
+  interconnect += o.interconnect;
+  digital += o.digital;
+  memory += o.memory;
   return *this;
 }
 
 ComponentBreakdown ComponentBreakdown::operator*(double k) const {
-  return {crossbar * k, adc * k, dac * k, accumulator * k, shift_register * k, buffer * k};
+  return {crossbar * k, adc * k,    dac * k,          accumulator * k, shift_register * k,
+          buffer * k,   interconnect * k, digital * k, memory * k};
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
-  return {{"crossbar", crossbar},
-          {"adc", adc},
-          {"dac", dac},
-          {"accumulator", accumulator},
-          {"shift_register", shift_register},
-          {"buffer", buffer},
-          {"total", total()}};
+  return {{"crossbar", crossbar},         {"adc", adc},
+          {"dac", dac},                   {"accumulator", accumulator},
+          {"shift_register", shift_register}, {"buffer", buffer},
+          {"interconnect", interconnect}, {"digital", digital},
+          {"memory", memory},             {"total", total()}};
 }
 
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
@@ -38,6 +40,9 @@ ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
   shifts += o.shifts;
   buffer_read_bytes += o.buffer_read_bytes;
   buffer_write_bytes += o.buffer_write_bytes;
+  bus_bytes += o.bus_bytes;
+  digital_ops += o.digital_ops;
+  memory_bytes += o.memory_bytes;
   return *this;
 }
 
@@ -83,7 +88,24 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   e.accumulator = a.accumulates * lib.accumulator.accumulate_pj;
   e.shift_register = a.shifts * lib.shift_register.shift_pj;
   e.buffer = a.buffer_read_bytes * lib.buffer.read_pj_per_byte + a.buffer_write_bytes * lib.buffer.write_pj_per_byte;
+  e.interconnect = a.bus_bytes * lib.interconnect.transfer_pj_per_byte;
+  e.digital = a.digital_ops * lib.digital.op_pj;
+  e.memory = a.memory_bytes * lib.memory.transfer_pj_per_byte;
   return e;
+}
+
+ComponentBreakdown CostModel::platform_area_mm2(int digital_units) const {
+  ComponentBreakdown a;
+  a.interconnect = lib.interconnect.area_mm2;
+  a.digital = digital_units * lib.digital.area_mm2;
+  return a;
+}
+
+ComponentBreakdown CostModel::platform_leakage_mw(int digital_units) const {
+  ComponentBreakdown p;
+  p.interconnect = lib.interconnect.leakage_mw;
+  p.digital = digital_units * lib.digital.leakage_mw;
+  return p;
 }
 
 ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries) {

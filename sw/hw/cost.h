@@ -14,7 +14,10 @@ namespace xbarsim {
 /// One figure per component class (mm2, mW, pJ, ... as the name of the variable says).
 struct ComponentBreakdown {
   double crossbar = 0, adc = 0, dac = 0, accumulator = 0, shift_register = 0, buffer = 0;
-  double total() const { return crossbar + adc + dac + accumulator + shift_register + buffer; }
+  double interconnect = 0, digital = 0, memory = 0;  ///< platform-level components
+  double total() const {
+    return crossbar + adc + dac + accumulator + shift_register + buffer + interconnect + digital + memory;
+  }
   /// The paper's scope (Table "Overhead comparison"): arrays, converters, accumulators.
   double arrays_and_converters() const { return crossbar + adc + dac + accumulator; }
   ComponentBreakdown& operator+=(const ComponentBreakdown& o);
@@ -30,6 +33,7 @@ struct ComponentBreakdown {
 struct ActionCounts {
   double dac_conversions = 0, adc_conversions = 0, cell_reads = 0, accumulates = 0, shifts = 0;
   double buffer_read_bytes = 0, buffer_write_bytes = 0;
+  double bus_bytes = 0, digital_ops = 0, memory_bytes = 0;  ///< platform-level actions
   ActionCounts& operator+=(const ActionCounts& o);
 };
 
@@ -45,6 +49,9 @@ struct CostModel {
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;
   ComponentBreakdown peak_power_mw(const LayerInventory& v) const;
+  /// Area and leakage of the platform-level units: one interconnect, `digital_units` units.
+  ComponentBreakdown platform_area_mm2(int digital_units) const;
+  ComponentBreakdown platform_leakage_mw(int digital_units) const;
   /// Dynamic energy of the actions (pJ), without leakage.
   ComponentBreakdown dynamic_energy_pj(const ActionCounts& a) const;
   /// Dynamic energy plus the inventory's leakage over `time_ns` (pJ).

@@ -1,5 +1,9 @@
 #include "sw/hw/platform_spec.h"
 
+#include <sstream>
+
+#include "sw/common/parse.h"
+
 namespace xbarsim {
 
 PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_unit, double adc_rate_gsps) {
@@ -7,16 +11,38 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.clock_mhz = require_positive(cfg, "platform.clock_mhz");
   c.detailed = require_one_of(cfg, "platform.timing", {"ideal", "detailed"}) == "detailed";
   c.pipelined = require_one_of(cfg, "platform.schedule", {"sequential", "pipelined"}) == "pipelined";
-  c.replication = cfg.get_int32("platform.replication");
+  if (cfg.get_string("platform.replication") == "auto")
+    c.auto_replication = true;
+  else
+    c.replication = cfg.get_int32("platform.replication");
+  const std::string per_layer = cfg.get_string("platform.replication_per_layer");
+  if (!per_layer.empty()) {
+    std::stringstream ss(per_layer);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      long long r = 0;
+      if (!parse_int64(item, r) || r < 1 || r > 4096)
+        throw InputError("configuration key 'platform.replication_per_layer': '" + item +
+                         "' is not a replication in [1, 4096]");
+      c.replication_per_layer.push_back(static_cast<int>(r));
+    }
+  }
+  c.crossbar_budget = cfg.get_int("platform.crossbar_budget");
   c.adc_columns_per_unit = adc_columns_per_unit;
   c.adc_rate_gsps = adc_rate_gsps;
   c.dac_latency_ns = require_nonnegative(cfg, "platform.dac_latency_ns");
   c.crossbar_settle_ns = require_nonnegative(cfg, "platform.crossbar_settle_ns");
   c.accumulator_latency_ns = require_nonnegative(cfg, "platform.accumulator_latency_ns");
   c.shift_entries_per_cycle = cfg.get_int32("platform.shift_entries_per_cycle");
-  c.io_words_per_cycle = cfg.get_int32("platform.io_words_per_cycle");
-  c.quantum_ns = require_positive(cfg, "platform.quantum_ns");
+  c.link_bytes_per_cycle = cfg.get_int32("platform.link_bytes_per_cycle");
+  c.hop_cycles = cfg.get_int32("platform.hop_cycles");
+  c.buffer_bytes = cfg.get_string("platform.buffer_bytes") == "auto" ? 0 : cfg.get_int("platform.buffer_bytes");
+  c.memory_bytes_per_cycle = cfg.get_int32("platform.memory_bytes_per_cycle");
+  c.memory_latency_ns = cfg.get_double("platform.memory_latency_ns");
+  c.digital_ops_per_cycle = cfg.get_int32("platform.digital_ops_per_cycle");
+  c.activation_bytes = cfg.get_int32("platform.activation_bytes");
   c.images = cfg.get_int32("platform.images");
+  c.vcd_images = cfg.get_int32("platform.vcd_images");
   return c;
 }
 

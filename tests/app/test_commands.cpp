@@ -114,6 +114,12 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   }
   EXPECT_EQ(cycles, 9089);
   EXPECT_GE(j["cycles_total"].get<long long>(), 9089);  // plus input/output transfers
+  // Buffers too small for one row, or for a window (the run would deadlock): errors, not hangs.
+  EXPECT_EQ(run("simulate --preset lenet --set platform.schedule=pipelined --set platform.buffer_bytes=100", &out), 2);
+  EXPECT_NE(out.find("cannot hold one"), std::string::npos) << out;
+  EXPECT_EQ(run("simulate --preset resnet20 --set platform.schedule=pipelined --set platform.buffer_bytes=1100", &out),
+            2);
+  EXPECT_NE(out.find("deadlock"), std::string::npos) << out;
   EXPECT_NE(run("simulate --preset resnet99", &out), 0);
   EXPECT_NE(out.find("resnet99"), std::string::npos);
 }

@@ -5,7 +5,7 @@
 #include <random>
 #include <systemc>
 
-#include "platform/Accelerator.h"
+#include "platform/Pipeline.h"
 #include "sw/nn/presets.h"
 
 using namespace xbarsim;
@@ -48,6 +48,7 @@ AnalogConfig quantized_partitioned() {
   c.set_method("conversion+calibration", "test");
   return c;
 }
+
 
 }  // namespace
 
@@ -150,33 +151,159 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   EXPECT_NEAR(driver.delay.to_seconds() * 1e9, fill + steady, 1e-6);
 }
 
-TEST(Platform, MatchesTheBatchEngineExactlyAndCountsIterations) {
+namespace {
+
+/// A pipeline over `m` with `images` random images; returns its result after the run.
+struct PipelineRun {
+  PipelineRun(const Model& m, const PlatformConfig& pc, std::vector<int> replication = {})
+      : model(m), xb(m, quantized_partitioned()) {
+    xb.program(random_dataset(m.input, 8, 1), 512);
+    images = random_dataset(m.input, pc.images, 2);
+    if (replication.empty()) replication.assign(m.linear.size(), 1);
+    pipe = std::make_unique<Pipeline>("acc", m, xb, pc, replication,
+                                      [this](int k, float* x) { images.preprocess(k, model.pre, x); });
+    sc_core::sc_start();
+  }
+  /// Logits bit-identical to the batch engine (the functions eval uses).
+  void expect_logits_of_the_batch_engine() {
+    const PipelineResult& r = pipe->result();
+    ASSERT_TRUE(r.completed);
+    ASSERT_EQ(static_cast<int>(r.logits.size()), images.count());
+    std::vector<float> x(model.input.size());
+    for (int k = 0; k < images.count(); ++k) {
+      images.preprocess(k, model.pre, x.data());
+      EXPECT_EQ(r.logits[k], run_image(model, x.data(), xb)) << "image " << k;
+    }
+  }
+  const Model& model;
+  CrossbarBackend xb;
+  Dataset images;
+  std::unique_ptr<Pipeline> pipe;
+};
+
+/// Ideal timing, a wide zero-latency interconnect, fast memory and digital units.
+PlatformConfig fast_platform(int images, bool pipelined) {
+  PlatformConfig pc;
+  pc.images = images;
+  pc.pipelined = pipelined;
+  pc.detailed = false;
+  pc.link_bytes_per_cycle = 1 << 20;
+  pc.hop_cycles = 0;
+  pc.memory_bytes_per_cycle = 1 << 20;
+  pc.memory_latency_ns = 0;
+  pc.digital_ops_per_cycle = 1 << 20;
+  pc.buffer_bytes = 1 << 20;
+  return pc;
+}
+
+}  // namespace
+
+TEST(Platform, SequentialIdealResnet20IsThePapersIterationCount) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("resnet20", 3);
+  PlatformConfig pc;
+  pc.images = 2;
+  pc.detailed = false;  // ideal timing: one clock cycle per iteration
+  PipelineRun run(m, pc);
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  double busy = 0;
+  long long total = 0;
+  for (const StageStats& st : r.stages) {
+    if (st.linear < 0) continue;
+    const LinearLayer& L = m.linear[st.linear];
+    EXPECT_NEAR(st.busy_ns, 2.0 * L.iterations() * pc.clock_ns(), 1e-6) << L.name;
+    EXPECT_EQ(run.pipe->tile(st.linear).iterations(), 2LL * L.iterations());
+    busy += st.busy_ns / 2;
+    total += L.iterations();
+  }
+  EXPECT_EQ(total, 9089);
+  EXPECT_NEAR(busy, 90890.0, 1e-6);  // 9089 iterations x 10 ns (the paper)
+  // Sequential: the second image enters when the first has left.
+  EXPECT_GE(r.image_in_ns[1], r.image_out_ns[0]);
+}
+
+TEST(Platform, PipelinedThroughputIsTheSlowestStage) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("lenet", 3);  // conv1: 24 x 24 = 576 iterations, the slowest stage
+  const int n = 12;
+  PipelineRun run(m, fast_platform(n, true));
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  const double stage_ns = 576 * 10.0;
+  EXPECT_NEAR(r.throughput_per_s(), 1e9 / stage_ns, 0.01 * 1e9 / stage_ns);
+  // makespan(N) = fill + (N - 1) / throughput, the fill being the first image's latency.
+  EXPECT_NEAR(r.makespan_ns(), r.latency_ns() + (n - 1) * stage_ns, 0.01 * r.makespan_ns());
+  // Several images were in flight: the second entered before the first left.
+  EXPECT_LT(r.image_in_ns[1], r.image_out_ns[0]);
+}
+
+TEST(Platform, NarrowInterconnectLimitsThroughput) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("lenet", 3);
+  PlatformConfig pc = fast_platform(24, true);
+  pc.buffer_bytes = 0;          // line buffers: the memory port cannot run far ahead
+  pc.link_bytes_per_cycle = 1;  // one byte per cycle: every activation byte takes a cycle
+  PipelineRun run(m, pc);
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  // By hand: every value crosses the bus once per consumer (the input from memory too,
+  // the logits to memory), one byte per activation.
+  std::vector<int> consumers(m.values.size(), 0);
+  for (const Op& op : m.ops)
+    for (int v : op.in) ++consumers[v];
+  ++consumers[m.output];
+  long long bytes = 0;
+  for (size_t v = 0; v < m.values.size(); ++v) bytes += static_cast<long long>(m.values[v].size()) * consumers[v];
+  EXPECT_EQ(r.bus_bytes, bytes * 24);
+  ASSERT_GT(bytes, 576);  // the bus, not conv1, is the bottleneck
+  EXPECT_NEAR(r.throughput_per_s(), 1e9 / (bytes * 10.0), 0.01 * 1e9 / (bytes * 10.0));
+}
+
+TEST(Platform, SmallBuffersStallTheProducerAndTooSmallOnesAreReported) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("lenet", 3);
+  PlatformConfig pc = fast_platform(12, true);
+  pc.buffer_bytes = 1200;  // 5 rows of conv2's input window; conv1's input holds 42 of its 28-byte rows
+  PipelineRun run(m, pc);
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  // The memory port delivers a 28-byte row per cycle while conv1 consumes one per 24 cycles:
+  // it stalls on the full buffer, and the throughput stays that of conv1 (576 cycles).
+  EXPECT_GT(r.memory_stall_ns, 0);
+  EXPECT_LE(r.throughput_per_s(), 1.001 * 1e9 / 5760.0);
+  EXPECT_GE(r.throughput_per_s(), 0.97 * 1e9 / 5760.0);
+}
+
+TEST(Platform, ReplicationDividesTheStageTime) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("lenet", 3);
+  PipelineRun run(m, fast_platform(12, true), {4, 1, 1, 1});  // conv1 on 4 tiles: 24 / 4 = 6 iterations per row each
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  const double stage_ns = 576 * 10.0 / 4;  // conv1 / 4 = 1440 ns > conv2's 640 ns
+  EXPECT_NEAR(r.throughput_per_s(), 1e9 / stage_ns, 0.01 * 1e9 / stage_ns);
+  EXPECT_EQ(r.stages[0].replication, 4);
+}
+
+TEST(Platform, AutoReplicationUnderTwiceTheCrossbarsRaisesThroughput) {
   ONE_SIMULATION_PER_PROCESS();
   const Model m = make_preset("resnet20", 3);
   CrossbarBackend xb(m, quantized_partitioned());
   xb.program(random_dataset(m.input, 8, 1), 512);
-  const Dataset images = random_dataset(m.input, 3, 2);
-  PlatformConfig pc;
-  pc.images = images.count();
-  pc.detailed = false;  // ideal timing: one clock cycle per iteration
-  Accelerator acc("acc", m, xb, pc, [&](int k, float* x) { images.preprocess(k, m.pre, x); });
-  sc_core::sc_start();
-  const SimulationResult& r = acc.result();
-  ASSERT_EQ(static_cast<int>(r.logits.size()), images.count());
-  std::vector<float> x(m.input.size());
-  for (int k = 0; k < images.count(); ++k) {
-    images.preprocess(k, m.pre, x.data());
-    const Eigen::VectorXf batch = run_image(m, x.data(), xb);
-    EXPECT_EQ(r.logits[k], batch) << "image " << k;  // bit-identical
-  }
-  long long total = 0;
+  PlatformConfig pc = fast_platform(1, true);
+  pc.auto_replication = true;
+  const std::vector<int> r = resolve_replication(m, xb, pc);
+  long long base = 0, used = 0;
+  double slowest_before = 0, slowest_after = 0;
   for (size_t l = 0; l < m.linear.size(); ++l) {
-    const LinearLayer& L = m.linear[l];
-    const long long pixels = static_cast<long long>(L.out.h) * L.out.w;
-    EXPECT_EQ(acc.tile(static_cast<int>(l)).iterations(), pixels * images.count());
-    EXPECT_EQ(acc.tile(static_cast<int>(l)).cycles(), pixels * images.count());  // ideal: iterations x clock
-    EXPECT_NEAR(r.layer_latency_ns[0][l], pixels * pc.clock_ns(), 1e-6);
-    total += pixels;
+    base += xb.layer(static_cast<int>(l)).crossbars();
+    used += static_cast<long long>(r[l]) * xb.layer(static_cast<int>(l)).crossbars();
+    slowest_before = std::max(slowest_before, static_cast<double>(m.linear[l].iterations()));
+    slowest_after = std::max(slowest_after, static_cast<double>(m.linear[l].iterations()) / r[l]);
   }
-  EXPECT_EQ(total, 9089);
+  EXPECT_LE(used, 2 * base);
+  EXPECT_GT(r[0], 1);  // the first layers (32 x 32 outputs) are copied, as in ISAAC
+  EXPECT_LT(slowest_after, slowest_before / 2);
 }
+

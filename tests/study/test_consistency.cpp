@@ -57,7 +57,13 @@ TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
     EXPECT_EQ(ev.layers[l].inventory.dacs, o.dacs);
     area += over.layers[l].dense.area_mm2.total();
   }
-  EXPECT_NEAR(sim["area_mm2"].get<double>(), area, 1e-12 * area);
+  double sim_layers = 0;
+  for (const auto& l : sim["layers"]) sim_layers += l["area_mm2"].get<double>();
+  EXPECT_NEAR(sim_layers, area, 1e-12 * area);
+  // The platform adds the interconnect and its digital units to the layers' area.
+  const auto& ab = sim["area_breakdown_mm2"];
+  EXPECT_NEAR(sim["area_mm2"].get<double>(), area + ab["interconnect"].get<double>() + ab["digital"].get<double>(),
+              1e-12 * area);
   EXPECT_NEAR(ev.cost.area_mm2.total(), area, 1e-12 * area);
   // xbar-study of one 150 x 100 matrix: the same rule.
   const nlohmann::json xs = run_json(std::string("xbar-study --set study.rows=150 --set study.cols=100 "

@@ -1,0 +1,482 @@
+#include "platform/Pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "sw/hw/inventory.h"
+
+namespace xbarsim {
+
+double PipelineResult::throughput_per_s() const {
+  const size_t n = image_out_ns.size();
+  if (n == 0) return 0;
+  if (n == 1) return 1e9 / std::max(latency_ns(), 1e-9);
+  // Steady state: the spacing of the outputs between the first and the last quarter of the
+  // run, where as many images are in flight at both ends (the first outputs also reflect the
+  // pipeline filling, the last ones its draining).
+  const size_t a = n >= 8 ? n / 4 : 0, b = n >= 8 ? n - 1 - n / 4 : n - 1;
+  return 1e9 * static_cast<double>(b - a) / std::max(image_out_ns[b] - image_out_ns[a], 1e-9);
+}
+
+/// The activations of the images in flight: one vector per value of the network.
+class Pipeline::Values {
+ public:
+  explicit Values(size_t values) : values_(values) {}
+  std::vector<float>& at(int image, int value) {
+    auto it = images_.find(image);
+    if (it == images_.end()) it = images_.emplace(image, std::vector<std::vector<float>>(values_)).first;
+    return it->second[value];
+  }
+  void drop(int image) { images_.erase(image); }
+
+ private:
+  size_t values_;
+  std::map<int, std::vector<std::vector<float>>> images_;
+};
+
+/// An (image, row) token on a stage's output register.
+struct RowId {
+  int image = 0, row = 0;
+};
+inline std::ostream& operator<<(std::ostream& os, const RowId& r) { return os << r.image << ":" << r.row; }
+
+/// One replica of a layer's tile: a process that works through its share of each row.
+class TileReplica : public sc_core::sc_module {
+ public:
+  TileReplica(sc_core::sc_module_name name, sc_core::sc_event& done, int& pending)
+      : sc_module(name), done_(done), pending_(pending) {
+    SC_HAS_PROCESS(TileReplica);
+    SC_THREAD(run);
+  }
+  void start(double share_ns) {
+    share_ns_ = share_ns;
+    start_.notify(sc_core::SC_ZERO_TIME);
+  }
+  double busy_ns = 0;
+
+ private:
+  void run() {
+    for (;;) {
+      sc_core::wait(start_);
+      sc_core::wait(sc_core::sc_time(share_ns_, sc_core::SC_NS));
+      busy_ns += share_ns_;
+      if (--pending_ == 0) done_.notify(sc_core::SC_ZERO_TIME);
+    }
+  }
+  sc_core::sc_event start_;
+  sc_core::sc_event& done_;
+  int& pending_;
+  double share_ns_ = 0;
+};
+
+struct Pipeline::Stage : public sc_core::sc_module {
+  tlm_utils::simple_initiator_socket<Stage> stage2bus{"stage2bus"};
+  std::unique_ptr<tlm_utils::simple_initiator_socket<Stage>> stage2tile;  ///< linear layers only
+  Pipeline* owner = nullptr;
+  const Op* op = nullptr;
+  std::vector<RowBuffer*> in;
+  std::vector<Shape> in_shape;
+  Shape out_shape;
+  long long out_row_bytes = 0;
+  std::unique_ptr<Tile> tile;  ///< linear layers: the datapath that computes and times each iteration
+  std::vector<std::unique_ptr<TileReplica>> replicas;
+  sc_core::sc_event replicas_done;
+  int replicas_pending = 0;
+  std::vector<double> ii_ns;  ///< per iteration of the current image: initiation interval
+  double fill_ns = 0;         ///< extra latency of the first iteration (pipeline fill)
+  StageStats stats;
+  sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
+  /// Output register: the stage hands a finished row to its sender process (which waits for
+  /// buffer space and the bus) and goes on with the next row; it stalls when the register is
+  /// still occupied.
+  sc_core::sc_fifo<RowId> out_rows{1};
+
+  Stage(sc_core::sc_module_name name, Pipeline* p) : sc_module(name), owner(p) {
+    SC_HAS_PROCESS(Stage);
+    SC_THREAD(run);
+    SC_THREAD(send);
+  }
+  void run() { owner->stage_process(*this); }
+  void send() {
+    for (;;) {
+      const RowId row = out_rows.read();
+      owner->send_row(*this, row.image, row.row, op->out, out_row_bytes);
+    }
+  }
+  /// Input rows [first, last] the output row `r` needs from input `i` (last < 0: none).
+  std::pair<int, int> window(int i, int r) const;
+};
+
+std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
+  const int h = in_shape[i].h;
+  auto clamp = [&](int first, int last) {
+    return std::make_pair(std::clamp(first, 0, h), std::min(last, h - 1));
+  };
+  switch (op->kind) {
+    case OpKind::Linear: {
+      const LinearLayer& L = owner->model_.linear[op->linear];
+      if (!L.is_conv || h == 1) return {0, 0};
+      return clamp(r * L.stride_h - L.pad_t, r * L.stride_h - L.pad_t + L.k_h - 1);
+    }
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+      return clamp(r * op->s_h - op->p_t, r * op->s_h - op->p_t + op->k_h - 1);
+    case OpKind::GlobalAvgPool:
+    case OpKind::Flatten:
+      return {0, h - 1};
+    case OpKind::Pad: {
+      const int y = r - op->pad_lo[1];
+      if (y < 0) return {0, -1};
+      if (y >= h) return {h, -1};
+      return {y, y};
+    }
+    case OpKind::Slice: {
+      const int y = op->start[1] + r * op->step[1];
+      return {y, y};
+    }
+    default:
+      return {r, r};
+  }
+}
+
+namespace {
+
+/// Rows of its input a stage's buffer holds when sized automatically: the window plus one
+/// stride for convolutions and pooling, two rows for row-wise units, the whole map where the
+/// consumer needs it (global pooling, flatten, vectors) or waits for another branch (Add).
+int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequential) {
+  if (sequential) return in.h;  // a stage starts an image only when its whole input is present
+  switch (op.kind) {
+    case OpKind::Linear: {
+      const LinearLayer& L = m.linear[op.linear];
+      return L.is_conv ? std::min(in.h, L.k_h + L.stride_h) : in.h;
+    }
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+      return std::min(in.h, op.k_h + op.s_h);
+    case OpKind::Add:
+    case OpKind::GlobalAvgPool:
+    case OpKind::Flatten:
+      return in.h;
+    default:
+      return std::min(in.h, 2);
+  }
+}
+
+long long row_bytes(const Shape& s, int activation_bytes) {
+  return static_cast<long long>(s.c) * s.w * activation_bytes;
+}
+
+}  // namespace
+
+Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
+                   const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
+                   std::function<void(int)> progress)
+    : sc_module(name),
+      model_(model),
+      programmed_(programmed),
+      cfg_(cfg),
+      image_(std::move(image)),
+      progress_(std::move(progress)),
+      bus_("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles),
+      consumers_of_(model.values.size()),
+      values_(std::make_unique<Values>(model.values.size())) {
+  for (size_t k = 0; k < model.ops.size(); ++k) {
+    const Op& op = model.ops[k];
+    auto s = std::make_unique<Stage>(("stage_" + std::to_string(k)).c_str(), this);
+    s->op = &op;
+    s->out_shape = model.values[op.out];
+    s->out_row_bytes = row_bytes(s->out_shape, cfg.activation_bytes);
+    s->stats.name = op.name;
+    s->stats.kind = op.kind;
+    s->stats.linear = op.linear;
+    for (int v : op.in) {
+      const Shape in = model.values[v];
+      const long long rb = row_bytes(in, cfg.activation_bytes);
+      const long long cap =
+          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined);
+      if (cap < rb)
+        throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one " +
+                         std::to_string(rb) + "-byte row of the input of '" + op.name + "'");
+      buffers_.push_back(std::make_unique<RowBuffer>(op.name + ".in", cap, rb, in.h));
+      s->in.push_back(buffers_.back().get());
+      s->in_shape.push_back(in);
+      consumers_of_[v].push_back(buffers_.back().get());
+      s->stats.buffer_bytes += cap;
+    }
+    if (op.kind == OpKind::Linear) {
+      s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg);
+      s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
+          ("stage2tile_" + std::to_string(op.linear)).c_str());
+      s->stage2tile->bind(s->tile->noc2tile);
+      const int r = replication.at(op.linear);
+      s->stats.replication = r;
+      for (int q = 0; q < r; ++q)
+        s->replicas.push_back(std::make_unique<TileReplica>(
+            ("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(), s->replicas_done,
+            s->replicas_pending));
+    }
+    s->stage2bus.bind(bus_.stage2bus);
+    stages_.push_back(std::move(s));
+  }
+  const Shape out = model.values[model.output];
+  const long long ob = row_bytes(out, cfg.activation_bytes);
+  buffers_.push_back(std::make_unique<RowBuffer>("memory.out", ob * out.h, ob, out.h));
+  output_ = buffers_.back().get();
+  consumers_of_[model.output].push_back(output_);
+  mem2bus.bind(bus_.stage2bus);
+  SC_HAS_PROCESS(Pipeline);
+  SC_THREAD(source);
+  SC_THREAD(sink);
+}
+
+Pipeline::~Pipeline() {
+  if (vcd_) sc_core::sc_close_vcd_trace_file(vcd_);
+}
+
+const Tile& Pipeline::tile(int l) const {
+  for (const auto& s : stages_)
+    if (s->op->linear == l) return *s->tile;
+  throw std::out_of_range("no tile for linear layer " + std::to_string(l));
+}
+
+void Pipeline::trace(const std::string& vcd_path, int images) {
+  std::string base = vcd_path;
+  if (base.size() > 4 && base.compare(base.size() - 4, 4, ".vcd") == 0) base.resize(base.size() - 4);
+  vcd_ = sc_core::sc_create_vcd_trace_file(base.c_str());
+  vcd_images_ = images;
+  for (auto& s : stages_) {
+    sc_core::sc_trace(vcd_, s->busy_sig, s->stats.name + ".busy");
+    sc_core::sc_trace(vcd_, s->stall_sig, s->stats.name + ".stall");
+  }
+}
+
+void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
+  if (!vcd_ || image >= vcd_images_) return;
+  s.busy_sig.write(busy);
+  s.stall_sig.write(stall);
+}
+
+void Pipeline::send_row(Stage& s, int image, int row, int value, long long bytes) {
+  for (RowBuffer* b : consumers_of_[value]) {
+    b->reserve();
+    tlm::tlm_generic_payload p;
+    std::vector<float>& v = values_->at(image, value);
+    p.set_command(tlm::TLM_WRITE_COMMAND);
+    p.set_address(0);
+    p.set_data_ptr(reinterpret_cast<unsigned char*>(v.data() + static_cast<size_t>(row) * (v.size() / b->rows_per_image())));
+    p.set_data_length(static_cast<unsigned>(bytes));
+    p.set_streaming_width(static_cast<unsigned>(bytes));
+    p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+    s.stage2bus->b_transport(p, delay);
+    if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("bus transfer failed");
+    sc_core::wait(delay);
+    b->commit(image, row);
+  }
+}
+
+void Pipeline::compute(Stage& s, int image) {
+  const Op& op = *s.op;
+  std::vector<float>& y = values_->at(image, op.out);
+  if (op.kind != OpKind::Linear) {
+    digital_op(op, model_.values[op.in[0]], model_.values[op.out], values_->at(image, op.in[0]),
+               op.in.size() > 1 ? &values_->at(image, op.in[1]) : nullptr, y);
+    return;
+  }
+  const LinearLayer& L = model_.linear[op.linear];
+  LayerJob job;
+  job.layer = &L;
+  job.analog = &programmed_.layer(op.linear);
+  job.activation = values_->at(image, op.in[0]).data();
+  job.detailed = true;
+  tlm::tlm_generic_payload p;
+  attach(p, job, 0);
+  sc_core::sc_time ignored = sc_core::SC_ZERO_TIME;
+  (*s.stage2tile)->b_transport(p, ignored);
+  if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("tile transaction failed");
+  y.resize(L.out.size());
+  const int pixels = L.out.h * L.out.w;
+  for (int c = 0; c < L.c_out; ++c)
+    for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
+  // Initiation interval of every iteration: its slowest stage in whole cycles (ideal: one cycle).
+  const double clk = cfg_.clock_ns();
+  s.ii_ns.assign(pixels, clk);
+  s.fill_ns = 0;
+  if (cfg_.detailed) {
+    double first = 0;
+    for (int st = 0; st < kStages; ++st) first += job.stage_ns[st][0];
+    for (int k = 0; k < pixels; ++k) {
+      double worst = 0;
+      for (int st = 0; st < kStages; ++st) worst = std::max(worst, job.stage_ns[st][k]);
+      s.ii_ns[k] = std::ceil(worst / clk - 1e-9) * clk;
+    }
+    s.fill_ns = std::max(0.0, std::ceil(first / clk - 1e-9) * clk - s.ii_ns[0]);
+  }
+}
+
+long long Pipeline::row_ops(const Stage& s) const {
+  const Op& op = *s.op;
+  long long ops = 0;
+  const Shape& o = s.out_shape;
+  switch (op.kind) {
+    case OpKind::Relu:
+    case OpKind::Affine:
+    case OpKind::Add:
+      ops = static_cast<long long>(o.c) * o.w;
+      break;
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+      ops = static_cast<long long>(o.c) * o.w * op.k_h * op.k_w;
+      break;
+    case OpKind::GlobalAvgPool:
+      ops = static_cast<long long>(s.in_shape[0].size());
+      break;
+    default:
+      ops = 0;  // padding, slicing, flattening move data only
+  }
+  return ops;
+}
+
+void Pipeline::stage_process(Stage& s) {
+  const int rows = s.out_shape.h;
+  for (int img = 0; img < cfg_.images; ++img) {
+    if (!cfg_.pipelined)
+      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.in_shape[i].h - 1);
+    for (int r = 0; r < rows; ++r) {
+      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.window(static_cast<int>(i), r).second);
+      if (r == 0) compute(s, img);
+      traced(s, img, true, false);
+      double t = 0;
+      if (s.op->kind == OpKind::Linear) {
+        // The row's iterations, split into contiguous shares over the replicas.
+        const int w = s.out_shape.w, nrep = static_cast<int>(s.replicas.size());
+        s.replicas_pending = nrep;
+        for (int q = 0; q < nrep; ++q) {
+          double share = 0;
+          for (int k = r * w + q * w / nrep; k < r * w + (q + 1) * w / nrep; ++k) share += s.ii_ns[k];
+          if (r == 0 && q == 0) share += s.fill_ns;
+          t = std::max(t, share);
+          s.replicas[q]->start(share);
+        }
+        sc_core::wait(s.replicas_done);
+      } else {
+        const long long ops = row_ops(s);
+        t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+        s.stats.digital_ops += ops;
+        if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+      }
+      s.stats.busy_ns += t;
+      ++s.stats.rows;
+      traced(s, img, false, false);
+      for (size_t i = 0; i < s.in.size(); ++i)
+        s.in[i]->release_before(img, r + 1 < rows ? s.window(static_cast<int>(i), r + 1).first : s.in_shape[i].h);
+      const sc_core::sc_time t0 = sc_core::sc_time_stamp();
+      traced(s, img, false, true);
+      s.out_rows.write(RowId{img, r});  // stalls while the previous row still waits for space or the bus
+      s.stats.stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
+      traced(s, img, false, false);
+    }
+  }
+}
+
+void Pipeline::source() {
+  const Shape in = model_.input;
+  const long long rb = row_bytes(in, cfg_.activation_bytes);
+  const double clk = cfg_.clock_ns();
+  for (int img = 0; img < cfg_.images; ++img) {
+    if (!cfg_.pipelined)
+      while (images_left_ < img) sc_core::wait(image_left_);
+    result_.image_in_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
+    std::vector<float>& x = values_->at(img, 0);
+    x.resize(in.size());
+    image_(img, x.data());
+    for (int r = 0; r < in.h; ++r) {
+      const double t = (r == 0 ? cfg_.memory_latency_ns : 0.0) + std::ceil(static_cast<double>(rb) / cfg_.memory_bytes_per_cycle) * clk;
+      sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+      result_.memory_bytes += rb;
+      for (RowBuffer* b : consumers_of_[0]) {
+        const sc_core::sc_time t0 = sc_core::sc_time_stamp();
+        b->reserve();
+        result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
+        tlm::tlm_generic_payload p;
+        p.set_command(tlm::TLM_WRITE_COMMAND);
+        p.set_data_ptr(reinterpret_cast<unsigned char*>(x.data() + static_cast<size_t>(r) * in.c * in.w));
+        p.set_data_length(static_cast<unsigned>(rb));
+        p.set_streaming_width(static_cast<unsigned>(rb));
+        sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+        mem2bus->b_transport(p, delay);
+        sc_core::wait(delay);
+        b->commit(img, r);
+      }
+    }
+  }
+}
+
+void Pipeline::sink() {
+  const Shape out = model_.values[model_.output];
+  const long long bytes = row_bytes(out, cfg_.activation_bytes) * out.h;
+  const double clk = cfg_.clock_ns();
+  for (int img = 0; img < cfg_.images; ++img) {
+    output_->wait_for(img, out.h - 1);
+    sc_core::wait(sc_core::sc_time(
+        cfg_.memory_latency_ns + std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * clk,
+        sc_core::SC_NS));
+    output_->release_before(img, out.h);
+    result_.memory_bytes += bytes;
+    const std::vector<float>& y = values_->at(img, model_.output);
+    result_.logits.push_back(Eigen::Map<const Eigen::VectorXf>(y.data(), static_cast<Eigen::Index>(y.size())));
+    result_.image_out_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
+    values_->drop(img);
+    ++images_left_;
+    image_left_.notify(sc_core::SC_ZERO_TIME);
+    if (progress_) progress_(img + 1);
+  }
+}
+
+const PipelineResult& Pipeline::result() {
+  result_.completed = images_left_ == cfg_.images;
+  result_.stages.clear();
+  for (const auto& s : stages_) {
+    StageStats st = s->stats;
+    for (const RowBuffer* b : s->in) st.buffer_peak_bytes += b->peak_bytes();
+    result_.stages.push_back(st);
+  }
+  result_.bus_bytes = bus_.bytes();
+  result_.bus_transfers = bus_.transfers();
+  result_.bus_busy_ns = bus_.busy_ns();
+  return result_;
+}
+
+std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& programmed, const PlatformConfig& cfg) {
+  const int L = static_cast<int>(m.linear.size());
+  if (!cfg.replication_per_layer.empty()) {
+    if (static_cast<int>(cfg.replication_per_layer.size()) != L)
+      throw InputError("platform.replication_per_layer lists " + std::to_string(cfg.replication_per_layer.size()) +
+                       " values for " + std::to_string(L) + " linear layers");
+    return cfg.replication_per_layer;
+  }
+  std::vector<int> r(L, cfg.replication);
+  if (!cfg.auto_replication) return r;
+  // Greedy, as ISAAC balances its pipeline: copy the slowest layer (iterations / copies)
+  // while the crossbars fit the budget.
+  long long base = 0;
+  for (int l = 0; l < L; ++l) base += programmed.layer(l).crossbars();
+  const long long budget = cfg.crossbar_budget > 0 ? cfg.crossbar_budget : 2 * base;
+  long long used = base;
+  for (;;) {
+    int slow = 0;
+    for (int l = 1; l < L; ++l)
+      if (static_cast<double>(m.linear[l].iterations()) / r[l] >
+          static_cast<double>(m.linear[slow].iterations()) / r[slow])
+        slow = l;
+    const long long extra = programmed.layer(slow).crossbars();
+    if (used + extra > budget || r[slow] >= m.linear[slow].out.w) break;
+    ++r[slow];
+    used += extra;
+  }
+  return r;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,108 @@
+#pragma once
+/// The accelerator as concurrent SystemC processes: one stage per operation of the network
+/// (a tile with its replicas for every Conv/Gemm, a digital unit for ReLU, Add, pooling,
+/// global pooling, padding, slicing), each an SC_THREAD that works through its output rows
+/// (the transaction grain), waits in its input line buffers for the rows its window needs,
+/// computes, and sends each output row over the shared TLM-2.0 bus into the consumers'
+/// buffers, stalling while they are full. Images enter from and leave to an off-chip memory
+/// port. `sequential`: a stage starts an image only when its whole input is present and the
+/// next image enters only when the previous one has left; `pipelined`: line-buffered layers
+/// overlap and several images are in flight. Timing, stalls and throughput emerge from the
+/// processes; the values are computed by the same modules and functions as `eval`, so the
+/// logits are bit-identical.
+#include <functional>
+#include <memory>
+#include <string>
+#include <systemc>
+#include <tlm>
+#include <tlm_utils/simple_initiator_socket.h>
+#include <vector>
+
+#include "platform/Bus.h"
+#include "platform/RowBuffer.h"
+#include "platform/Tile.h"
+#include "sw/hw/platform_spec.h"
+#include "sw/inference/crossbar_backend.h"
+
+namespace xbarsim {
+
+/// What one stage did over the run.
+struct StageStats {
+  std::string name;
+  OpKind kind = OpKind::Relu;
+  int linear = -1;         ///< index of the linear layer, or -1
+  int replication = 1;
+  double busy_ns = 0;      ///< computing (the slowest replica per row)
+  double stall_ns = 0;     ///< waiting for space in a consumer's buffer
+  long long rows = 0, digital_ops = 0;
+  long long buffer_bytes = 0, buffer_peak_bytes = 0;  ///< its input buffers: capacity and peak occupancy
+};
+
+struct PipelineResult {
+  std::vector<Eigen::VectorXf> logits;              ///< per image
+  std::vector<double> image_in_ns, image_out_ns;    ///< input starts leaving memory; logits stored
+  std::vector<StageStats> stages;
+  long long bus_bytes = 0, bus_transfers = 0, memory_bytes = 0;
+  double memory_stall_ns = 0;  ///< the input port waiting for space in the first stages' buffers
+  double bus_busy_ns = 0;
+  bool completed = false;  ///< false: the run stopped with images still in flight (deadlock)
+  double makespan_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.back(); }
+  double latency_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.front() - image_in_ns.front(); }
+  /// Images per second in steady state: from the spacing of the outputs between the first
+  /// and the last quarter of the run.
+  double throughput_per_s() const;
+};
+
+/// Copies of every linear layer's tile: per-layer list, one value for all, or `auto`
+/// (the slowest stage is replicated while the crossbar budget allows, as ISAAC does).
+std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& programmed, const PlatformConfig& cfg);
+
+class Pipeline : public sc_core::sc_module {
+ public:
+  /// `image(k, x)` writes the k-th preprocessed image (C x H x W floats) into x;
+  /// `replication[l]` tiles for linear layer l.
+  Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
+           const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
+           std::function<void(int)> progress = nullptr);
+  ~Pipeline() override;
+
+  /// Result after sc_start() returned.
+  const PipelineResult& result();
+  /// The datapath of linear layer l (its modules' action counters).
+  const Tile& tile(int l) const;
+  /// Traces busy/stall of every stage, buffer occupancy and bus activity for the first
+  /// `images` images into `vcd_path` (before sc_start).
+  void trace(const std::string& vcd_path, int images);
+
+ private:
+  struct Stage;
+  class Values;
+  void source();
+  void sink();
+  void stage_process(Stage& s);
+  void compute(Stage& s, int image);
+  /// Operations a digital unit performs for one output row.
+  long long row_ops(const Stage& s) const;
+  void send_row(Stage& s, int image, int row, int value, long long bytes);
+  void traced(Stage& s, int image, bool busy, bool stall);
+
+  const Model& model_;
+  const CrossbarBackend& programmed_;
+  PlatformConfig cfg_;
+  std::function<void(int, float*)> image_;
+  std::function<void(int)> progress_;
+  tlm_utils::simple_initiator_socket<Pipeline> mem2bus{"mem2bus"};  ///< the memory port's transfers
+  Bus bus_;
+  std::vector<std::unique_ptr<Stage>> stages_;
+  std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it
+  std::vector<std::unique_ptr<RowBuffer>> buffers_;
+  std::unique_ptr<Values> values_;
+  RowBuffer* output_ = nullptr;  ///< the logits on their way to memory
+  sc_core::sc_event image_left_;
+  int images_left_ = 0;
+  PipelineResult result_;
+  sc_core::sc_trace_file* vcd_ = nullptr;
+  int vcd_images_ = 0;
+};
+
+}  // namespace xbarsim
