@@ -84,6 +84,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
   sc_core::sc_event replicas_done;
   int replicas_pending = 0;
   std::vector<double> ii_ns;  ///< per iteration of the current image: initiation interval
+  double sparse_ns = 0;       ///< > 0: a sparse (Toeplitz) layer's single iteration
   double fill_ns = 0;         ///< extra latency of the first iteration (pipeline fill)
   StageStats stats;
   sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
@@ -116,6 +117,7 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
   switch (op->kind) {
     case OpKind::Linear: {
       const LinearLayer& L = owner->model_.linear[op->linear];
+      if (sparse_ns > 0) return {0, h - 1};  // a Toeplitz layer reads the whole input at once
       if (!L.is_conv || h == 1) return {0, 0};
       return clamp(r * L.stride_h - L.pad_t, r * L.stride_h - L.pad_t + L.k_h - 1);
     }
@@ -172,11 +174,12 @@ long long row_bytes(const Shape& s, int activation_bytes) {
 
 Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
                    const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-                   std::function<void(int)> progress)
+                   std::function<void(int)> progress, std::vector<double> sparse_ns)
     : sc_module(name),
       model_(model),
       programmed_(programmed),
       cfg_(cfg),
+      sparse_ns_(std::move(sparse_ns)),
       image_(std::move(image)),
       progress_(std::move(progress)),
       bus_("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles),
@@ -191,11 +194,13 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     s->stats.name = op.name;
     s->stats.kind = op.kind;
     s->stats.linear = op.linear;
+    const bool sparse_layer = op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) &&
+                              sparse_ns_[op.linear] > 0;
     for (int v : op.in) {
       const Shape in = model.values[v];
       const long long rb = row_bytes(in, cfg.activation_bytes);
       const long long cap =
-          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined);
+          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer);
       if (cap < rb)
         throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one " +
                          std::to_string(rb) + "-byte row of the input of '" + op.name + "'");
@@ -210,7 +215,8 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
           ("stage2tile_" + std::to_string(op.linear)).c_str());
       s->stage2tile->bind(s->tile->noc2tile);
-      const int r = replication.at(op.linear);
+      if (op.linear < static_cast<int>(sparse_ns_.size())) s->sparse_ns = sparse_ns_[op.linear];
+      const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
       s->stats.replication = r;
       for (int q = 0; q < r; ++q)
         s->replicas.push_back(std::make_unique<TileReplica>(
@@ -349,7 +355,10 @@ void Pipeline::stage_process(Stage& s) {
       if (r == 0) compute(s, img);
       traced(s, img, true, false);
       double t = 0;
-      if (s.op->kind == OpKind::Linear) {
+      if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
+        t = r == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
+        if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+      } else if (s.op->kind == OpKind::Linear) {
         // The row's iterations, split into contiguous shares over the replicas.
         const int w = s.out_shape.w, nrep = static_cast<int>(s.replicas.size());
         s.replicas_pending = nrep;

@@ -60,10 +60,12 @@ std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& prog
 class Pipeline : public sc_core::sc_module {
  public:
   /// `image(k, x)` writes the k-th preprocessed image (C x H x W floats) into x;
-  /// `replication[l]` tiles for linear layer l.
+  /// `replication[l]` tiles for linear layer l; `sparse_ns[l]` > 0 makes layer l a sparse
+  /// (Toeplitz) layer: one iteration of that time once its whole input is present (its values
+  /// are computed by the dense datapath).
   Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
            const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-           std::function<void(int)> progress = nullptr);
+           std::function<void(int)> progress = nullptr, std::vector<double> sparse_ns = {});
   ~Pipeline() override;
 
   /// Result after sc_start() returned.
@@ -89,6 +91,7 @@ class Pipeline : public sc_core::sc_module {
   const Model& model_;
   const CrossbarBackend& programmed_;
   PlatformConfig cfg_;
+  std::vector<double> sparse_ns_;
   std::function<void(int, float*)> image_;
   std::function<void(int)> progress_;
   tlm_utils::simple_initiator_socket<Pipeline> mem2bus{"mem2bus"};  ///< the memory port's transfers

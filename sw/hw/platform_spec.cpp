@@ -1,8 +1,11 @@
 #include "sw/hw/platform_spec.h"
 
+#include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "sw/common/parse.h"
+#include "sw/hw/inventory.h"
 
 namespace xbarsim {
 
@@ -44,6 +47,22 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.images = cfg.get_int32("platform.images");
   c.vcd_images = cfg.get_int32("platform.vcd_images");
   return c;
+}
+
+}  // namespace xbarsim
+
+namespace xbarsim {
+
+double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
+  const double clk = cfg.clock_ns();
+  if (!cfg.detailed) return clk;
+  const long long rows = std::min(v.rows, v.array_rows);
+  const long long cols = std::min(v.physical_cols, v.array_cols);
+  const long long adcs = adcs_for_columns(cols, cfg.adc_columns_per_unit);
+  const double load = std::ceil(static_cast<double>(rows) / cfg.shift_entries_per_cycle) * clk;
+  const double adc = std::ceil(static_cast<double>(cols) / std::max<long long>(adcs, 1)) / cfg.adc_rate_gsps;
+  const double t = load + cfg.dac_latency_ns + cfg.crossbar_settle_ns + adc + cfg.accumulator_latency_ns;
+  return std::ceil(t / clk - 1e-9) * clk;
 }
 
 }  // namespace xbarsim

@@ -33,6 +33,12 @@ struct PlatformConfig {
   double clock_ns() const { return 1e3 / clock_mhz; }
 };
 
+struct LayerInventory;
+/// Time of the single iteration of a sparse (Toeplitz) layer: its inputs loaded into the row
+/// drivers (shift_entries_per_cycle per cycle), DAC, settling, the conversions of the most
+/// loaded ADC, accumulation, in whole cycles (ideal timing: one cycle).
+double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg);
+
 /// Reads and validates `platform.`; ADC sharing and rate come from the resolved converter
 /// spec and the component library.
 PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_unit, double adc_rate_gsps);

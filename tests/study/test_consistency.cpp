@@ -147,3 +147,29 @@ TEST(Consistency, SmallLayerEnergyByHand) {
   // Leakage is zero in this library: energy over any time equals the dynamic energy.
   EXPECT_NEAR(p.hw.cost.energy_pj(a, v, 1e6).total(), hand, 1e-9 * hand);
 }
+
+TEST(Consistency, DenseAndSparseSimulationsAgreeWithOverhead) {
+  // The whole-network dense vs sparse comparison comes out of the timing simulation with the
+  // counts of `overhead` (the paper's study: one crossbar per layer).
+  const ConfigTree cfg = ConfigTree::load("", {"mapping.max_rows=unbounded", "mapping.max_cols=unbounded"});
+  const OverheadReport over = overhead_study(make_preset("resnet20", 3), parse_eval_point(cfg).hw);
+  for (const char* scheme : {"dense", "sparse"}) {
+    SCOPED_TRACE(scheme);
+    const nlohmann::json j =
+        run_json(std::string("simulate --preset resnet20 --set mapping.max_rows=unbounded "
+                             "--set mapping.max_cols=unbounded --set mapping.scheme=") + scheme,
+                 std::string("scheme_") + scheme);
+    const MappingOverhead& t = std::string(scheme) == "dense" ? over.dense_total : over.sparse_total;
+    long long adcs = 0, dacs = 0;
+    double area = 0;
+    for (const auto& l : j["layers"]) {
+      adcs += l["adcs"].get<long long>();
+      dacs += l["dacs"].get<long long>();
+      area += l["area_mm2"].get<double>();
+    }
+    EXPECT_EQ(j["iterations_total"].get<long long>(), t.inv.iterations);
+    EXPECT_EQ(adcs, t.inv.adcs);
+    EXPECT_EQ(dacs, t.inv.dacs);
+    EXPECT_NEAR(area, t.area_mm2.total(), 1e-9 * area);
+  }
+}
