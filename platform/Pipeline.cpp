@@ -252,14 +252,21 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
   if (base.size() > 4 && base.compare(base.size() - 4, 4, ".vcd") == 0) base.resize(base.size() - 4);
   vcd_ = sc_core::sc_create_vcd_trace_file(base.c_str());
   vcd_images_ = images;
+  tracing_ = true;
   for (auto& s : stages_) {
     sc_core::sc_trace(vcd_, s->busy_sig, s->stats.name + ".busy");
     sc_core::sc_trace(vcd_, s->stall_sig, s->stats.name + ".stall");
   }
+  for (auto& b : buffers_) {
+    occupancy_sigs_.push_back(std::make_unique<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>());
+    b->trace_to(occupancy_sigs_.back().get(), &tracing_);
+    sc_core::sc_trace(vcd_, *occupancy_sigs_.back(), b->name() + ".bytes");
+  }
+  sc_core::sc_trace(vcd_, bus_bytes_sig_, "bus.bytes_carried");
 }
 
 void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
-  if (!vcd_ || image >= vcd_images_) return;
+  if (!tracing_ || image >= vcd_images_) return;
   s.busy_sig.write(busy);
   s.stall_sig.write(stall);
 }
@@ -280,6 +287,7 @@ void Pipeline::send_row(Stage& s, int image, int row, int value, long long bytes
     if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("bus transfer failed");
     sc_core::wait(delay);
     b->commit(image, row);
+    if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(bus_.bytes(), 1LL << 30)));
   }
 }
 
@@ -439,6 +447,7 @@ void Pipeline::sink() {
     result_.image_out_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
     values_->drop(img);
     ++images_left_;
+    if (images_left_ >= vcd_images_) tracing_ = false;
     image_left_.notify(sc_core::SC_ZERO_TIME);
     if (progress_) progress_(img + 1);
   }

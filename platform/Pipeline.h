@@ -72,8 +72,9 @@ class Pipeline : public sc_core::sc_module {
   const PipelineResult& result();
   /// The datapath of linear layer l (its modules' action counters).
   const Tile& tile(int l) const;
-  /// Traces busy/stall of every stage, buffer occupancy and bus activity for the first
-  /// `images` images into `vcd_path` (before sc_start).
+  /// Traces busy/stall of every stage, every buffer's occupancy (bytes) and the bytes the bus
+  /// has carried (its slope is the utilisation) for the first `images` images into
+  /// `vcd_path` (before sc_start).
   void trace(const std::string& vcd_path, int images);
 
  private:
@@ -106,6 +107,9 @@ class Pipeline : public sc_core::sc_module {
   PipelineResult result_;
   sc_core::sc_trace_file* vcd_ = nullptr;
   int vcd_images_ = 0;
+  bool tracing_ = false;  ///< true until the first vcd_images_ images have left
+  std::vector<std::unique_ptr<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>> occupancy_sigs_;
+  sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS> bus_bytes_sig_{"bus_bytes"};
 };
 
 }  // namespace xbarsim

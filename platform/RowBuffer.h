@@ -22,11 +22,18 @@ class RowBuffer {
   long long occupancy_bytes() const { return used_; }
   long long peak_bytes() const { return peak_; }
 
+  /// Traces the occupancy (bytes) into `sig` while `*enabled`.
+  void trace_to(sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>* sig, const bool* enabled) {
+    sig_ = sig;
+    enabled_ = enabled;
+  }
+
   /// Producer: waits until a row fits (the time waited is the producer's stall).
   void reserve() {
     while (used_ + row_bytes_ > capacity_) sc_core::wait(space_);
     used_ += row_bytes_;
     peak_ = std::max(peak_, used_);
+    traced();
   }
   /// Producer: the reserved row (image, row) has arrived.
   void commit(int image, int row) {
@@ -45,15 +52,21 @@ class RowBuffer {
     used_ -= (upto - released_) * row_bytes_;
     released_ = upto;
     space_.notify(sc_core::SC_ZERO_TIME);
+    traced();
   }
 
  private:
+  void traced() {
+    if (sig_ && *enabled_) sig_->write(static_cast<int>(std::min<long long>(used_, 1LL << 30)));
+  }
   long long index(int image, int row) const { return static_cast<long long>(image) * rows_ + row; }
   std::string name_;
   long long capacity_, row_bytes_;
   int rows_;
   long long used_ = 0, peak_ = 0, committed_ = 0, released_ = 0;
   sc_core::sc_event data_, space_;
+  sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>* sig_ = nullptr;
+  const bool* enabled_ = nullptr;
 };
 
 }  // namespace xbarsim
