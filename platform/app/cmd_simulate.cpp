@@ -100,7 +100,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       {"iterations", v.iterations}, {"cycles", std::llround(busy / clk)},
                       {"busy_us", busy * 1e-3},    {"stall_us", stall * 1e-3},
                       {"buffer_bytes", st.buffer_bytes}, {"buffer_peak_bytes", st.buffer_peak_bytes},
-                      {"energy_uj", e_uj},         {"area_mm2", hw.cost.area_mm2(v).total()}});
+                      {"energy_uj", e_uj},         {"area_mm2", hw.cost.area_mm2(v).total()},
+                      {"area_breakdown_mm2", hw.cost.area_mm2(v).to_json()}});
     if (print)
       table.print_row(stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs,
                                v.iterations, busy * 1e-3, stall * 1e-3, st.buffer_bytes, e_uj});

@@ -173,3 +173,18 @@ TEST(Consistency, DenseAndSparseSimulationsAgreeWithOverhead) {
     EXPECT_NEAR(area, t.area_mm2.total(), 1e-9 * area);
   }
 }
+
+TEST(Consistency, ReplicationMultipliesCrossbarsAndArea) {
+  const nlohmann::json one = run_json("simulate --preset lenet --set platform.schedule=pipelined --images 2", "rep1");
+  const nlohmann::json two = run_json(
+      "simulate --preset lenet --set platform.schedule=pipelined --images 2 --set platform.replication_per_layer=3,1,1,1",
+      "rep3");
+  EXPECT_EQ(two["layers"][0]["replication"], 3);
+  EXPECT_EQ(two["layers"][0]["crossbars"].get<long long>(), 3 * one["layers"][0]["crossbars"].get<long long>());
+  // Arrays, converters, accumulators and shift registers are copied; the layer's input buffer is not.
+  const auto &a1 = one["layers"][0]["area_breakdown_mm2"], &a3 = two["layers"][0]["area_breakdown_mm2"];
+  for (const char* c : {"crossbar", "adc", "dac", "accumulator", "shift_register"})
+    EXPECT_NEAR(a3[c].get<double>(), 3 * a1[c].get<double>(), 1e-15) << c;
+  EXPECT_EQ(a3["buffer"], a1["buffer"]);
+  EXPECT_EQ(two["tiles"], one["tiles"].get<int>() + 2);
+}
