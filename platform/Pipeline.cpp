@@ -182,7 +182,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       sparse_ns_(std::move(sparse_ns)),
       image_(std::move(image)),
       progress_(std::move(progress)),
-      bus_("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles),
+      bus_("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles, cfg.bus_lanes),
       consumers_of_(model.values.size()),
       values_(std::make_unique<Values>(model.values.size())) {
   for (size_t k = 0; k < model.ops.size(); ++k) {

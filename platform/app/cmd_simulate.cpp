@@ -120,7 +120,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   j["throughput_images_per_s"] = r.throughput_per_s();
   j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
   j["bus_bytes_per_image"] = platform.bus_bytes;
-  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / r.makespan_ns() : 0.0;
+  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
   j.update(cost.to_json());
   j["layers"] = layers;
   return j;

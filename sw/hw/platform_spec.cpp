@@ -39,6 +39,7 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.shift_entries_per_cycle = cfg.get_int32("platform.shift_entries_per_cycle");
   c.link_bytes_per_cycle = cfg.get_int32("platform.link_bytes_per_cycle");
   c.hop_cycles = cfg.get_int32("platform.hop_cycles");
+  c.bus_lanes = cfg.get_int32("platform.bus_lanes");
   c.buffer_bytes = cfg.get_string("platform.buffer_bytes") == "auto" ? 0 : cfg.get_int("platform.buffer_bytes");
   c.memory_bytes_per_cycle = cfg.get_int32("platform.memory_bytes_per_cycle");
   c.memory_latency_ns = cfg.get_double("platform.memory_latency_ns");

@@ -23,6 +23,7 @@ struct PlatformConfig {
   int shift_entries_per_cycle = 64;
   int link_bytes_per_cycle = 32;      ///< interconnect link width
   int hop_cycles = 1;                 ///< interconnect latency per transfer
+  int bus_lanes = 1;                  ///< parallel links of the interconnect
   long long buffer_bytes = 0;         ///< every stage input buffer; 0 = sized automatically
   int memory_bytes_per_cycle = 16;    ///< off-chip input/output bandwidth
   double memory_latency_ns = 100;     ///< off-chip access latency per image transfer

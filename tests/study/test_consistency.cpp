@@ -188,3 +188,17 @@ TEST(Consistency, ReplicationMultipliesCrossbarsAndArea) {
   EXPECT_EQ(a3["buffer"], a1["buffer"]);
   EXPECT_EQ(two["tiles"], one["tiles"].get<int>() + 2);
 }
+
+TEST(Consistency, AutoReplicationRaisesPipelinedThroughput) {
+  // Under twice the unreplicated crossbars, with an interconnect that is not the bottleneck
+  // (32 lanes of 64 bytes per cycle), copying the first layers raises the simulated throughput.
+  const std::string base = "simulate --preset resnet20 --images 16 --set platform.schedule=pipelined "
+                           "--set platform.link_bytes_per_cycle=64 --set platform.bus_lanes=32 ";
+  const nlohmann::json one = run_json(base + "--set platform.replication=1", "auto_off");
+  const nlohmann::json two = run_json(base + "--set platform.replication=auto", "auto_on");
+  long long x1 = 0, x2 = 0;
+  for (const auto& l : one["layers"]) x1 += l["crossbars"].get<long long>();
+  for (const auto& l : two["layers"]) x2 += l["crossbars"].get<long long>();
+  EXPECT_LE(x2, 2 * x1);
+  EXPECT_GT(two["throughput_images_per_s"].get<double>(), 2.0 * one["throughput_images_per_s"].get<double>());
+}
