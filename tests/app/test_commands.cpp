@@ -114,6 +114,16 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   }
   EXPECT_EQ(cycles, 9089);
   EXPECT_GE(j["cycles_total"].get<long long>(), 9089);  // plus input/output transfers
+  // Sweeps: one point per process, one JSON object per point with its sweep values.
+  ASSERT_EQ(run("simulate --preset lenet --images 2 --set 'platform.schedule=[sequential,pipelined]' --json " + json,
+                &out),
+            0)
+      << out;
+  const auto sweep = read_json(json);
+  ASSERT_EQ(sweep.size(), 2u);
+  EXPECT_EQ(sweep[1]["sweep"]["platform.schedule"], "pipelined");
+  EXPECT_EQ(sweep[1]["schedule"], "pipelined");
+  EXPECT_EQ(sweep[0]["iterations_total"], sweep[1]["iterations_total"]);
   // Buffers too small for one row, or for a window (the run would deadlock): errors, not hangs.
   EXPECT_EQ(run("simulate --preset lenet --set platform.schedule=pipelined --set platform.buffer_bytes=100", &out), 2);
   EXPECT_NE(out.find("cannot hold one"), std::string::npos) << out;
