@@ -37,9 +37,11 @@ class Pipeline::Values {
 
 /// An (image, row) token on a stage's output register.
 struct RowId {
-  int image = 0, row = 0;
+  int image = 0, row = 0, count = 1;  ///< rows [row, row + count) of the image
 };
-inline std::ostream& operator<<(std::ostream& os, const RowId& r) { return os << r.image << ":" << r.row; }
+inline std::ostream& operator<<(std::ostream& os, const RowId& r) {
+  return os << r.image << ":" << r.row << "+" << r.count;
+}
 
 /// One replica of a layer's tile: a process that works through its share of each row.
 class TileReplica : public sc_core::sc_module {
@@ -102,7 +104,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
   void send() {
     for (;;) {
       const RowId row = out_rows.read();
-      owner->send_row(*this, row.image, row.row, op->out, out_row_bytes);
+      owner->send_rows(*this, row.image, row.row, row.count, op->out, out_row_bytes);
     }
   }
   /// Input rows [first, last] the output row `r` needs from input `i` (last < 0: none).
@@ -147,22 +149,24 @@ namespace {
 /// Rows of its input a stage's buffer holds when sized automatically: the window plus one
 /// stride for convolutions and pooling, two rows for row-wise units, the whole map where the
 /// consumer needs it (global pooling, flatten, vectors) or waits for another branch (Add).
-int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequential) {
+int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequential, int grain) {
   if (sequential) return in.h;  // a stage starts an image only when its whole input is present
+  // A group of `grain` output rows reads (grain - 1) strides plus the kernel; the producer
+  // delivers `grain` rows at a time.
   switch (op.kind) {
     case OpKind::Linear: {
       const LinearLayer& L = m.linear[op.linear];
-      return L.is_conv ? std::min(in.h, L.k_h + L.stride_h) : in.h;
+      return L.is_conv ? std::min(in.h, L.k_h + L.stride_h * grain + grain) : in.h;
     }
     case OpKind::MaxPool:
     case OpKind::AvgPool:
-      return std::min(in.h, op.k_h + op.s_h);
+      return std::min(in.h, op.k_h + op.s_h * grain + grain);
     case OpKind::Add:
     case OpKind::GlobalAvgPool:
     case OpKind::Flatten:
       return in.h;
     default:
-      return std::min(in.h, 2);
+      return std::min(in.h, 2 * grain);
   }
 }
 
@@ -200,10 +204,11 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       const Shape in = model.values[v];
       const long long rb = row_bytes(in, cfg.activation_bytes);
       const long long cap =
-          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer);
-      if (cap < rb)
-        throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one " +
-                         std::to_string(rb) + "-byte row of the input of '" + op.name + "'");
+          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer, cfg.grain_rows);
+      if (cap < rb * std::min(cfg.grain_rows, in.h))
+        throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one transaction (" +
+                         std::to_string(std::min(cfg.grain_rows, in.h)) + " rows of " + std::to_string(rb) +
+                         " bytes) of the input of '" + op.name + "'");
       buffers_.push_back(std::make_unique<RowBuffer>(op.name + ".in", cap, rb, in.h));
       s->in.push_back(buffers_.back().get());
       s->in_shape.push_back(in);
@@ -271,9 +276,10 @@ void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
   s.stall_sig.write(stall);
 }
 
-void Pipeline::send_row(Stage& s, int image, int row, int value, long long bytes) {
+void Pipeline::send_rows(Stage& s, int image, int row, int count, int value, long long row_bytes) {
+  const long long bytes = row_bytes * count;
   for (RowBuffer* b : consumers_of_[value]) {
-    b->reserve();
+    for (int q = 0; q < count; ++q) b->reserve();
     tlm::tlm_generic_payload p;
     std::vector<float>& v = values_->at(image, value);
     p.set_command(tlm::TLM_WRITE_COMMAND);
@@ -286,7 +292,7 @@ void Pipeline::send_row(Stage& s, int image, int row, int value, long long bytes
     s.stage2bus->b_transport(p, delay);
     if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("bus transfer failed");
     sc_core::wait(delay);
-    b->commit(image, row);
+    b->commit(image, row + count - 1);
     if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(bus_.bytes(), 1LL << 30)));
   }
 }
@@ -358,44 +364,51 @@ void Pipeline::stage_process(Stage& s) {
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)
       for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.in_shape[i].h - 1);
-    for (int r = 0; r < rows; ++r) {
-      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.window(static_cast<int>(i), r).second);
-      if (r == 0) compute(s, img);
+    // Transactions of grain_rows output rows: wait for the group's windows, compute, hand over.
+    for (int r0 = 0; r0 < rows; r0 += cfg_.grain_rows) {
+      const int r1 = std::min(rows, r0 + cfg_.grain_rows);
+      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.window(static_cast<int>(i), r1 - 1).second);
+      if (r0 == 0) compute(s, img);
       traced(s, img, true, false);
-      double t = 0;
-      if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
-        t = r == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
-        if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
-      } else if (s.op->kind == OpKind::Linear) {
-        // The row's iterations, split into contiguous shares over the replicas.
-        const int w = s.out_shape.w, nrep = static_cast<int>(s.replicas.size());
-        s.replicas_pending = nrep;
-        for (int q = 0; q < nrep; ++q) {
-          double share = 0;
-          for (int k = r * w + q * w / nrep; k < r * w + (q + 1) * w / nrep; ++k) share += s.ii_ns[k];
-          if (r == 0 && q == 0) share += s.fill_ns;
-          t = std::max(t, share);
-          s.replicas[q]->start(share);
-        }
-        sc_core::wait(s.replicas_done);
-      } else {
-        const long long ops = row_ops(s);
-        t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
-        s.stats.digital_ops += ops;
-        if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
-      }
+      const double t = busy_time(s, r0, r1);
       s.stats.busy_ns += t;
-      ++s.stats.rows;
+      s.stats.rows += r1 - r0;
       traced(s, img, false, false);
       for (size_t i = 0; i < s.in.size(); ++i)
-        s.in[i]->release_before(img, r + 1 < rows ? s.window(static_cast<int>(i), r + 1).first : s.in_shape[i].h);
+        s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
       const sc_core::sc_time t0 = sc_core::sc_time_stamp();
       traced(s, img, false, true);
-      s.out_rows.write(RowId{img, r});  // stalls while the previous row still waits for space or the bus
+      s.out_rows.write(RowId{img, r0, r1 - r0});  // stalls while the previous group still waits for space or the bus
       s.stats.stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
       traced(s, img, false, false);
     }
   }
+}
+
+double Pipeline::busy_time(Stage& s, int r0, int r1) {
+  double t = 0;
+  if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
+    t = r0 == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
+  } else if (s.op->kind == OpKind::Linear) {
+    // The group's iterations, split into contiguous shares over the replica processes.
+    const int w = s.out_shape.w, nrep = static_cast<int>(s.replicas.size()), n = (r1 - r0) * w;
+    s.replicas_pending = nrep;
+    for (int q = 0; q < nrep; ++q) {
+      double share = 0;
+      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) share += s.ii_ns[k];
+      if (r0 == 0 && q == 0) share += s.fill_ns;
+      t = std::max(t, share);
+      s.replicas[q]->start(share);
+    }
+    sc_core::wait(s.replicas_done);
+    return t;
+  } else {
+    const long long ops = row_ops(s) * (r1 - r0);
+    t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+    s.stats.digital_ops += ops;
+  }
+  if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+  return t;
 }
 
 void Pipeline::source() {

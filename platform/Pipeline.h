@@ -86,7 +86,10 @@ class Pipeline : public sc_core::sc_module {
   void compute(Stage& s, int image);
   /// Operations a digital unit performs for one output row.
   long long row_ops(const Stage& s) const;
-  void send_row(Stage& s, int image, int row, int value, long long bytes);
+  /// Rows [row, row + count) of `value` into every consumer's buffer over the bus.
+  void send_rows(Stage& s, int image, int row, int count, int value, long long row_bytes);
+  /// Computes output rows [r0, r1) of a stage (replicas for tiles); returns the busy time.
+  double busy_time(Stage& s, int r0, int r1);
   void traced(Stage& s, int image, bool busy, bool stall);
 
   const Model& model_;

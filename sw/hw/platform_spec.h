@@ -30,6 +30,7 @@ struct PlatformConfig {
   int digital_ops_per_cycle = 64;     ///< ReLU/Add/pooling unit throughput
   int activation_bytes = 1;           ///< bytes per activation value on the interconnect and in buffers
   int images = 1;
+  int grain_rows = 1;                 ///< output rows per transaction of a stage
   int vcd_images = 1;                 ///< images traced into the VCD
   double clock_ns() const { return 1e3 / clock_mhz; }
 };

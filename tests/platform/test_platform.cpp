@@ -275,6 +275,22 @@ TEST(Platform, SmallBuffersStallTheProducerAndTooSmallOnesAreReported) {
   EXPECT_GE(r.throughput_per_s(), 0.97 * 1e9 / 5760.0);
 }
 
+TEST(Platform, CoarserTransactionsKeepValuesAndBusyTime) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("resnet20", 3);
+  PlatformConfig pc;
+  pc.images = 2;
+  pc.detailed = false;
+  pc.pipelined = true;
+  pc.grain_rows = 4;  // four output rows per transaction
+  PipelineRun run(m, pc);
+  run.expect_logits_of_the_batch_engine();
+  double busy = 0;
+  for (const StageStats& st : run.pipe->result().stages)
+    if (st.linear >= 0) busy += st.busy_ns / 2;
+  EXPECT_NEAR(busy, 90890.0, 1e-6);
+}
+
 TEST(Platform, ReplicationDividesTheStageTime) {
   ONE_SIMULATION_PER_PROCESS();
   const Model m = make_preset("lenet", 3);
