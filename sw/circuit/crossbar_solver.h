@@ -17,6 +17,16 @@ struct CircuitSolution {
   Eigen::MatrixXd cell_current;    ///< A, memristor current T -> M
   Eigen::VectorXd column_current;  ///< A, current through r_out of each column
   int newton_iterations = 0;       ///< 0 for linear circuits
+  /// A solution of an m x n crossbar with every matrix sized (values unset).
+  static CircuitSolution sized(int m, int n) {
+    CircuitSolution s;
+    s.v_top.resize(m, n);
+    s.v_mid.resize(m, n);
+    s.v_bottom.resize(m, n);
+    s.cell_current.resize(m, n);
+    s.column_current.resize(n);
+    return s;
+  }
   int linear_iterations = 0;       ///< total inner iterations (structured solver)
 };
 

@@ -298,12 +298,8 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
   const int mn = m_ * n_;
   std::vector<double> r_t(mn, 0.0), r_b(mn, 0.0), t(mn), b(mn);
   for (int i = 0; i < m_; ++i) r_t[i * n_] = g_s_ * v_in(i);
-  CircuitSolution s;
+  CircuitSolution s = CircuitSolution::sized(m_, n_);
   s.linear_iterations = solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
-  s.v_top.resize(m_, n_);
-  s.v_mid.resize(m_, n_);
-  s.v_bottom.resize(m_, n_);
-  s.cell_current.resize(m_, n_);
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
@@ -313,7 +309,6 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
       s.v_mid(i, j) = t[k] - ic / g_(i, j);
       s.cell_current(i, j) = ic;
     }
-  s.column_current.resize(n_);
   for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * b[(m_ - 1) * n_ + j];
   return s;
 }
@@ -451,11 +446,7 @@ double LineSolver::newton_update(const Eigen::VectorXd& v_in, NewtonState& st, d
 }
 
 CircuitSolution LineSolver::newton_solution(const NewtonState& st) const {
-  CircuitSolution s;
-  s.v_top.resize(m_, n_);
-  s.v_mid.resize(m_, n_);
-  s.v_bottom.resize(m_, n_);
-  s.cell_current.resize(m_, n_);
+  CircuitSolution s = CircuitSolution::sized(m_, n_);
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
@@ -466,7 +457,6 @@ CircuitSolution LineSolver::newton_solution(const NewtonState& st) const {
       memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), im, d);
       s.cell_current(i, j) = im;
     }
-  s.column_current.resize(n_);
   for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * st.vb[(m_ - 1) * n_ + j];
   return s;
 }

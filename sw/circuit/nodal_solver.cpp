@@ -88,11 +88,7 @@ Eigen::VectorXd NodalSolver::source_rhs(const Eigen::VectorXd& v_in) const {
 }
 
 CircuitSolution NodalSolver::extract(const Eigen::VectorXd& x) const {
-  CircuitSolution s;
-  s.v_top.resize(m_, n_);
-  s.v_mid.resize(m_, n_);
-  s.v_bottom.resize(m_, n_);
-  s.cell_current.resize(m_, n_);
+  CircuitSolution s = CircuitSolution::sized(m_, n_);
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       s.v_top(i, j) = x(node_top(i, j));
@@ -102,7 +98,6 @@ CircuitSolution NodalSolver::extract(const Eigen::VectorXd& x) const {
       memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), c, d);
       s.cell_current(i, j) = c;
     }
-  s.column_current.resize(n_);
   for (int j = 0; j < n_; ++j) s.column_current(j) = x(node_col_bottom(j)) / params_.r_out_ohm;
   return s;
 }

@@ -1,6 +1,8 @@
 // The xbarsim executable: exit codes and messages for good and bad input.
 #include <gtest/gtest.h>
 
+#include "tests/app/cli_test_util.h"
+
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -8,20 +10,8 @@
 
 namespace {
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(XBARSIM_BINARY) + " " + args + " 2>&1";
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using xbarsim_test::Result;
+Result run(const std::string& args, const std::string& prefix = "") { return xbarsim_test::run_xbarsim(args, prefix); }
 
 std::string file(const std::string& name, const std::string& text) {
   const std::string path = "/tmp/xbarsim_cli_" + name;

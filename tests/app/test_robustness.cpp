@@ -2,6 +2,8 @@
 // printed a wrong number with exit 0. Every case must give one clear message and exit 2
 // (input) or 3 (solver), never a signal or "internal error".
 #include <gtest/gtest.h>
+
+#include "tests/app/cli_test_util.h"
 #include <sys/stat.h>
 #include <sys/wait.h>
 
@@ -13,20 +15,8 @@
 
 namespace {
 
-struct Result {
-  int code;  ///< exit status, or -1 when killed by a signal
-  std::string out;
-};
-
-Result run(const std::string& args, const std::string& prefix = "") {
-  const std::string cmd = prefix + std::string(XBARSIM_BINARY) + " " + args + " 2>&1";
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using xbarsim_test::Result;
+Result run(const std::string& args, const std::string& prefix = "") { return xbarsim_test::run_xbarsim(args, prefix); }
 
 std::string file(const std::string& name, const std::string& text) {
   const std::string path = "/tmp/xbarsim_rb_" + name;
