@@ -113,9 +113,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
 
 std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
   const int h = in_shape[i].h;
-  auto clamp = [&](int first, int last) {
-    return std::make_pair(std::clamp(first, 0, h), std::min(last, h - 1));
-  };
+  auto clamp = [&](int first, int last) { return std::make_pair(std::clamp(first, 0, h), std::min(last, h - 1)); };
   switch (op->kind) {
     case OpKind::Linear: {
       const LinearLayer& L = owner->model_.linear[op->linear];
@@ -198,13 +196,14 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     s->stats.name = op.name;
     s->stats.kind = op.kind;
     s->stats.linear = op.linear;
-    const bool sparse_layer = op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) &&
-                              sparse_ns_[op.linear] > 0;
+    const bool sparse_layer =
+        op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
     for (int v : op.in) {
       const Shape in = model.values[v];
       const long long rb = row_bytes(in, cfg.activation_bytes);
-      const long long cap =
-          cfg.buffer_bytes > 0 ? cfg.buffer_bytes : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer, cfg.grain_rows);
+      const long long cap = cfg.buffer_bytes > 0
+                                ? cfg.buffer_bytes
+                                : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer, cfg.grain_rows);
       if (cap < rb * std::min(cfg.grain_rows, in.h))
         throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one transaction (" +
                          std::to_string(std::min(cfg.grain_rows, in.h)) + " rows of " + std::to_string(rb) +
@@ -224,9 +223,9 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
       s->stats.replication = r;
       for (int q = 0; q < r; ++q)
-        s->replicas.push_back(std::make_unique<TileReplica>(
-            ("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(), s->replicas_done,
-            s->replicas_pending));
+        s->replicas.push_back(
+            std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(),
+                                          s->replicas_done, s->replicas_pending));
     }
     s->stage2bus.bind(bus_.stage2bus);
     stages_.push_back(std::move(s));
@@ -284,7 +283,8 @@ void Pipeline::send_rows(Stage& s, int image, int row, int count, int value, lon
     std::vector<float>& v = values_->at(image, value);
     p.set_command(tlm::TLM_WRITE_COMMAND);
     p.set_address(0);
-    p.set_data_ptr(reinterpret_cast<unsigned char*>(v.data() + static_cast<size_t>(row) * (v.size() / b->rows_per_image())));
+    p.set_data_ptr(
+        reinterpret_cast<unsigned char*>(v.data() + static_cast<size_t>(row) * (v.size() / b->rows_per_image())));
     p.set_data_length(static_cast<unsigned>(bytes));
     p.set_streaming_width(static_cast<unsigned>(bytes));
     p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
@@ -423,7 +423,8 @@ void Pipeline::source() {
     x.resize(in.size());
     image_(img, x.data());
     for (int r = 0; r < in.h; ++r) {
-      const double t = (r == 0 ? cfg_.memory_latency_ns : 0.0) + std::ceil(static_cast<double>(rb) / cfg_.memory_bytes_per_cycle) * clk;
+      const double t = (r == 0 ? cfg_.memory_latency_ns : 0.0) +
+                       std::ceil(static_cast<double>(rb) / cfg_.memory_bytes_per_cycle) * clk;
       sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
       result_.memory_bytes += rb;
       for (RowBuffer* b : consumers_of_[0]) {

@@ -30,17 +30,17 @@ namespace xbarsim {
 struct StageStats {
   std::string name;
   OpKind kind = OpKind::Relu;
-  int linear = -1;         ///< index of the linear layer, or -1
+  int linear = -1;  ///< index of the linear layer, or -1
   int replication = 1;
-  double busy_ns = 0;      ///< computing (the slowest replica per row)
-  double stall_ns = 0;     ///< waiting for space in a consumer's buffer
+  double busy_ns = 0;   ///< computing (the slowest replica per row)
+  double stall_ns = 0;  ///< waiting for space in a consumer's buffer
   long long rows = 0, digital_ops = 0;
   long long buffer_bytes = 0, buffer_peak_bytes = 0;  ///< its input buffers: capacity and peak occupancy
 };
 
 struct PipelineResult {
-  std::vector<Eigen::VectorXf> logits;              ///< per image
-  std::vector<double> image_in_ns, image_out_ns;    ///< input starts leaving memory; logits stored
+  std::vector<Eigen::VectorXf> logits;            ///< per image
+  std::vector<double> image_in_ns, image_out_ns;  ///< input starts leaving memory; logits stored
   std::vector<StageStats> stages;
   long long bus_bytes = 0, bus_transfers = 0, memory_bytes = 0;
   double memory_stall_ns = 0;  ///< the input port waiting for space in the first stages' buffers

@@ -25,8 +25,9 @@ namespace {
 
 /// Units of one layer times its replication (the buffer holds one copy of the activations).
 LayerInventory replicated(LayerInventory v, int r) {
-  for (auto f : {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
-                 &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
+  for (auto f :
+       {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
+        &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
     v.*f *= r;
   return v;
 }
@@ -62,8 +63,17 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       const std::vector<int>& replication, const Pipeline& pipe, bool print) {
   const PlatformConfig& pc = hw.platform;
   const double images = std::max<size_t>(r.logits.size(), 1), clk = pc.clock_ns();
-  const Table table({{"layer", -30}, {"kernel", -12}, {"xbars", 6}, {"rep", 4}, {"ADCs", 6}, {"DACs", 6},
-                     {"iters", 7}, {"busy_us", 9, 3}, {"stall_us", 9, 3}, {"buf_B", 8}, {"energy_uJ", 10, 4}});
+  const Table table({{"layer", -30},
+                     {"kernel", -12},
+                     {"xbars", 6},
+                     {"rep", 4},
+                     {"ADCs", 6},
+                     {"DACs", 6},
+                     {"iters", 7},
+                     {"busy_us", 9, 3},
+                     {"stall_us", 9, 3},
+                     {"buf_B", 8},
+                     {"energy_uJ", 10, 4}});
   if (print) table.print_header(stdout);
   nlohmann::json layers = nlohmann::json::array();
   CostReport cost;
@@ -93,14 +103,22 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     const double e_uj = hw.cost.dynamic_energy_pj(a).total() * 1e-6;
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
-    layers.push_back({{"name", L.name},           {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
-                      {"rows", L.rows()},          {"cols", L.c_out},
-                      {"crossbars", v.crossbars},  {"replication", replication[st.linear]},
-                      {"adcs", v.adcs},            {"dacs", v.dacs},
-                      {"iterations", v.iterations}, {"cycles", std::llround(busy / clk)},
-                      {"busy_us", busy * 1e-3},    {"stall_us", stall * 1e-3},
-                      {"buffer_bytes", st.buffer_bytes}, {"buffer_peak_bytes", st.buffer_peak_bytes},
-                      {"energy_uj", e_uj},         {"area_mm2", hw.cost.area_mm2(v).total()},
+    layers.push_back({{"name", L.name},
+                      {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
+                      {"rows", L.rows()},
+                      {"cols", L.c_out},
+                      {"crossbars", v.crossbars},
+                      {"replication", replication[st.linear]},
+                      {"adcs", v.adcs},
+                      {"dacs", v.dacs},
+                      {"iterations", v.iterations},
+                      {"cycles", std::llround(busy / clk)},
+                      {"busy_us", busy * 1e-3},
+                      {"stall_us", stall * 1e-3},
+                      {"buffer_bytes", st.buffer_bytes},
+                      {"buffer_peak_bytes", st.buffer_peak_bytes},
+                      {"energy_uj", e_uj},
+                      {"area_mm2", hw.cost.area_mm2(v).total()},
                       {"area_breakdown_mm2", hw.cost.area_mm2(v).to_json()}});
     if (print)
       table.print_row(stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs,
@@ -135,8 +153,9 @@ nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool pr
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const DataForRun data = simulation_data(args, cfg, model, pc.images);
   if (!ac.xbar.is_linear())
-    std::fprintf(stderr, "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
-                         "(slow); consider --images 1\n");
+    std::fprintf(stderr,
+                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
+                 "(slow); consider --images 1\n");
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
@@ -151,17 +170,18 @@ nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool pr
           sparse_iteration_ns(layer_inventory(L, MappingScheme::Sparse, hw.mapping, hw.columns_per_adc), pc));
   const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(data.test.count(), "simulating ");
-  Pipeline pipe("accelerator", model, programmed, pc, replication,
-                [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); },
-                sparse_ns);
+  Pipeline pipe(
+      "accelerator", model, programmed, pc, replication,
+      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse_ns);
   if (args.has("--vcd")) pipe.trace(args.get("--vcd"), pc.vcd_images);
   sc_core::sc_start();
   bar.finish();
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const PipelineResult& r = pipe.result();
   if (!r.completed)
-    throw InputError("the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
-                     "for the schedule (deadlock)");
+    throw InputError(
+        "the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
+        "for the schedule (deadlock)");
   nlohmann::json j = report(model, hw, r, replication, pipe, print);
   j["model"] = model.path;
   j["clock_mhz"] = pc.clock_mhz;
@@ -217,15 +237,16 @@ nlohmann::json simulate_in_child(const CliArgs& args, const ConfigTree& cfg) {
 }
 
 void print_summary(const nlohmann::json& j) {
-  std::printf("\n%s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
-              "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
-              j["model"].get<std::string>().c_str(), j["timing"].get<std::string>().c_str(),
-              j["schedule"].get<std::string>().c_str(), j["images"].get<int>(), j["iterations_total"].get<long long>(),
-              j["latency_us"].get<double>(), j["makespan_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
-              j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["peak_power_mw"].get<double>(),
-              j["area_mm2"].get<double>());
-  std::printf("simulation: %.2f s wall (%.1f images/s), programming excluded\n", j["simulation_wall_time_s"].get<double>(),
-              j["simulated_images_per_wall_s"].get<double>());
+  std::printf(
+      "\n%s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
+      "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
+      j["model"].get<std::string>().c_str(), j["timing"].get<std::string>().c_str(),
+      j["schedule"].get<std::string>().c_str(), j["images"].get<int>(), j["iterations_total"].get<long long>(),
+      j["latency_us"].get<double>(), j["makespan_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
+      j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["peak_power_mw"].get<double>(),
+      j["area_mm2"].get<double>());
+  std::printf("simulation: %.2f s wall (%.1f images/s), programming excluded\n",
+              j["simulation_wall_time_s"].get<double>(), j["simulated_images_per_wall_s"].get<double>());
   if (j.contains("accuracy")) std::printf("accuracy %.2f %%\n", 100 * j["accuracy"].get<double>());
 }
 
@@ -261,19 +282,23 @@ int cmd_simulate(int argc, char** argv) {
     out.finish();
     return 0;
   }
-  const Table table({{"run", -40}, {"latency_us", 11, 3}, {"img/s", 10, 1}, {"energy_uJ", 10, 3}, {"avg_mW", 9, 2},
+  const Table table({{"run", -40},
+                     {"latency_us", 11, 3},
+                     {"img/s", 10, 1},
+                     {"energy_uJ", 10, 3},
+                     {"avg_mW", 9, 2},
                      {"area_mm2", 9, 4}});
   table.print_header(stdout);
   for (size_t k = 0; k < points.size(); ++k) {
     const nlohmann::json j = simulate_in_child(args, sweep_config(base, points[k]));
-    table.print_row(stdout, {sweep_label(points[k]), j["latency_us"].get<double>(),
-                             j["throughput_images_per_s"].get<double>(), j["energy_uj_per_image"].get<double>(),
-                             j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});
+    table.print_row(
+        stdout, {sweep_label(points[k]), j["latency_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
+                 j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});
     if (out.csv().enabled())
-      out.csv().row(static_cast<int>(k), points[k]) << "," << j["latency_us"] << "," << j["makespan_us"] << ","
-                                                     << j["throughput_images_per_s"] << "," << j["energy_uj_per_image"]
-                                                     << "," << j["avg_power_mw"] << "," << j["peak_power_mw"] << ","
-                                                     << j["area_mm2"] << "\n";
+      out.csv().row(static_cast<int>(k), points[k])
+          << "," << j["latency_us"] << "," << j["makespan_us"] << "," << j["throughput_images_per_s"] << ","
+          << j["energy_uj_per_image"] << "," << j["avg_power_mw"] << "," << j["peak_power_mw"] << "," << j["area_mm2"]
+          << "\n";
     out.add(j, points[k]);
   }
   out.finish();

@@ -32,6 +32,42 @@ std::vector<Table::Cell> cells(const std::string& name, const std::string& kerne
           v.iterations};
 }
 
+/// One CSV row per layer and mapping.
+void write_csv(std::ostream& os, const OverheadReport& rep) {
+  const Table t(
+      {{"layer", 0},       {"k_h", 0},           {"k_w", 0},           {"c_in", 0},           {"c_out", 0},
+       {"in_h", 0},        {"in_w", 0},          {"mapping", 0},       {"rows", 0},           {"cols", 0},
+       {"crossbars", 0},   {"adcs", 0},          {"dacs", 0},          {"cells_used", 0},     {"cells_present", 0},
+       {"utilization", 0}, {"xbar_power_mw", 0}, {"xbar_area_mm2", 0}, {"total_power_mw", 0}, {"total_area_mm2", 0},
+       {"iterations", 0}});
+  t.csv_header(os);
+  for (const auto& l : rep.layers)
+    for (const auto* c : {&l.dense, &l.sparse}) {
+      const LayerInventory& v = c->inv;
+      t.csv_row(os, {l.name,
+                     (long long)l.k_h,
+                     (long long)l.k_w,
+                     (long long)l.c_in,
+                     (long long)l.c_out,
+                     (long long)l.input.h,
+                     (long long)l.input.w,
+                     std::string(c == &l.dense ? "dense" : "sparse"),
+                     v.rows,
+                     v.cols,
+                     v.crossbars,
+                     v.adcs,
+                     v.dacs,
+                     v.cells_used,
+                     v.cells_present,
+                     v.utilization(),
+                     c->peak_power_mw.crossbar,
+                     c->area_mm2.crossbar,
+                     c->peak_power_mw.arrays_and_converters(),
+                     c->area_mm2.arrays_and_converters(),
+                     v.iterations});
+    }
+}
+
 int cmd_overhead(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--preset", "--input-size"});
   check_outputs(args, {"--json", "--csv"});
@@ -63,15 +99,10 @@ int cmd_overhead(int argc, char** argv) {
                      {"iters", 9}});
   table.print_header(stdout);
   std::unique_ptr<OutputFile> csv;
-  const Table csv_table(
-      {{"layer", 0},       {"k_h", 0},           {"k_w", 0},           {"c_in", 0},           {"c_out", 0},
-       {"in_h", 0},        {"in_w", 0},          {"mapping", 0},       {"rows", 0},           {"cols", 0},
-       {"crossbars", 0},   {"adcs", 0},          {"dacs", 0},          {"cells_used", 0},     {"cells_present", 0},
-       {"utilization", 0}, {"xbar_power_mw", 0}, {"xbar_area_mm2", 0}, {"total_power_mw", 0}, {"total_area_mm2", 0},
-       {"iterations", 0}});
   if (args.has("--csv")) {
     csv = std::make_unique<OutputFile>(args.get("--csv"));
-    csv_table.csv_header(csv->stream());
+    write_csv(csv->stream(), rep);
+    csv->commit();
   }
   for (const auto& l : rep.layers) {
     const std::string kernel = std::to_string(l.k_h) + "x" + std::to_string(l.k_w) + "x" + std::to_string(l.c_in) +
@@ -79,36 +110,10 @@ int cmd_overhead(int argc, char** argv) {
     const std::string input = std::to_string(l.input.h) + "x" + std::to_string(l.input.w);
     table.print_row(stdout, cells(l.name, kernel, input, "dense", l.dense));
     table.print_row(stdout, cells("", "", "", "sparse", l.sparse));
-    if (csv)
-      for (const auto* c : {&l.dense, &l.sparse}) {
-        const LayerInventory& v = c->inv;
-        csv_table.csv_row(csv->stream(), {l.name,
-                                          (long long)l.k_h,
-                                          (long long)l.k_w,
-                                          (long long)l.c_in,
-                                          (long long)l.c_out,
-                                          (long long)l.input.h,
-                                          (long long)l.input.w,
-                                          std::string(c == &l.dense ? "dense" : "sparse"),
-                                          v.rows,
-                                          v.cols,
-                                          v.crossbars,
-                                          v.adcs,
-                                          v.dacs,
-                                          v.cells_used,
-                                          v.cells_present,
-                                          v.utilization(),
-                                          c->peak_power_mw.crossbar,
-                                          c->area_mm2.crossbar,
-                                          c->peak_power_mw.arrays_and_converters(),
-                                          c->area_mm2.arrays_and_converters(),
-                                          v.iterations});
-      }
   }
   table.print_row(stdout, cells("TOTAL", "", "", "dense", rep.dense_total));
   table.print_row(stdout, cells("", "", "", "sparse", rep.sparse_total));
   std::fprintf(stderr, "xbarsim overhead: %.2f ms\n", ms);
-  if (csv) csv->commit();
   if (args.has("--json")) {
     nlohmann::json j = rep.to_json();
     j["model"] = m.path;

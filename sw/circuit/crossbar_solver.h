@@ -27,7 +27,7 @@ struct CircuitSolution {
     s.column_current.resize(n);
     return s;
   }
-  int linear_iterations = 0;       ///< total inner iterations (structured solver)
+  int linear_iterations = 0;  ///< total inner iterations (structured solver)
 };
 
 /// Solves the m x n 1T1M crossbar circuit for programmed conductances.

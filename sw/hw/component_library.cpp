@@ -121,7 +121,8 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     const std::string k = it->first.as<std::string>();
     if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
         std::end(kSections))
-      throw InputError(origin + ": unknown section '" + k + "' (adc, dac, cell, accumulator, shift_register, buffer, interconnect, digital, memory)");
+      throw InputError(origin + ": unknown section '" + k +
+                       "' (adc, dac, cell, accumulator, shift_register, buffer, interconnect, digital, memory)");
   }
   ComponentLibrary lib;
   lib.source = origin;

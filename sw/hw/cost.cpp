@@ -20,16 +20,21 @@ ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) 
 }
 
 ComponentBreakdown ComponentBreakdown::operator*(double k) const {
-  return {crossbar * k, adc * k,    dac * k,          accumulator * k, shift_register * k,
+  return {crossbar * k, adc * k,          dac * k,     accumulator * k, shift_register * k,
           buffer * k,   interconnect * k, digital * k, memory * k};
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
-  return {{"crossbar", crossbar},         {"adc", adc},
-          {"dac", dac},                   {"accumulator", accumulator},
-          {"shift_register", shift_register}, {"buffer", buffer},
-          {"interconnect", interconnect}, {"digital", digital},
-          {"memory", memory},             {"total", total()}};
+  return {{"crossbar", crossbar},
+          {"adc", adc},
+          {"dac", dac},
+          {"accumulator", accumulator},
+          {"shift_register", shift_register},
+          {"buffer", buffer},
+          {"interconnect", interconnect},
+          {"digital", digital},
+          {"memory", memory},
+          {"total", total()}};
 }
 
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {

@@ -11,27 +11,27 @@ namespace xbarsim {
 
 struct PlatformConfig {
   double clock_mhz = 100;
-  bool detailed = true;    ///< platform.timing
-  bool pipelined = false;  ///< platform.schedule
-  int replication = 1;                ///< every layer (platform.replication), unless per_layer/auto
+  bool detailed = true;                    ///< platform.timing
+  bool pipelined = false;                  ///< platform.schedule
+  int replication = 1;                     ///< every layer (platform.replication), unless per_layer/auto
   std::vector<int> replication_per_layer;  ///< platform.replication_per_layer (empty = replication)
-  bool auto_replication = false;      ///< platform.replication = auto: balance under crossbar_budget
-  long long crossbar_budget = 0;      ///< crossbars the auto replication may use (0 = 2x the unreplicated)
-  int adc_columns_per_unit = 128;  ///< converters.adc_columns_per_adc resolved with the library
-  double adc_rate_gsps = 1.28;     ///< the library's adc.sample_rate_gsps
+  bool auto_replication = false;           ///< platform.replication = auto: balance under crossbar_budget
+  long long crossbar_budget = 0;           ///< crossbars the auto replication may use (0 = 2x the unreplicated)
+  int adc_columns_per_unit = 128;          ///< converters.adc_columns_per_adc resolved with the library
+  double adc_rate_gsps = 1.28;             ///< the library's adc.sample_rate_gsps
   double dac_latency_ns = 1, crossbar_settle_ns = 5, accumulator_latency_ns = 2;
   int shift_entries_per_cycle = 64;
-  int link_bytes_per_cycle = 32;      ///< interconnect link width
-  int hop_cycles = 1;                 ///< interconnect latency per transfer
-  int bus_lanes = 1;                  ///< parallel links of the interconnect
-  long long buffer_bytes = 0;         ///< every stage input buffer; 0 = sized automatically
-  int memory_bytes_per_cycle = 16;    ///< off-chip input/output bandwidth
-  double memory_latency_ns = 100;     ///< off-chip access latency per image transfer
-  int digital_ops_per_cycle = 64;     ///< ReLU/Add/pooling unit throughput
-  int activation_bytes = 1;           ///< bytes per activation value on the interconnect and in buffers
+  int link_bytes_per_cycle = 32;    ///< interconnect link width
+  int hop_cycles = 1;               ///< interconnect latency per transfer
+  int bus_lanes = 1;                ///< parallel links of the interconnect
+  long long buffer_bytes = 0;       ///< every stage input buffer; 0 = sized automatically
+  int memory_bytes_per_cycle = 16;  ///< off-chip input/output bandwidth
+  double memory_latency_ns = 100;   ///< off-chip access latency per image transfer
+  int digital_ops_per_cycle = 64;   ///< ReLU/Add/pooling unit throughput
+  int activation_bytes = 1;         ///< bytes per activation value on the interconnect and in buffers
   int images = 1;
-  int grain_rows = 1;                 ///< output rows per transaction of a stage
-  int vcd_images = 1;                 ///< images traced into the VCD
+  int grain_rows = 1;  ///< output rows per transaction of a stage
+  int vcd_images = 1;  ///< images traced into the VCD
   double clock_ns() const { return 1e3 / clock_mhz; }
 };
 

@@ -115,9 +115,9 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   EXPECT_EQ(cycles, 9089);
   EXPECT_GE(j["cycles_total"].get<long long>(), 9089);  // plus input/output transfers
   // Sweeps: one point per process, one JSON object per point with its sweep values.
-  ASSERT_EQ(run("simulate --preset lenet --images 2 --set 'platform.schedule=[sequential,pipelined]' --json " + json,
-                &out),
-            0)
+  ASSERT_EQ(
+      run("simulate --preset lenet --images 2 --set 'platform.schedule=[sequential,pipelined]' --json " + json, &out),
+      0)
       << out;
   const auto sweep = read_json(json);
   ASSERT_EQ(sweep.size(), 2u);

@@ -64,8 +64,9 @@ TEST(Robustness, HugeIntegersAreRangeErrorsNotCrashesOrTruncation) {  // items 1
 TEST(Robustness, VcdPathIsCheckedBeforeTheSimulation) {  // items 4 and 11
   expect_clean_error(run("simulate --preset lenet --vcd /nonexistent/dir/x.vcd"), 2, "does not exist", "item 4");
   expect_clean_error(run("simulate --preset lenet --vcd /tmp"), 2, "is a directory", "item 11 --vcd dir");
-  const Result ok = run("simulate --preset lenet --vcd /tmp/xbarsim_rb_trace.vcd --images 3 --vcd-images 2 "
-                        "--set platform.schedule=pipelined");
+  const Result ok =
+      run("simulate --preset lenet --vcd /tmp/xbarsim_rb_trace.vcd --images 3 --vcd-images 2 "
+          "--set platform.schedule=pipelined");
   EXPECT_EQ(ok.code, 0) << ok.out;
   const std::string vcd = slurp("/tmp/xbarsim_rb_trace.vcd");
   EXPECT_NE(vcd.find("$enddefinitions"), std::string::npos);

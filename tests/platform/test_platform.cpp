@@ -49,7 +49,6 @@ AnalogConfig quantized_partitioned() {
   return c;
 }
 
-
 }  // namespace
 
 TEST(ShiftRegisterBuffer, ContentsEqualIm2colAndShiftsAreCounted) {
@@ -322,4 +321,3 @@ TEST(Platform, AutoReplicationUnderTwiceTheCrossbarsRaisesThroughput) {
   EXPECT_GT(r[0], 1);  // the first layers (32 x 32 outputs) are copied, as in ISAAC
   EXPECT_LT(slowest_after, slowest_before / 2);
 }
-

@@ -155,10 +155,10 @@ TEST(Consistency, DenseAndSparseSimulationsAgreeWithOverhead) {
   const OverheadReport over = overhead_study(make_preset("resnet20", 3), parse_eval_point(cfg).hw);
   for (const char* scheme : {"dense", "sparse"}) {
     SCOPED_TRACE(scheme);
-    const nlohmann::json j =
-        run_json(std::string("simulate --preset resnet20 --set mapping.max_rows=unbounded "
-                             "--set mapping.max_cols=unbounded --set mapping.scheme=") + scheme,
-                 std::string("scheme_") + scheme);
+    const nlohmann::json j = run_json(std::string("simulate --preset resnet20 --set mapping.max_rows=unbounded "
+                                                  "--set mapping.max_cols=unbounded --set mapping.scheme=") +
+                                          scheme,
+                                      std::string("scheme_") + scheme);
     const MappingOverhead& t = std::string(scheme) == "dense" ? over.dense_total : over.sparse_total;
     long long adcs = 0, dacs = 0;
     double area = 0;
@@ -177,7 +177,8 @@ TEST(Consistency, DenseAndSparseSimulationsAgreeWithOverhead) {
 TEST(Consistency, ReplicationMultipliesCrossbarsAndArea) {
   const nlohmann::json one = run_json("simulate --preset lenet --set platform.schedule=pipelined --images 2", "rep1");
   const nlohmann::json two = run_json(
-      "simulate --preset lenet --set platform.schedule=pipelined --images 2 --set platform.replication_per_layer=3,1,1,1",
+      "simulate --preset lenet --set platform.schedule=pipelined --images 2 --set "
+      "platform.replication_per_layer=3,1,1,1",
       "rep3");
   EXPECT_EQ(two["layers"][0]["replication"], 3);
   EXPECT_EQ(two["layers"][0]["crossbars"].get<long long>(), 3 * one["layers"][0]["crossbars"].get<long long>());
@@ -192,8 +193,9 @@ TEST(Consistency, ReplicationMultipliesCrossbarsAndArea) {
 TEST(Consistency, AutoReplicationRaisesPipelinedThroughput) {
   // Under twice the unreplicated crossbars, with an interconnect that is not the bottleneck
   // (32 lanes of 64 bytes per cycle), copying the first layers raises the simulated throughput.
-  const std::string base = "simulate --preset resnet20 --images 16 --set platform.schedule=pipelined "
-                           "--set platform.link_bytes_per_cycle=64 --set platform.bus_lanes=32 ";
+  const std::string base =
+      "simulate --preset resnet20 --images 16 --set platform.schedule=pipelined "
+      "--set platform.link_bytes_per_cycle=64 --set platform.bus_lanes=32 ";
   const nlohmann::json one = run_json(base + "--set platform.replication=1", "auto_off");
   const nlohmann::json two = run_json(base + "--set platform.replication=auto", "auto_on");
   long long x1 = 0, x2 = 0;
