@@ -320,20 +320,9 @@ void Pipeline::compute(Stage& s, int image) {
   const int pixels = L.out.h * L.out.w;
   for (int c = 0; c < L.c_out; ++c)
     for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
-  // Initiation interval of every iteration: its slowest stage in whole cycles (ideal: one cycle).
-  const double clk = cfg_.clock_ns();
-  s.ii_ns.assign(pixels, clk);
-  s.fill_ns = 0;
-  if (cfg_.detailed) {
-    double first = 0;
-    for (int st = 0; st < kStages; ++st) first += job.stage_ns[st][0];
-    for (int k = 0; k < pixels; ++k) {
-      double worst = 0;
-      for (int st = 0; st < kStages; ++st) worst = std::max(worst, job.stage_ns[st][k]);
-      s.ii_ns[k] = std::ceil(worst / clk - 1e-9) * clk;
-    }
-    s.fill_ns = std::max(0.0, std::ceil(first / clk - 1e-9) * clk - s.ii_ns[0]);
-  }
+  const IterationTiming t = iteration_timing(job, cfg_.clock_ns(), cfg_.detailed);
+  s.ii_ns = t.ii_ns;
+  s.fill_ns = t.fill_ns - t.ii_ns[0];  // added to the first iteration
 }
 
 long long Pipeline::row_ops(const Stage& s) const {

@@ -4,7 +4,10 @@
 /// annotate the latency of the first iteration (pipeline fill); the tile adds the
 /// steady state: sum over later iterations of the slowest stage rounded up to clock
 /// cycles (detailed), or one clock cycle per iteration (ideal, the paper's estimate).
+#include <algorithm>
+#include <cmath>
 #include <memory>
+#include <vector>
 #include <systemc>
 #include <tlm>
 #include <tlm_utils/simple_initiator_socket.h>
@@ -19,6 +22,32 @@
 #include "sw/hw/platform_spec.h"
 
 namespace xbarsim {
+
+/// Timing of a layer's iterations from the stage latencies its modules recorded (detailed):
+/// each iteration's initiation interval is its slowest stage in whole clock cycles, and the
+/// first iteration's full datapath latency (the pipeline fill) is rounded up to whole cycles
+/// too. Ideal timing: one cycle per iteration, no fill beyond it.
+struct IterationTiming {
+  std::vector<double> ii_ns;  ///< per iteration
+  double fill_ns = 0;         ///< latency of the first iteration (>= ii_ns[0])
+};
+inline IterationTiming iteration_timing(const LayerJob& job, double clock_ns, bool detailed) {
+  const int n = job.iterations();
+  IterationTiming t;
+  t.ii_ns.assign(n, clock_ns);
+  t.fill_ns = clock_ns;
+  if (!detailed || n == 0) return t;
+  auto whole_cycles = [&](double ns) { return std::ceil(ns / clock_ns - 1e-9) * clock_ns; };
+  double first = 0;
+  for (int s = 0; s < kStages; ++s) first += job.stage_ns[s][0];
+  for (int k = 0; k < n; ++k) {
+    double worst = 0;
+    for (int s = 0; s < kStages; ++s) worst = std::max(worst, job.stage_ns[s][k]);
+    t.ii_ns[k] = whole_cycles(worst);
+  }
+  t.fill_ns = whole_cycles(first);
+  return t;
+}
 
 class Tile : public sc_core::sc_module {
  public:
@@ -77,22 +106,16 @@ class Tile : public sc_core::sc_module {
     const double clk = cfg_.clock_ns();
     const int n = job->iterations();
     const int r = std::max(1, job->replication);
-    const long long per_copy = (n + r - 1) / r;
     double steady_ns;
     if (job->detailed) {
-      // Initiation interval of iteration k: its slowest stage, in whole clock cycles.
+      // The fill, then the later iterations' initiation intervals shared over the copies.
+      const IterationTiming t = iteration_timing(*job, clk, true);
       double sum = 0;
-      for (int k = 1; k < n; ++k) {
-        double worst = 0;
-        for (int s = 0; s < kStages; ++s) worst = std::max(worst, job->stage_ns[s][k]);
-        sum += std::ceil(worst / clk - 1e-9) * clk;
-      }
+      for (int k = 1; k < n; ++k) sum += t.ii_ns[k];
       steady_ns = sum / r;
-      // The fill already annotated by the modules is rounded up to whole cycles too.
-      const double fill = (delay - start).to_seconds() * 1e9;
-      delay = start + sc_core::sc_time(std::ceil(fill / clk - 1e-9) * clk, sc_core::SC_NS);
+      delay = start + sc_core::sc_time(t.fill_ns, sc_core::SC_NS);
     } else {
-      steady_ns = per_copy * clk;
+      steady_ns = static_cast<double>((n + r - 1) / r) * clk;
     }
     delay += sc_core::sc_time(steady_ns, sc_core::SC_NS);
     iterations_ += n;
