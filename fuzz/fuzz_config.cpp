@@ -28,7 +28,7 @@ void read_some(const xbarsim::ConfigTree& cfg) {
   expect_input_error_only([&] { (void)cfg.get_string("mitigation.method"); });
   expect_input_error_only([&] { (void)cfg.get_bool("conversion.column_scaling"); });
   expect_input_error_only([&] { (void)xbarsim::require_size_or_unbounded(cfg, "mapping.max_rows"); });
-  expect_input_error_only([&] { (void)xbarsim::require_positive(cfg, "crossbar.g_max"); });
+  expect_input_error_only([&] { (void)cfg.get_double("crossbar.g_max"); });
   expect_input_error_only([&] {
     for (const auto& key : cfg.sweep_keys()) {
       (void)cfg.is_list(key);

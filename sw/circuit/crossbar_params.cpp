@@ -7,29 +7,29 @@ namespace xbarsim {
 
 CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   CrossbarParams p;
-  p.r_wire_ohm = require_positive(cfg, "crossbar.r_wire");
-  p.r_in_ohm = require_positive(cfg, "crossbar.r_in");
-  p.r_out_ohm = require_positive(cfg, "crossbar.r_out");
-  p.g_min_s = require_positive(cfg, "crossbar.g_min");
-  p.g_max_s = require_positive(cfg, "crossbar.g_max");
+  p.r_wire_ohm = cfg.get_double("crossbar.r_wire");
+  p.r_in_ohm = cfg.get_double("crossbar.r_in");
+  p.r_out_ohm = cfg.get_double("crossbar.r_out");
+  p.g_min_s = cfg.get_double("crossbar.g_min");
+  p.g_max_s = cfg.get_double("crossbar.g_max");
   if (!(p.g_max_s > p.g_min_s)) {
     std::ostringstream os;
     os << "configuration key 'crossbar.g_max' (" << p.g_max_s << ") must exceed 'crossbar.g_min' (" << p.g_min_s << ")";
     throw InputError(os.str());
   }
-  p.v_in_max_v = require_positive(cfg, "crossbar.v_in_max");
+  p.v_in_max_v = cfg.get_double("crossbar.v_in_max");
   const std::string mem = require_one_of(cfg, "crossbar.memristor.model", {"linear", "sinh"});
   p.memristor.model = mem == "sinh" ? MemristorModel::Sinh : MemristorModel::Linear;
-  p.memristor.k_per_v = require_positive(cfg, "crossbar.memristor.k");
-  p.memristor.v_read_v = require_positive(cfg, "crossbar.memristor.v_read");
+  p.memristor.k_per_v = cfg.get_double("crossbar.memristor.k");
+  p.memristor.v_read_v = cfg.get_double("crossbar.memristor.v_read");
   const std::string tr = require_one_of(cfg, "crossbar.transistor.model", {"none", "linear", "level1"});
   p.transistor.model = tr == "none"     ? TransistorModel::None
                        : tr == "linear" ? TransistorModel::Linear
                                         : TransistorModel::Level1;
-  p.transistor.r_on_ohm = require_positive(cfg, "crossbar.transistor.r_on");
+  p.transistor.r_on_ohm = cfg.get_double("crossbar.transistor.r_on");
   p.transistor.vg_v = cfg.get_double("crossbar.transistor.vg");
   p.transistor.vth_v = cfg.get_double("crossbar.transistor.vth");
-  p.transistor.kp_a_per_v2 = require_positive(cfg, "crossbar.transistor.kp");
+  p.transistor.kp_a_per_v2 = cfg.get_double("crossbar.transistor.kp");
   if (p.transistor.model == TransistorModel::Level1 && !(p.transistor.vg_v - p.transistor.vth_v > p.v_in_max_v)) {
     std::ostringstream os;
     os << "crossbar.transistor: vg - vth (" << p.transistor.vg_v - p.transistor.vth_v
@@ -59,12 +59,12 @@ SolverMethod solver_method_from_name(const std::string& name) {
 SolverOptions parse_solver_options(const ConfigTree& cfg) {
   SolverOptions o;
   o.method = solver_method_from_name(cfg.get_string("solver.method"));
-  o.tolerance = require_positive(cfg, "solver.tolerance");
+  o.tolerance = cfg.get_double("solver.tolerance");
   o.max_iterations = cfg.get_int32("solver.max_iterations");
   o.newton_max_iterations = cfg.get_int32("solver.newton_max_iterations");
-  o.newton_tolerance = require_positive(cfg, "solver.newton_tolerance");
-  o.max_step_v = require_positive(cfg, "solver.max_step");
-  o.newton_abstol_a = require_positive(cfg, "solver.newton_abstol");
+  o.newton_tolerance = cfg.get_double("solver.newton_tolerance");
+  o.max_step_v = cfg.get_double("solver.max_step");
+  o.newton_abstol_a = cfg.get_double("solver.newton_abstol");
   o.threads = cfg.get_int32("solver.threads");
   return o;
 }

@@ -236,20 +236,28 @@ void collect_sweeps(const YAML::Node& node, const YAML::Node& def, const std::st
 
 }  // namespace
 
+namespace {
+/// The built-in defaults, parsed and checked once; every tree shares them read-only.
+const YAML::Node& builtin_defaults() {
+  static const YAML::Node defaults = load_checked(default_config_yaml(), "built-in configs/default.yaml");
+  return defaults;
+}
+}  // namespace
+
 ConfigTree::ConfigTree() : impl_(std::make_unique<Impl>()) {
-  impl_->defaults = load_checked(default_config_yaml(), "built-in configs/default.yaml");
+  impl_->defaults = builtin_defaults();
   impl_->root = YAML::Clone(impl_->defaults);
 }
 
 ConfigTree::~ConfigTree() = default;
 ConfigTree::ConfigTree(const ConfigTree& o) : impl_(std::make_unique<Impl>()) {
-  impl_->defaults = YAML::Clone(o.impl_->defaults);
+  impl_->defaults = o.impl_->defaults;  // the shared, read-only built-in defaults
   impl_->root = YAML::Clone(o.impl_->root);
   impl_->read = o.impl_->read;
 }
 ConfigTree& ConfigTree::operator=(const ConfigTree& o) {
   if (this != &o) {
-    impl_->defaults = YAML::Clone(o.impl_->defaults);
+    impl_->defaults = o.impl_->defaults;
     impl_->root = YAML::Clone(o.impl_->root);
     impl_->read = o.impl_->read;
   }
@@ -418,26 +426,6 @@ std::string ConfigTree::dump() const {
 }
 
 void check_yaml_structure(const std::string& text, const std::string& origin) { load_checked(text, origin); }
-
-double require_positive(const ConfigTree& cfg, const std::string& key) {
-  const double v = cfg.get_double(key);
-  if (!(v > 0)) {
-    std::ostringstream os;
-    os << "configuration key '" << key << "' must be > 0, got " << v;
-    throw InputError(os.str());
-  }
-  return v;
-}
-
-double require_nonnegative(const ConfigTree& cfg, const std::string& key) {
-  const double v = cfg.get_double(key);
-  if (!(v >= 0)) {
-    std::ostringstream os;
-    os << "configuration key '" << key << "' must be >= 0, got " << v;
-    throw InputError(os.str());
-  }
-  return v;
-}
 
 std::string require_one_of(const ConfigTree& cfg, const std::string& key, const std::vector<std::string>& allowed) {
   const std::string v = cfg.get_string(key);

@@ -72,9 +72,8 @@ class ConfigTree {
 /// `origin` and the line (yaml-cpp itself keeps the last duplicate and ignores documents).
 void check_yaml_structure(const std::string& text, const std::string& origin);
 
-/// Validation helpers: throw InputError naming the key and the bad value.
-double require_positive(const ConfigTree& cfg, const std::string& key);
-double require_nonnegative(const ConfigTree& cfg, const std::string& key);
+/// Validation helpers: throw InputError naming the key and the bad value. (Numeric bounds
+/// are the documented ranges every get_* checks.)
 std::string require_one_of(const ConfigTree& cfg, const std::string& key, const std::vector<std::string>& allowed);
 /// The enumerator named by the value at `key`; InputError listing the names otherwise.
 template <typename E>

@@ -11,7 +11,7 @@ namespace xbarsim {
 
 PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_unit, double adc_rate_gsps) {
   PlatformConfig c;
-  c.clock_mhz = require_positive(cfg, "platform.clock_mhz");
+  c.clock_mhz = cfg.get_double("platform.clock_mhz");
   c.detailed = require_one_of(cfg, "platform.timing", {"ideal", "detailed"}) == "detailed";
   c.pipelined = require_one_of(cfg, "platform.schedule", {"sequential", "pipelined"}) == "pipelined";
   if (cfg.get_string("platform.replication") == "auto")
@@ -33,9 +33,9 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.crossbar_budget = cfg.get_int("platform.crossbar_budget");
   c.adc_columns_per_unit = adc_columns_per_unit;
   c.adc_rate_gsps = adc_rate_gsps;
-  c.dac_latency_ns = require_nonnegative(cfg, "platform.dac_latency_ns");
-  c.crossbar_settle_ns = require_nonnegative(cfg, "platform.crossbar_settle_ns");
-  c.accumulator_latency_ns = require_nonnegative(cfg, "platform.accumulator_latency_ns");
+  c.dac_latency_ns = cfg.get_double("platform.dac_latency_ns");
+  c.crossbar_settle_ns = cfg.get_double("platform.crossbar_settle_ns");
+  c.accumulator_latency_ns = cfg.get_double("platform.accumulator_latency_ns");
   c.shift_entries_per_cycle = cfg.get_int32("platform.shift_entries_per_cycle");
   c.link_bytes_per_cycle = cfg.get_int32("platform.link_bytes_per_cycle");
   c.hop_cycles = cfg.get_int32("platform.hop_cycles");
