@@ -16,6 +16,7 @@
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
 #include "sw/common/seed.h"
+#include "sw/study/eval_study.h"
 #include "sw/study/hardware.h"
 #include "sw/study/sweep.h"
 
@@ -40,10 +41,14 @@ struct DataForRun {
 DataForRun simulation_data(const CliArgs& args, const ConfigTree& cfg, const Model& model, int images) {
   DataForRun d;
   if (args.has("--dataset")) {
-    const std::string dir = resolve_data_dir(cfg);
-    d.test = load_dataset(args.get("--dataset"), dir, "test", 0, images);
-    d.calib = load_dataset(args.get("--dataset"), dir, "calib", 0, cfg.get_int32("eval.calibration_images"));
-    if (!(d.test.shape == model.input)) throw InputError("dataset image shape does not match the model input");
+    // The same images as eval's (calibration split, MNIST's reserved calibration images).
+    EvalSpec spec = parse_eval_spec(cfg);
+    spec.images = images;
+    spec.offset = 0;
+    EvalData e = load_eval_data(model, args.get("--dataset"), resolve_data_dir(cfg), spec);
+    if (!e.note.empty()) std::fprintf(stderr, "xbarsim simulate: %s\n", e.note.c_str());
+    d.test = std::move(e.test);
+    d.calib = std::move(e.calib);
     d.labelled = true;
   } else {
     const uint64_t seed = static_cast<uint64_t>(cfg.get_int("data.synthetic_seed"));
