@@ -268,10 +268,9 @@ int cmd_simulate(int argc, char** argv) {
   if (args.has("--vcd-images")) sets.push_back("platform.vcd_images=" + args.get("--vcd-images"));
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
   const auto points = sweep_points(base);
-  for (const auto& point : points) {  // every point validated before any runs
-    const ConfigTree cfg = sweep_config(base, point);
-    make_hardware_context(cfg, parse_analog_config(cfg));
-  }
+  check_sweep<HardwareContext>(base, points, [](const ConfigTree& cfg) {  // every point before any runs
+    return make_hardware_context(cfg, parse_analog_config(cfg));
+  });
   SweepOutputs out(args, points.front(),
                    "latency_us,makespan_us,throughput_images_per_s,energy_uj_per_image,avg_power_mw,peak_power_mw,"
                    "area_mm2");

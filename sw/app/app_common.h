@@ -10,6 +10,7 @@
 #include "sw/common/cli_args.h"
 #include "sw/common/config.h"
 #include "sw/common/output_file.h"
+#include "sw/study/sweep.h"
 
 namespace xbarsim {
 
@@ -74,6 +75,16 @@ class ProgressBar {
   double start_, last_ = -1;
   bool finished_ = false;
 };
+
+/// parse_sweep with a progress bar on stderr while the points are checked.
+template <typename Spec>
+std::vector<Spec> check_sweep(const ConfigTree& base, const std::vector<SweepPoint>& points,
+                              const std::function<Spec(const ConfigTree&)>& parse) {
+  ProgressBar bar(static_cast<int>(points.size()), "checking sweep points");
+  std::vector<Spec> specs = parse_sweep<Spec>(base, points, parse, [&](int d, int) { bar.update(d); });
+  bar.finish();
+  return specs;
+}
 
 /// A subcommand entry point: receives the arguments after the subcommand name.
 using CommandFn = int (*)(int argc, char** argv);

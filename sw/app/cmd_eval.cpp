@@ -31,10 +31,7 @@ int cmd_eval(int argc, char** argv) {
   // Every key is checked before any file is read.
   const EvalSpec spec = parse_eval_spec(base);
   const auto points = sweep_points(base);
-  ProgressBar check_bar(static_cast<int>(points.size()), "checking sweep points");
-  const std::vector<EvalPoint> designs =
-      parse_sweep<EvalPoint>(base, points, parse_eval_point, [&](int d, int) { check_bar.update(d); });
-  check_bar.finish();
+  const std::vector<EvalPoint> designs = check_sweep<EvalPoint>(base, points, parse_eval_point);
   Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);

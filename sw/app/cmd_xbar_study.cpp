@@ -21,16 +21,11 @@ int cmd_xbar_study(int argc, char** argv) {
   check_outputs(args, {"--json", "--csv"});
   const ConfigTree base = load_config(args);
   const auto points = sweep_points(base);
-  ProgressBar check_bar(static_cast<int>(points.size()), "checking sweep points");
-  const std::vector<PointSpec> specs = parse_sweep<PointSpec>(
-      base, points,
-      [](const ConfigTree& cfg) {
-        PointSpec p{parse_xbar_study_spec(cfg), {}};
-        p.hw = make_hardware_context(cfg, p.study.ac);
-        return p;
-      },
-      [&](int d, int) { check_bar.update(d); });
-  check_bar.finish();
+  const std::vector<PointSpec> specs = check_sweep<PointSpec>(base, points, [](const ConfigTree& cfg) {
+    PointSpec p{parse_xbar_study_spec(cfg), {}};
+    p.hw = make_hardware_context(cfg, p.study.ac);
+    return p;
+  });
   SweepOutputs out(args, points.front(), "vector,column,ideal,actual");
   const Table table({{"run", -40},
                      {"xbars", 8},
