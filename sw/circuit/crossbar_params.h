@@ -67,6 +67,8 @@ struct SolverOptions {
   double newton_tolerance = 1e-12;  ///< max |dV| / max |V_in| at convergence (and KCL reltol)
   double newton_abstol_a = 1e-12;   ///< A, KCL residual allowed at every node at convergence
   double max_step_v = 0.2;          ///< Newton voltage limiting
+  bool batched_nonlinear = true;    ///< many vectors with nonlinear devices: BatchNewtonSolver (else per-vector Newton)
+  double nonlinear_tolerance = 1e-9;  ///< batched: column currents within this (relative) of the exact solution
   int threads = 0;                  ///< 0 = hardware concurrency
 };
 

@@ -4,12 +4,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "sw/circuit/line_solver_workspace.h"
 #include "sw/common/errors.h"
 
 namespace xbarsim {
 
 namespace {
-constexpr int kGmresRestart = 30;
+constexpr int kRowBlock = 8;  ///< row recurrences stepped together
 
 double dot(const double* a, const double* b, int n) {
   double s = 0;
@@ -17,24 +18,6 @@ double dot(const double* a, const double* b, int n) {
   return s;
 }
 }  // namespace
-
-struct LineSolver::Workspace {
-  /// `krylov_basis`: GMRES (Newton steps) needs its restart basis; CG does not.
-  Workspace(int mn, bool krylov_basis)
-      : a(mn),
-        b(mn),
-        s(mn),
-        r(mn),
-        z(mn),
-        p(mn),
-        q(mn),
-        v(krylov_basis ? (kGmresRestart + 1) * static_cast<size_t>(mn) : 0) {}
-  static double doubles(int mn, bool krylov_basis) { return (7.0 + (krylov_basis ? kGmresRestart + 1 : 0)) * mn; }
-  std::vector<double> a, b;        // schur_apply scratch
-  std::vector<double> s;           // Schur right-hand side
-  std::vector<double> r, z, p, q;  // Krylov vectors
-  std::vector<double> v;           // GMRES basis
-};
 
 LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
     : CrossbarSolver(p, o), memristor_(p.memristor), transistor_(p.transistor) {
@@ -45,15 +28,15 @@ LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
 
 void LineSolver::factor_rows(const double* extra, double* p_inv) const {
   const double gw2 = g_w_ * g_w_;
-  for (int i = 0; i < m_; ++i) {
-    const int o = i * n_;
-    double prev_inv = 0;
-    for (int j = 0; j < n_; ++j) {
-      const double left = j == 0 ? g_s_ : g_w_;
-      const double right = j + 1 < n_ ? g_w_ : 0.0;  // R_i is open
-      const double d = left + right + extra[o + j] - (j ? gw2 * prev_inv : 0.0);
-      prev_inv = 1.0 / d;
-      p_inv[o + j] = prev_inv;
+  const int n = n_;
+  for (int i0 = 0; i0 < m_; i0 += kRowBlock) {  // rows interleaved, as in row_solve
+    const int i1 = std::min(m_, i0 + kRowBlock);
+    for (int j = 0; j < n; ++j) {
+      const double base = (j == 0 ? g_s_ : g_w_) + (j + 1 < n ? g_w_ : 0.0);  // R_i is open
+      for (int i = i0; i < i1; ++i) {
+        const int k = i * n + j;
+        p_inv[k] = 1.0 / (base + extra[k] - (j ? gw2 * p_inv[k - 1] : 0.0));
+      }
     }
   }
 }
@@ -73,21 +56,25 @@ void LineSolver::factor_cols(const double* extra, double* q_diag, double* q_inv)
 }
 
 void LineSolver::row_solve(const double* p_inv, const double* r, double* x) const {
+  // The row recurrences are independent: step a block of kRowBlock of them together so that
+  // the CPU overlaps their latency chains. (All m at once would thrash L1: rows n doubles
+  // apart map to few cache sets.)
   const double gw = g_w_;
-  for (int i = 0; i < m_; ++i) {
-    const int o = i * n_;
-    double y = r[o];
-    x[o] = y;
-    for (int j = 1; j < n_; ++j) {
-      y = r[o + j] + gw * p_inv[o + j - 1] * y;
-      x[o + j] = y;
-    }
-    double xn = x[o + n_ - 1] * p_inv[o + n_ - 1];
-    x[o + n_ - 1] = xn;
-    for (int j = n_ - 2; j >= 0; --j) {
-      xn = (x[o + j] + gw * xn) * p_inv[o + j];
-      x[o + j] = xn;
-    }
+  const int n = n_;
+  for (int i0 = 0; i0 < m_; i0 += kRowBlock) {
+    const int i1 = std::min(m_, i0 + kRowBlock);
+    for (int i = i0; i < i1; ++i) x[i * n] = r[i * n];
+    for (int j = 1; j < n; ++j)
+      for (int i = i0; i < i1; ++i) {
+        const int k = i * n + j;
+        x[k] = r[k] + gw * p_inv[k - 1] * x[k - 1];
+      }
+    for (int i = i0; i < i1; ++i) x[i * n + n - 1] *= p_inv[i * n + n - 1];
+    for (int j = n - 2; j >= 0; --j)
+      for (int i = i0; i < i1; ++i) {
+        const int k = i * n + j;
+        x[k] = (x[k] + gw * x[k + 1]) * p_inv[k];
+      }
   }
 }
 
@@ -113,11 +100,12 @@ void LineSolver::schur_apply(const System& s, const double* x, double* y, Worksp
   double* b = w.b.data();
   for (int k = 0; k < mn; ++k) a[k] = s.cx[k] * x[k];
   row_solve(s.p_inv.data(), a, b);
+  const double* cy = s.y();
   const double gw = g_w_;
   for (int i = 0; i < m_; ++i) {
     const int o = i * n_;
     for (int j = 0; j < n_; ++j) {
-      double v = s.q_diag[o + j] * x[o + j] - s.cy[o + j] * b[o + j];
+      double v = s.q_diag[o + j] * x[o + j] - cy[o + j] * b[o + j];
       if (i > 0) v -= gw * x[o - n_ + j];
       if (i + 1 < m_) v -= gw * x[o + n_ + j];
       y[o + j] = v;
@@ -125,7 +113,7 @@ void LineSolver::schur_apply(const System& s, const double* x, double* y, Worksp
   }
 }
 
-int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w) const {
+int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol) const {
   // Preconditioned CG; stops when the residual in the Q^-1 norm, sqrt(r' Q^-1 r), has
   // dropped by `tolerance`. That norm is well conditioned (Q^-1 S ~ I), unlike |r|_2,
   // whose attainable floor is eps * cond(Q).
@@ -137,7 +125,7 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w)
   double rz = dot(r, z, mn);
   if (rz == 0) return 0;
   std::copy(z, z + mn, p);
-  const double target2 = options_.tolerance * options_.tolerance * rz;
+  const double target2 = tol * tol * rz;
   for (int it = 1; it <= options_.max_iterations; ++it) {
     schur_apply(s, p, q, w);
     const double alpha = rz / dot(p, q, mn);
@@ -237,14 +225,15 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   throw SolverError(os.str());
 }
 
-int LineSolver::solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b,
-                         Workspace& w) const {
+int LineSolver::solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b, Workspace& w,
+                         double tol) const {
   const int mn = m_ * n_;
   // Schur right-hand side: r_B - Y P^-1 r_T (t as scratch).
   std::vector<double>& schur_rhs = w.s;
   row_solve(s.p_inv.data(), r_t, t);
-  for (int k = 0; k < mn; ++k) schur_rhs[k] = r_b[k] - s.cy[k] * t[k];
-  const int its = s.symmetric ? pcg(s, schur_rhs.data(), b, w) : gmres(s, schur_rhs.data(), b, w);
+  const double* cy = s.y();
+  for (int k = 0; k < mn; ++k) schur_rhs[k] = r_b[k] - cy[k] * t[k];
+  const int its = s.symmetric ? pcg(s, schur_rhs.data(), b, w, tol) : gmres(s, schur_rhs.data(), b, w);
   // Back-substitute the row wires: t = P^-1 (r_T - X b).
   for (int k = 0; k < mn; ++k) schur_rhs[k] = r_t[k] - s.cx[k] * b[k];
   row_solve(s.p_inv.data(), schur_rhs.data(), t);
@@ -299,7 +288,7 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
   std::vector<double> r_t(mn, 0.0), r_b(mn, 0.0), t(mn), b(mn);
   for (int i = 0; i < m_; ++i) r_t[i * n_] = g_s_ * v_in(i);
   CircuitSolution s = CircuitSolution::sized(m_, n_);
-  s.linear_iterations = solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+  s.linear_iterations = solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w, options_.tolerance);
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
@@ -417,7 +406,7 @@ int LineSolver::newton_direction(NewtonState& st, Workspace& w) const {
   }
   factor_rows(st.jtt.data(), st.sys.p_inv.data());
   factor_cols(st.jbb.data(), st.sys.q_diag.data(), st.sys.q_inv.data());
-  const int inner = solve_tb(st.sys, st.rt.data(), st.rb.data(), st.dt.data(), st.db.data(), w);
+  const int inner = solve_tb(st.sys, st.rt.data(), st.rb.data(), st.dt.data(), st.db.data(), w, options_.tolerance);
   for (int k = 0; k < mn; ++k)
     st.dm[k] = short_tr ? st.db[k] : (st.fm[k] + st.gm[k] * st.dt[k] - st.gb[k] * st.db[k]) / (st.gm[k] + st.ga[k]);
   return inner;
@@ -515,13 +504,13 @@ Eigen::MatrixXd LineSolver::compute_effective_matrix() const {
       if (by_rows) {
         // Unit source on row c: row c of G_eff is g_d * b(m-1, :).
         r_t[c * n_] = g_s_;
-        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w, options_.tolerance);
         for (int j = 0; j < n_; ++j) geff(c, j) = g_d_ * b[(m_ - 1) * n_ + j];
       } else {
         // Adjoint (reciprocity, symmetric K): unit current into B(m-1, c);
         // G_eff(i, c) = g_s * g_d * t(i, 0).
         r_b[(m_ - 1) * n_ + c] = 1.0;
-        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w);
+        solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w, options_.tolerance);
         for (int i = 0; i < m_; ++i) geff(i, c) = g_s_ * g_d_ * t[i * n_];
       }
     }

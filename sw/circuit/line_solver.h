@@ -14,6 +14,28 @@
 /// whose spectrum is close to 1 because the cells are weak compared with the wires.
 /// Column chains are eliminated from their grounded end, which keeps the pivots well
 /// conditioned (a floating chain eliminated from its open end loses digits).
+///
+/// Many vectors with nonlinear devices (column_currents, solver.nonlinear = batched) use a
+/// leaner inexact Newton (line_solver_batch.cpp) than the per-vector reference solve():
+///  - it starts at the ideal operating point (row wires at the source voltage, column wires at
+///    0 V, middle nodes dividing the source voltage between memristor and transistor), a few
+///    percent from the answer because the cells are weak compared with the wires;
+///  - the devices are evaluated over the whole array at once: sinh from one vectorised exp,
+///    the level-1 transistor branch-free;
+///  - each step condenses the middle node into a 2x2 cell block and replaces the block's small
+///    nonsymmetric part (the transistor's dependence on its source voltage, ~kp V_ds against
+///    ~kp V_gst) by the geometric mean of its off-diagonal terms. The step is then an SPD
+///    problem solved by PCG to a loose tolerance (its preconditioner leaves ~1e-3 per
+///    iteration, so one or two iterations); the approximation only slows the outer iteration
+///    by a factor of ~V_ds / V_gst per step, because the residual is always the exact KCL of
+///    the full circuit;
+///  - its buffers are allocated once per thread and reused for every vector.
+/// A vector is done when the Newton error estimate of its column currents (last change x
+/// contraction) is below solver.nonlinear_tolerance x its largest column current and every
+/// node's KCL residual meets the per-vector Newton's tolerance. A vector it does not converge
+/// on is solved again by the per-vector Newton; if that fails too, the error names it.
+/// Interleaving 8 vectors for SIMD was measured slower: its 15 MB working set falls out of
+/// the 2 MB L2 cache that one vector's fits in.
 #include <mutex>
 #include <vector>
 
@@ -28,6 +50,9 @@ class LineSolver : public CrossbarSolver {
 
   void program(const Eigen::MatrixXd& g_s) override;
   CircuitSolution solve(const Eigen::VectorXd& v_in) const override;
+  /// Nonlinear devices: BatchNewtonSolver (solver.nonlinear = batched), falling back to the
+  /// per-vector Newton for a vector it does not converge on; otherwise as CrossbarSolver.
+  Eigen::MatrixXd column_currents(const Eigen::MatrixXd& v_in) const override;
   Eigen::MatrixXd effective_matrix() const override;
 
   /// Scratch buffers for one thread (sized for the programmed array).
@@ -40,8 +65,9 @@ class LineSolver : public CrossbarSolver {
     std::vector<double> q_diag;  ///< diagonal of Q
     std::vector<double> q_inv;   ///< inverse pivots of the column tridiagonals (Q, from the grounded end)
     std::vector<double> cx;      ///< X diagonal (row equation, column unknown)
-    std::vector<double> cy;      ///< Y diagonal (column equation, row unknown)
+    std::vector<double> cy;      ///< Y diagonal (column equation, row unknown); empty: Y = X
     bool symmetric = true;
+    const double* y() const { return cy.empty() ? cx.data() : cy.data(); }
   };
   void factor_rows(const double* extra, double* p_inv) const;
   void factor_cols(const double* extra, double* q_diag, double* q_inv) const;
@@ -49,8 +75,10 @@ class LineSolver : public CrossbarSolver {
   void col_solve(const double* q_inv, const double* r, double* x) const;
   void schur_apply(const System& s, const double* x, double* y, Workspace& w) const;
   /// Solves [P X; Y Q][t; b] = [r_T; r_B]; returns inner iterations.
-  int solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b, Workspace& w) const;
-  int pcg(const System& s, const double* rhs, double* x, Workspace& w) const;
+  /// `tol`: relative residual of the Schur solve (PCG; GMRES uses solver.tolerance).
+  int solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b, Workspace& w,
+               double tol) const;
+  int pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol) const;
   int gmres(const System& s, const double* rhs, double* x, Workspace& w) const;
   CircuitSolution solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const;
   CircuitSolution solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const;
@@ -63,6 +91,18 @@ class LineSolver : public CrossbarSolver {
   /// Applies the limited, line-searched update; returns the largest voltage change taken.
   double newton_update(const Eigen::VectorXd& v_in, NewtonState& st, double f_norm) const;
   CircuitSolution newton_solution(const NewtonState& st) const;
+  // The batched inexact Newton (line_solver_batch.cpp).
+  struct BatchState;
+  /// Column currents of v_in into `out` (n); false when it did not converge.
+  bool batch_solve(const double* v_in, BatchState& st, Workspace& w, double* out) const;
+  /// The ideal operating point plus one Jacobi step through the wires.
+  void batch_start(const double* v_in, BatchState& st, Workspace& w) const;
+  /// Cell currents (w.b memristor, w.s transistor) and derivatives at the iterate.
+  void batch_devices(BatchState& st, Workspace& w) const;
+  /// Exact KCL residuals and device derivatives at the iterate; the residuals' 2-norm and max.
+  void batch_residual(const double* v_in, BatchState& st, Workspace& w, double& norm, double& fmax) const;
+  /// The Newton update (dt, db, dm) of the condensed, symmetrised step; its largest |entry|.
+  double batch_direction(BatchState& st, Workspace& w, double step_tol) const;
   Eigen::MatrixXd compute_effective_matrix() const;
   /// Estimated peak memory (in doubles) of programming and solving an m x n array.
   double memory_doubles(int m, int n) const;

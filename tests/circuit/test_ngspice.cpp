@@ -33,7 +33,8 @@ Eigen::MatrixXd ngspice_currents(const CrossbarParams& p, const Eigen::MatrixXd&
     std::ofstream f(path);
     write_spice_netlist(f, p, g, v);
   }
-  const std::string out = run("ngspice -b " + path + " 2>&1");
+  // stderr apart: ngspice's notes there would interleave with the printed currents.
+  const std::string out = run("ngspice -b " + path + " 2>/dev/null");
   std::remove(path.c_str());
   return parse_ngspice_currents(out, static_cast<int>(v.rows()), static_cast<int>(g.cols()));
 }
@@ -61,13 +62,14 @@ TEST_P(Ngspice, ColumnCurrentsAgree) {
   Eigen::MatrixXd g(c.m, c.n), v(c.vectors, c.m);
   for (int i = 0; i < c.m; ++i)
     for (int j = 0; j < c.n; ++j) g(i, j) = ug(rng);
-  for (int k = 0; k < c.vectors; ++k)
-    for (int i = 0; i < c.m; ++i) v(k, i) = k == 0 ? std::abs(uv(rng)) : uv(rng);  // unipolar and bipolar
+  std::bernoulli_distribution zero(0.5);
+  for (int k = 0; k < c.vectors; ++k)  // unipolar and bipolar; from the third vector on, half the inputs 0 V
+    for (int i = 0; i < c.m; ++i) v(k, i) = k >= 2 && zero(rng) ? 0.0 : k == 0 ? std::abs(uv(rng)) : uv(rng);
   const Eigen::MatrixXd ref = ngspice_currents(p, g, v);
-  auto solver = make_crossbar_solver(p, SolverOptions{});
+  auto solver = make_crossbar_solver(p, SolverOptions{});  // nonlinear: the batched Newton
   solver->program(g);
   const Eigen::MatrixXd got = solver->column_currents(v);
-  const double tol = c.nonlinear ? 1e-4 : 1e-6;
+  const double tol = 1e-6;
   double worst = 0;
   for (int k = 0; k < c.vectors; ++k)
     for (int j = 0; j < c.n; ++j) {
@@ -82,7 +84,7 @@ TEST_P(Ngspice, ColumnCurrentsAgree) {
 
 INSTANTIATE_TEST_SUITE_P(Sizes, Ngspice,
                          ::testing::Values(Case{8, 4, 3, false}, Case{8, 4, 3, true}, Case{32, 32, 2, false},
-                                           Case{32, 32, 2, true}, Case{128, 64, 1, false}, Case{128, 64, 1, true}),
+                                           Case{64, 32, 8, true}, Case{128, 64, 1, false}, Case{128, 64, 8, true}),
                          [](const auto& info) {
                            return std::to_string(info.param.m) + "x" + std::to_string(info.param.n) +
                                   (info.param.nonlinear ? "_nonlinear" : "_linear");

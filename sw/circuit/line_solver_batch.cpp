@@ -1,0 +1,298 @@
+// LineSolver: the batched inexact Newton for many vectors with nonlinear devices (see
+// line_solver.h). It shares the linear algebra (factorizations, PCG on the Schur complement)
+// of the linear and per-vector Newton solves.
+#include <algorithm>
+#include <cmath>
+
+#include "sw/circuit/line_solver.h"
+#include "sw/circuit/line_solver_workspace.h"
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+namespace {
+/// Relative residual of each Newton step's PCG solve (the preconditioner leaves ~1e-3 per
+/// iteration, so this is one or two iterations).
+constexpr double kStepTolerance = 1e-4;
+/// The first step's error is dominated by the quadratic term: a looser solve costs nothing.
+constexpr double kFirstStepTolerance = 1e-2;
+using Arr = Eigen::Map<Eigen::ArrayXd>;
+}  // namespace
+
+/// One thread's iterate, residuals, device derivatives and Newton system (reused per vector).
+struct LineSolver::BatchState {
+  explicit BatchState(int mn)
+      : vt(mn), vm(mn), vb(mn), ft(mn), fm(mn), fb(mn), gm(mn), ga(mn), gb(mn), dt(mn), db(mn), dm(mn), g(mn), ratio(mn), exp_kv(mn) {
+    sys.symmetric = true;
+    sys.p_inv.resize(mn);
+    sys.q_diag.resize(mn);
+    sys.q_inv.resize(mn);
+    sys.cx.resize(mn);  // cy stays empty: Y = X
+  }
+  std::vector<double> vt, vm, vb;  ///< V, iterate (T, M, B nodes)
+  std::vector<double> ft, fm, fb;  ///< A, KCL residuals; ft, fb become the step's right-hand sides
+  std::vector<double> gm, ga, gb;  ///< memristor dI/dV, transistor dI/dV_M, dI/dV_B
+  std::vector<double> dt, db, dm;  ///< V, Newton update
+  std::vector<double> g;           ///< S, conductances (row-major like the node arrays)
+  std::vector<double> ratio;       ///< (V_M - V_B) / (V_T - V_B) of a cell at small signal (starting point)
+  Eigen::ArrayXd exp_kv;           ///< exp(k V) of every memristor
+  System sys;
+};
+
+Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
+  if (params_.is_linear() || !options_.batched_nonlinear || v_in.rows() == 0 || v_in.cols() != m_)
+    return CrossbarSolver::column_currents(v_in);
+  for (Eigen::Index k = 0; k < v_in.rows(); ++k) check_input(v_in.row(k).transpose());
+  const int count = static_cast<int>(v_in.rows());
+  const int threads = std::max(1, std::min(resolve_threads(options_.threads), count));
+  // Row-major inputs and outputs: one contiguous vector each.
+  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> v = v_in;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> out(count, n_);
+  const int mn = m_ * n_;
+  parallel_for(threads, threads, [&](int tid) {
+    BatchState st(mn);
+    const double g_t0 = transistor_.is_short() ? 0.0 : transistor_.g0();
+    for (int i = 0; i < m_; ++i)
+      for (int j = 0; j < n_; ++j) {
+        const int k = i * n_ + j;
+        st.g[k] = g_(i, j);
+        const double g_m0 = memristor_.g0(st.g[k]);
+        st.ratio[k] = transistor_.is_short() ? 0.0 : g_m0 / (g_m0 + g_t0);
+      }
+    Workspace w(mn, false);
+    for (int k = tid; k < count; k += threads) {
+      if (batch_solve(v.row(k).data(), st, w, out.row(k).data())) continue;
+      try {  // the reference per-vector Newton
+        out.row(k) = solve(v.row(k).transpose()).column_current.transpose();
+      } catch (const SolverError& e) {
+        throw SolverError("input vector " + std::to_string(k + 1) +
+                          ": neither the batched nor the per-vector Newton converged: " + e.what());
+      }
+    }
+  });
+  return out;
+}
+
+void LineSolver::batch_start(const double* v_in, BatchState& st, Workspace& w) const {
+  // Ideal wires: T at the source voltage, B at 0 V, the middle node dividing the cell voltage
+  // between memristor and transistor (small signal).
+  const bool short_tr = transistor_.is_short();
+  const double* ratio = st.ratio.data();
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) {
+      const int k = i * n_ + j;
+      st.vt[k] = v_in[i];
+      st.vb[k] = 0.0;
+      st.vm[k] = ratio[k] * v_in[i];
+    }
+  // One Jacobi step through the wires: the ideal cell currents flow in the row wires (drop
+  // from the source) and the column wires (rise above ground). Segment currents are suffix
+  // sums along a row and prefix sums down a column.
+  batch_devices(st, w);
+  const double* im = w.b.data();
+  const double r_s = 1.0 / g_s_, r_w = 1.0 / g_w_, r_d = 1.0 / g_d_;
+  for (int i = 0; i < m_; ++i) {
+    double* t = st.vt.data() + i * n_;
+    const double* c = im + i * n_;
+    double* suffix = w.q.data() + i * n_;
+    double acc = 0;
+    for (int j = n_ - 1; j >= 0; --j) suffix[j] = acc += c[j];
+    double v = v_in[i] - r_s * suffix[0];
+    t[0] = v;
+    for (int j = 1; j < n_; ++j) t[j] = v -= r_w * suffix[j];
+  }
+  double* down = w.q.data();  // current in the segment below B(i, j)
+  for (int j = 0; j < n_; ++j) down[j] = im[j];
+  for (int i = 1; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) down[i * n_ + j] = down[(i - 1) * n_ + j] + im[i * n_ + j];
+  const int bottom = (m_ - 1) * n_;
+  for (int j = 0; j < n_; ++j) st.vb[bottom + j] = r_d * down[bottom + j];
+  for (int i = m_ - 2; i >= 0; --i)
+    for (int j = 0; j < n_; ++j) st.vb[i * n_ + j] = st.vb[(i + 1) * n_ + j] + r_w * down[i * n_ + j];
+  const int mn = m_ * n_;
+  for (int k = 0; k < mn; ++k) st.vm[k] = short_tr ? st.vb[k] : st.vb[k] + ratio[k] * (st.vt[k] - st.vb[k]);
+}
+
+void LineSolver::batch_devices(BatchState& st, Workspace& w) const {
+  const int mn = m_ * n_;
+  const bool short_tr = transistor_.is_short();
+  double* im = w.b.data();
+  double* it = w.s.data();
+  // Memristors, all cells at once.
+  const double* vlow = short_tr ? st.vb.data() : st.vm.data();
+  const double* g = st.g.data();
+  double* gm = st.gm.data();
+  if (memristor_.linear()) {
+    for (int k = 0; k < mn; ++k) {
+      im[k] = g[k] * (st.vt[k] - vlow[k]);
+      gm[k] = g[k];
+    }
+  } else {
+    const double k_v = params_.memristor.k_per_v;
+    const double scale = params_.memristor.v_read_v / std::sinh(k_v * params_.memristor.v_read_v);
+    // exp(k V), vectorised. Eigen's own aligned array: Eigen evaluates exp with SIMD on an
+    // aligned body and with std::exp on the rest, so an alignment that varied with the
+    // allocation would change the last bits from one thread (or run) to another.
+    Eigen::ArrayXd& e = st.exp_kv;
+    e = k_v * (Eigen::Map<const Eigen::ArrayXd>(st.vt.data(), mn) - Eigen::Map<const Eigen::ArrayXd>(vlow, mn));
+    e = e.exp();
+    for (int k = 0; k < mn; ++k) {
+      const double x = k_v * (st.vt[k] - vlow[k]), ek = e[k], eik = 1.0 / ek;
+      // sinh(kV) = (e - 1/e)/2 loses relative digits for tiny kV: there, kV + (kV)^3/6.
+      const double sh = std::abs(x) < 1e-3 ? x * (1.0 + x * x * (1.0 / 6.0)) : 0.5 * (ek - eik);
+      im[k] = g[k] * scale * sh;
+      gm[k] = g[k] * (scale * k_v * 0.5) * (ek + eik);
+    }
+  }
+  // Access transistors M -> B (branch-free level 1).
+  if (!short_tr) {
+    const TransistorParams& tp = params_.transistor;
+    const double vg = tp.vg_v, vth = tp.vth_v, kp = tp.kp_a_per_v2, g_on = 1.0 / tp.r_on_ohm;
+    const bool level1 = !transistor_.linear();
+    for (int k = 0; k < mn; ++k) {
+      const double va = st.vm[k], vb = st.vb[k];
+      if (!level1) {
+        it[k] = g_on * (va - vb);
+        st.ga[k] = g_on;
+        st.gb[k] = -g_on;
+        continue;
+      }
+      const bool fwd = va >= vb;
+      const double vs = fwd ? vb : va;
+      const double vds = fwd ? va - vb : vb - va;
+      const double vgst = vg - vs - vth;
+      const bool on = vgst > 0, triode = vds < vgst;
+      const double id = on ? (triode ? kp * (vgst * vds - 0.5 * vds * vds) : 0.5 * kp * vgst * vgst) : 0.0;
+      const double dd = on && triode ? kp * (vgst - vds) : 0.0;
+      const double ds = on ? -kp * vgst : 0.0;
+      it[k] = fwd ? id : -id;
+      st.ga[k] = fwd ? dd : -ds;
+      st.gb[k] = fwd ? ds : -dd;
+    }
+  }
+}
+
+void LineSolver::batch_residual(const double* v_in, BatchState& st, Workspace& w, double& norm, double& fmax) const {
+  const bool short_tr = transistor_.is_short();
+  batch_devices(st, w);
+  const double* im = w.b.data();
+  const double* it = w.s.data();
+  // KCL at every node, one row or one pair of rows at a time (vectorised inner loops).
+  const double gw = g_w_;
+  const int n = n_, mn = m_ * n_;
+  for (int i = 0; i < m_; ++i) {
+    const double* t = st.vt.data() + i * n;
+    const double* c = im + i * n;
+    double* f = st.ft.data() + i * n;
+    f[0] = g_s_ * (t[0] - v_in[i]) + (n > 1 ? gw * (t[0] - t[1]) : 0.0) + c[0];
+    for (int j = 1; j + 1 < n; ++j) f[j] = gw * ((t[j] - t[j - 1]) + (t[j] - t[j + 1])) + c[j];
+    if (n > 1) f[n - 1] = gw * (t[n - 1] - t[n - 2]) + c[n - 1];
+  }
+  const double* out = short_tr ? im : it;  // current leaving the cell into B
+  for (int i = 0; i < m_; ++i) {
+    const double* b = st.vb.data() + i * n;
+    const double* up = b - n;
+    const double* down = b + n;
+    const double* c = out + i * n;
+    double* f = st.fb.data() + i * n;
+    if (i > 0 && i + 1 < m_) {
+      for (int j = 0; j < n; ++j) f[j] = gw * ((b[j] - up[j]) + (b[j] - down[j])) - c[j];
+    } else {
+      for (int j = 0; j < n; ++j)
+        f[j] = (i > 0 ? gw * (b[j] - up[j]) : 0.0) + (i + 1 < m_ ? gw * (b[j] - down[j]) : g_d_ * b[j]) - c[j];
+    }
+  }
+  Arr ft(st.ft.data(), mn), fb(st.fb.data(), mn), fm(st.fm.data(), mn);
+  if (short_tr)
+    fm.setZero();
+  else
+    fm = Eigen::Map<const Eigen::ArrayXd>(im, mn) - Eigen::Map<const Eigen::ArrayXd>(it, mn);
+  double n2 = 0;  // a plain loop: a fixed summation order whatever the buffers' alignment
+  for (int k = 0; k < mn; ++k) n2 += st.ft[k] * st.ft[k] + st.fb[k] * st.fb[k] + st.fm[k] * st.fm[k];
+  norm = std::sqrt(n2);
+  fmax = std::max({ft.abs().maxCoeff(), fb.abs().maxCoeff(), fm.abs().maxCoeff()});
+}
+
+double LineSolver::batch_direction(BatchState& st, Workspace& w, double step_tol) const {
+  const int mn = m_ * n_;
+  const bool short_tr = transistor_.is_short();
+  double *jtt = w.r.data(), *jbb = w.z.data();  // free until the PCG
+  for (int k = 0; k < mn; ++k) {
+    if (short_tr) {
+      jtt[k] = jbb[k] = st.gm[k];
+      st.sys.cx[k] = -st.gm[k];
+      st.ft[k] = -st.ft[k];
+      st.fb[k] = -st.fb[k];
+    } else {
+      const double den = st.gm[k] + st.ga[k], c = st.gm[k] / den;
+      jtt[k] = st.ga[k] * c;
+      jbb[k] = -st.gb[k] * c;
+      st.sys.cx[k] = -c * std::min(st.ga[k], -st.gb[k]);  // symmetrised off-diagonal (keeps the block PSD)
+      st.ft[k] = -st.ft[k] + c * st.fm[k];
+      st.fb[k] = -st.fb[k] + (st.ga[k] / den) * st.fm[k];
+    }
+  }
+  factor_rows(jtt, st.sys.p_inv.data());
+  factor_cols(jbb, st.sys.q_diag.data(), st.sys.q_inv.data());
+  solve_tb(st.sys, st.ft.data(), st.fb.data(), st.dt.data(), st.db.data(), w, step_tol);
+  double dmax = 0;
+  for (int k = 0; k < mn; ++k) {
+    const double dm =
+        short_tr ? st.db[k] : (st.fm[k] + st.gm[k] * st.dt[k] - st.gb[k] * st.db[k]) / (st.gm[k] + st.ga[k]);
+    st.dm[k] = dm;
+    dmax = std::max(dmax, std::max(std::abs(st.dt[k]), std::max(std::abs(st.db[k]), std::abs(dm))));
+  }
+  return dmax;
+}
+
+bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, double* out) const {
+  const int mn = m_ * n_, bottom = (m_ - 1) * n_;
+  double v_scale = 1e-3;
+  for (int i = 0; i < m_; ++i) v_scale = std::max(v_scale, std::abs(v_in[i]));
+  const double kcl_tol = kcl_tolerance(v_scale);
+  batch_start(v_in, st, w);
+  double f_norm, f_max;
+  batch_residual(v_in, st, w, f_norm, f_max);
+  double last_change = -1;  // largest column-current change of the previous full step
+  bool converged = false;
+  for (int it = 1; it <= options_.newton_max_iterations && !converged; ++it) {
+    const double dmax = batch_direction(st, w, it == 1 ? kFirstStepTolerance : kStepTolerance);
+    if (!std::isfinite(dmax)) return false;
+    double scale = dmax > options_.max_step_v ? options_.max_step_v / dmax : 1.0;
+    auto step = [&](double f) {
+      for (int k = 0; k < mn; ++k) {
+        st.vt[k] += f * st.dt[k];
+        st.vm[k] += f * st.dm[k];
+        st.vb[k] += f * st.db[k];
+      }
+    };
+    step(scale);
+    double new_norm;
+    batch_residual(v_in, st, w, new_norm, f_max);
+    for (int ls = 0; ls < 20 && new_norm > f_norm && scale * dmax > 1e-9; ++ls) {  // backtrack (rare)
+      step(-0.5 * scale);
+      scale *= 0.5;
+      batch_residual(v_in, st, w, new_norm, f_max);
+    }
+    f_norm = new_norm;
+    // Error of the column currents: the last change times the observed contraction
+    // theta / (1 - theta) (Newton's error estimate); without two full steps to measure
+    // theta, ten times the change.
+    double change = 0, i_max = 0;
+    for (int j = 0; j < n_; ++j) {
+      change = std::max(change, g_d_ * std::abs(scale * st.db[bottom + j]));
+      i_max = std::max(i_max, g_d_ * std::abs(st.vb[bottom + j]));
+    }
+    double estimate = 10 * change;
+    if (scale == 1.0 && last_change > 0) {
+      const double theta = change / last_change;
+      estimate = theta < 1 ? change * theta / (1 - theta) : HUGE_VAL;
+    }
+    last_change = scale == 1.0 ? change : -1;
+    converged = estimate <= options_.nonlinear_tolerance * i_max && f_max <= kcl_tol;
+  }
+  for (int j = 0; j < n_; ++j) out[j] = g_d_ * st.vb[bottom + j];
+  return converged;
+}
+
+}  // namespace xbarsim
