@@ -159,8 +159,8 @@ nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool pr
   const DataForRun data = simulation_data(args, cfg, model, pc.images);
   if (!ac.xbar.is_linear())
     std::fprintf(stderr,
-                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a Newton circuit solve "
-                 "(slow); consider --images 1\n");
+                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
+                 "(batched Newton, about 1 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");

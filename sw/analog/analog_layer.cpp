@@ -26,6 +26,12 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
   c.noise = parse_noise_spec(cfg);
+  if (c.converters.dac_predistortion && c.mitigation.conversion() == ConversionKind::Matrix &&
+      c.xbar.memristor.model == MemristorModel::Sinh)
+    throw InputError(
+        "configuration key 'converters.dac_predistortion': not combinable with the matrix conversion (" +
+        std::string(c.mitigation.name()) +
+        "), which targets I = V G at the applied voltage; use conversion or conversion+calibration");
   return c;
 }
 
@@ -35,6 +41,11 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
   alpha_ = cfg.xbar.v_in_max_v / x_max;
+  predistort_ = cfg.converters.dac_predistortion && cfg.xbar.memristor.model == MemristorModel::Sinh;
+  if (predistort_) {  // I/G = h(V) = v_read sinh(kV) / sinh(k v_read), linear in x through the LUT
+    const MemristorParams& mp = cfg.xbar.memristor;
+    alpha_ = mp.v_read_v * std::sinh(mp.k_per_v * cfg.xbar.v_in_max_v) / std::sinh(mp.k_per_v * mp.v_read_v) / x_max;
+  }
   // Signed inputs: sign-magnitude, so that 0 is exactly a DAC level.
   const int bits = cfg.converters.dac_bits;
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};
@@ -119,6 +130,15 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   }
 }
 
+Eigen::MatrixXd AnalogLayer::volts(const Eigen::MatrixXd& x) const {
+  if (!predistort_) return alpha_ * x;
+  // The lookup table's entry for each code: h(V) = alpha x, V = asinh(alpha x / scale) / k
+  // with scale = v_read / sinh(k v_read); odd, so signed inputs keep their sign.
+  const MemristorParams& mp = cfg_.xbar.memristor;
+  const double scale = mp.v_read_v / std::sinh(mp.k_per_v * mp.v_read_v);
+  return x.unaryExpr([&](double u) { return std::asinh(alpha_ * u / scale) / mp.k_per_v; });
+}
+
 Eigen::MatrixXd AnalogLayer::dac(const Eigen::MatrixXd& x) const {
   Eigen::MatrixXd out = x;
   dac_values<double>(out.data(), out.size());
@@ -174,7 +194,7 @@ void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& curr
       currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_d;
     return;
   }
-  const Eigen::MatrixXd v = alpha_ * xq.middleCols(x.blk.row0, x.blk.rows).template cast<double>();
+  const Eigen::MatrixXd v = volts(xq.middleCols(x.blk.row0, x.blk.rows).template cast<double>());
   currents = x.solver->column_currents(v).template cast<S>();
 }
 

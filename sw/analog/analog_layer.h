@@ -110,7 +110,11 @@ class AnalogLayer {
   int crossbars() const { return static_cast<int>(blocks_.size()); }
   const Block& block(int b) const;
   const std::vector<CrossbarReport>& reports() const { return reports_; }
+  /// A per S per input unit: an isolated cell of conductance G passes alpha * G * x (V per
+  /// unit for linear memristors; with pre-distortion h(v_in_max) / x_max, h the memristor I/G).
   double volts_per_unit() const { return alpha_; }
+  /// The DAC's output voltages for quantized inputs x (pre-distorted when configured).
+  Eigen::MatrixXd volts(const Eigen::MatrixXd& x) const;
   const AnalogConfig& config() const { return cfg_; }
 
  private:
@@ -142,7 +146,8 @@ class AnalogLayer {
   double x_max_;
   bool signed_;
   uint64_t salt_;
-  double alpha_;  ///< V per input unit
+  double alpha_;        ///< A/S per input unit (see volts_per_unit)
+  bool predistort_ = false;  ///< converters.dac_predistortion with a sinh memristor
   Quantizer dac_q_;
   std::vector<Block> blocks_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;

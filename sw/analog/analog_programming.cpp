@@ -43,13 +43,15 @@ void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
 void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const {
   const CrossbarParams& p = cfg_.xbar;
   const ConversionSpec& cs = cfg_.conversion;
+  // The conversion signal in input units (the applied voltages are the DAC's for it, the
+  // targets alpha x * G).
   auto signal_for = [&](double amplitude) -> Eigen::VectorXd {
     if (cs.signal != ConversionSignal::Constant && in.cal_b.rows() > 0) {
       const Eigen::MatrixXd& src = in.calib_b.size() ? in.calib_b : in.cal_b;
-      if (cs.signal == ConversionSignal::MaxInput) return alpha_ * src.colwise().maxCoeff().transpose();
-      return alpha_ * src.colwise().mean().transpose();
+      if (cs.signal == ConversionSignal::MaxInput) return src.colwise().maxCoeff().transpose();
+      return src.colwise().mean().transpose();
     }
-    return Eigen::VectorXd::Constant(x.blk.rows, amplitude * p.v_in_max_v);
+    return Eigen::VectorXd::Constant(x.blk.rows, amplitude * x_max_);
   };
   std::vector<double> amps = {
       cs.amplitude_mode == AmplitudeMode::Paper ? ConversionController::paper_amplitude(x.blk.rows) : cs.amplitude};
@@ -59,7 +61,8 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
   double best = std::numeric_limits<double>::infinity();
   Eigen::MatrixXd best_g;
   for (double a : amps) {
-    const ConversionResult r = convert_signal(p, x.g_target, signal_for(a));
+    const Eigen::VectorXd xs = signal_for(a);
+    const ConversionResult r = convert_signal(p, x.g_target, volts(xs), alpha_ * xs);
     if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
       install(x, r.g_prime);
       const double e =

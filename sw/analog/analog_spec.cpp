@@ -115,6 +115,7 @@ ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   c.adc_margin = cfg.get_double("converters.adc_margin");
   c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");
   c.adc_columns_per_adc = cfg.get_int32("converters.adc_columns_per_adc");
+  c.dac_predistortion = cfg.get_bool("converters.dac_predistortion");
   return c;
 }
 

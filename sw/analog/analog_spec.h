@@ -80,6 +80,9 @@ struct ConvertersSpec {
   double adc_margin = 0.05;
   bool adc_offset_subtraction = true;
   int adc_columns_per_adc = 0;  ///< crossbar columns sharing one ADC; 0 = the component library's
+  /// Input pre-distortion: each DAC code goes through a lookup table to V = f^-1(x), so that an
+  /// isolated memristor's current is linear in the code (sinh memristors; a no-op for linear ones).
+  bool dac_predistortion = false;
 };
 
 /// Section `noise.`.

@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <string>
 #include <cstdio>
 #include <fstream>
 
@@ -82,16 +84,38 @@ ProgressBar::ProgressBar(int total, std::string label)
 
 ProgressBar::~ProgressBar() { finish(); }
 
+namespace {
+/// "1h02m", "3m05s", "12s".
+std::string duration_text(double s) {
+  char buf[32];
+  const long t = std::lround(std::max(s, 0.0));
+  if (t >= 3600)
+    std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, t / 60 % 60);
+  else if (t >= 60)
+    std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%lds", t);
+  return buf;
+}
+}  // namespace
+
 void ProgressBar::update(int done) {
-  if (!tty_ || finished_) return;
+  if (finished_) return;
   const double t = now_s();
-  if (done < total_ && t - last_ < 0.2) return;
+  // A terminal gets a bar redrawn 5 times a second; a log file a line every 30 s.
+  if (done < total_ && t - last_ < (tty_ ? 0.2 : 30.0)) return;
+  if (!tty_ && (last_ < 0 && t - start_ < 30.0)) return;
   last_ = t;
+  const double rate = done / std::max(t - start_, 1e-9);
+  const std::string eta = done > 0 && done < total_ ? "  ETA " + duration_text((total_ - done) / rate) : "";
+  if (!tty_) {
+    std::fprintf(stderr, "%s: %d/%d  %.3g/s%s\n", label_.c_str(), done, total_, rate, eta.c_str());
+    return;
+  }
   const int width = 30;
   const int fill = total_ > 0 ? static_cast<int>(static_cast<double>(width) * done / total_) : width;
-  const double rate = done / std::max(t - start_, 1e-9);
-  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.1f/s ", label_.c_str(), fill,
-               "==============================", width - fill, "", done, total_, rate);
+  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.3g/s%s   ", label_.c_str(), fill, "==============================",
+               width - fill, "", done, total_, rate, eta.c_str());
   std::fflush(stderr);
 }
 

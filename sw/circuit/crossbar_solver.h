@@ -81,7 +81,8 @@ class CrossbarSolver {
 /// The solver selected by options.method: "auto"/"line" -> LineSolver, "direct" -> NodalSolver.
 std::unique_ptr<CrossbarSolver> make_crossbar_solver(const CrossbarParams& p, const SolverOptions& o);
 
-/// Runs f(k) for k in [0, count) on `threads` threads (static blocks). Exceptions propagate.
+/// Runs f(k) for k in [0, count) on `threads` threads (k = t, t + threads, ...). Exceptions
+/// propagate. Called from inside another parallel_for it runs inline: the cores are taken.
 void parallel_for(int count, int threads, const std::function<void(int)>& f);
 
 }  // namespace xbarsim

@@ -8,7 +8,7 @@
 namespace xbarsim {
 
 ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv,
-                                     bool clip);
+                                     bool clip, const Eigen::VectorXd* v_target = nullptr);
 
 namespace {
 
@@ -35,16 +35,23 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
   return convert_signal_impl(p, g, v_conv, true);
 }
 
+ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv,
+                                const Eigen::VectorXd& v_target) {
+  return convert_signal_impl(p, g, v_conv, true, &v_target);
+}
+
 ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen::VectorXd& v_conv,
-                                     bool clip) {
+                                     bool clip, const Eigen::VectorXd* v_target) {
   const int m = static_cast<int>(g.rows()), n = static_cast<int>(g.cols());
   if (v_conv.size() != m) throw InputError("conversion signal must have one voltage per crossbar row");
+  if (v_target && v_target->size() != m) throw InputError("conversion target must have one voltage per crossbar row");
+  const Eigen::VectorXd& v_ideal = v_target ? *v_target : v_conv;
   ConversionResult r;
   r.g_prime.resize(m, n);
   // Target cell currents and the node voltages they imply.
   Eigen::MatrixXd cur(m, n), vt(m, n), vb(m, n);
   for (int i = 0; i < m; ++i)
-    for (int j = 0; j < n; ++j) cur(i, j) = v_conv(i) * g(i, j);
+    for (int j = 0; j < n; ++j) cur(i, j) = v_ideal(i) * g(i, j);
   for (int i = 0; i < m; ++i) {
     double suffix = cur.row(i).sum();  // current entering T(i,0) from the source
     double v = v_conv(i) - (p.r_in_ohm + p.r_wire_ohm) * suffix;

@@ -13,7 +13,6 @@ EvalSpec parse_eval_spec(const ConfigTree& cfg) {
   s.offset = cfg.get_int32("eval.offset");
   s.calibration_images = cfg.get_int32("eval.calibration_images");
   s.calibration_samples = cfg.get_int32("eval.calibration_samples");
-  s.nonlinear_images = cfg.get_int32("eval.nonlinear_images");
   return s;
 }
 
@@ -115,11 +114,6 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
   xb.program(calib, spec.calibration_samples, progress.programming);
   const auto t1 = std::chrono::steady_clock::now();
   r.images = test.count();
-  if (!ac.xbar.is_linear() && spec.nonlinear_images < r.images) {
-    r.images = spec.nonlinear_images;
-    r.note = "nonlinear devices: every crossbar input vector is a Newton circuit solve; evaluated on the first " +
-             std::to_string(r.images) + " images only (eval.nonlinear_images)";
-  }
   const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), r.images));
   const ImageTallies t = evaluate_images(model, xb, test, r.images, threads, progress.evaluating);
   r.program_time_s = std::chrono::duration<double>(t1 - t0).count();

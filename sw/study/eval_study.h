@@ -16,7 +16,6 @@ struct EvalSpec {
   int offset = 0;
   int calibration_images = 200;
   int calibration_samples = 2048;
-  int nonlinear_images = 2;
 };
 EvalSpec parse_eval_spec(const ConfigTree& cfg);
 

@@ -53,6 +53,26 @@ INSTANTIATE_TEST_SUITE_P(Devices, SignalConversion,
                                            std::make_pair(MemristorModel::Sinh, TransistorModel::None),
                                            std::make_pair(MemristorModel::Sinh, TransistorModel::Level1)));
 
+TEST(SignalConversion, PredistortedSignalMeetsItsLinearTarget) {
+  // With a DAC lookup table the applied voltage V = f^-1(x) differs from the linear target
+  // alpha x: every cell must pass alpha x G at the applied voltage (sinh + level 1).
+  CrossbarParams p;
+  p.memristor.model = MemristorModel::Sinh;
+  p.transistor.model = TransistorModel::Level1;
+  const int m = 20, n = 6;
+  Eigen::MatrixXd g = (random_g(m, n, p, 9) * 0.5).cwiseMax(p.g_min_s * 2);
+  const Eigen::VectorXd v_applied = Eigen::VectorXd::Constant(m, 0.05);
+  const Eigen::VectorXd v_target = Eigen::VectorXd::Constant(m, 0.042);
+  const ConversionResult r = convert_signal(p, g, v_applied, v_target);
+  ASSERT_EQ(r.out_of_range(), 0);
+  auto s = make_crossbar_solver(p, direct());
+  s->program(r.g_prime);
+  const CircuitSolution sol = s->solve(v_applied);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j)
+      EXPECT_NEAR(sol.cell_current(i, j), v_target(i) * g(i, j), 1e-9 * v_target(i) * g(i, j)) << i << "," << j;
+}
+
 TEST(SignalConversion, LinearDevicesDoNotDependOnAmplitude) {
   CrossbarParams p;
   const Eigen::MatrixXd g = random_g(30, 8, p, 5);

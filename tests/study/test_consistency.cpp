@@ -39,7 +39,7 @@ TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
   // overhead
   const OverheadReport over = overhead_study(model, point.hw);
   // eval (the crossbars it really programs, on random images)
-  const EvalResult ev = run_eval(model, point, EvalSpec{2, 0, 4, 64, 2}, random_dataset(model.input, 2, 1),
+  const EvalResult ev = run_eval(model, point, EvalSpec{2, 0, 4, 64}, random_dataset(model.input, 2, 1),
                                  random_dataset(model.input, 4, 2));
   // simulate (the executable: the SystemC platform)
   const nlohmann::json sim = run_json(std::string("simulate --preset lenet ") + kSets, "simulate");
