@@ -115,7 +115,7 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     throw InputError(origin + ": YAML syntax error: " + e.what());
   }
   if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
-  static const char* kSections[] = {"adc",    "dac",          "cell",    "accumulator", "shift_register",
+  static const char* kSections[] = {"adc",    "dac",          "dac_lut", "cell",  "accumulator", "shift_register",
                                     "buffer", "interconnect", "digital", "memory"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string k = it->first.as<std::string>();
@@ -126,13 +126,14 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   }
   ComponentLibrary lib;
   lib.source = origin;
-  Section adc(root, "adc", origin), dac(root, "dac", origin), cell(root, "cell", origin),
+  Section adc(root, "adc", origin), dac(root, "dac", origin), lut(root, "dac_lut", origin), cell(root, "cell", origin),
       acc(root, "accumulator", origin), sr(root, "shift_register", origin), buf(root, "buffer", origin),
       noc(root, "interconnect", origin), dig(root, "digital", origin), mem(root, "memory", origin);
   lib.adc = converter(adc);
   lib.adc_columns_per_unit = adc.integer("columns_per_unit");
   lib.adc_sample_rate_gsps = adc.number("sample_rate_gsps", true);
   lib.dac = converter(dac);
+  lib.dac_lut = {lut.number("area_mm2"), lut.number("leakage_mw"), lut.number("read_pj")};
   lib.cell = {cell.number("area_mm2", true), cell.number("leakage_mw"), cell.number("read_pj")};
   lib.accumulator = {acc.number("area_mm2"), acc.number("leakage_mw"), acc.number("accumulate_pj")};
   lib.shift_register = {sr.number("area_mm2_per_entry"), sr.number("leakage_mw_per_entry"), sr.number("shift_pj")};
@@ -141,7 +142,7 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   lib.interconnect = {noc.number("area_mm2"), noc.number("leakage_mw"), noc.number("transfer_pj_per_byte")};
   lib.digital = {dig.number("area_mm2"), dig.number("leakage_mw"), dig.number("op_pj")};
   lib.memory = {mem.number("transfer_pj_per_byte")};
-  for (const Section* s : {&adc, &dac, &cell, &acc, &sr, &buf, &noc, &dig, &mem}) s->finish();
+  for (const Section* s : {&adc, &dac, &lut, &cell, &acc, &sr, &buf, &noc, &dig, &mem}) s->finish();
   return lib;
 }
 

@@ -32,6 +32,9 @@ struct ComponentLibrary {
   ConverterModel adc, dac;
   int adc_columns_per_unit = 128;      ///< crossbar columns sharing one ADC (default of converters.adc_columns_per_adc)
   double adc_sample_rate_gsps = 1.28;  ///< conversions per ns of one ADC (timing and peak power)
+  struct DacLut {
+    double area_mm2 = 0, leakage_mw = 0, read_pj = 0;  ///< one DAC's pre-distortion table, one lookup
+  } dac_lut;
   struct Cell {
     double area_mm2 = 0, leakage_mw = 0, read_pj = 0;  ///< one memristor cell, one read
   } cell;

@@ -55,7 +55,7 @@ ComponentBreakdown CostModel::area_mm2(const LayerInventory& v) const {
   ComponentBreakdown a;
   a.crossbar = v.cells_present * lib.cell.area_mm2;
   a.adc = v.adcs * lib.adc.area_at(adc_bits_priced());
-  a.dac = v.dacs * lib.dac.area_at(dac_bits_priced());
+  a.dac = v.dacs * (lib.dac.area_at(dac_bits_priced()) + (dac_lut ? lib.dac_lut.area_mm2 : 0.0));
   a.accumulator = v.accumulators * lib.accumulator.area_mm2;
   a.shift_register = v.shift_register_entries * lib.shift_register.area_mm2_per_entry;
   a.buffer = v.buffer_bytes / kKiB * lib.buffer.area_mm2_per_kib;
@@ -66,7 +66,7 @@ ComponentBreakdown CostModel::leakage_mw(const LayerInventory& v) const {
   ComponentBreakdown p;
   p.crossbar = v.cells_present * lib.cell.leakage_mw;
   p.adc = v.adcs * lib.adc.leakage_mw;
-  p.dac = v.dacs * lib.dac.leakage_mw;
+  p.dac = v.dacs * (lib.dac.leakage_mw + (dac_lut ? lib.dac_lut.leakage_mw : 0.0));
   p.accumulator = v.accumulators * lib.accumulator.leakage_mw;
   p.shift_register = v.shift_register_entries * lib.shift_register.leakage_mw_per_entry;
   p.buffer = v.buffer_bytes / kKiB * lib.buffer.leakage_mw_per_kib;
@@ -80,7 +80,7 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
   ComponentBreakdown p = leakage_mw(v);
   p.crossbar += v.cells_present * lib.cell.read_pj * clock_ghz;
   p.adc += v.adcs * lib.adc.conversion_pj_at(adc_bits_priced()) * lib.adc_sample_rate_gsps;
-  p.dac += v.dacs * lib.dac.conversion_pj_at(dac_bits_priced()) * clock_ghz;
+  p.dac += v.dacs * dac_conversion_pj() * clock_ghz;
   p.accumulator += v.accumulators * lib.accumulator.accumulate_pj * clock_ghz;
   return p;
 }
@@ -89,7 +89,7 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   ComponentBreakdown e;
   e.crossbar = a.cell_reads * lib.cell.read_pj;
   e.adc = a.adc_conversions * lib.adc.conversion_pj_at(adc_bits_priced());
-  e.dac = a.dac_conversions * lib.dac.conversion_pj_at(dac_bits_priced());
+  e.dac = a.dac_conversions * dac_conversion_pj();
   e.accumulator = a.accumulates * lib.accumulator.accumulate_pj;
   e.shift_register = a.shifts * lib.shift_register.shift_pj;
   e.buffer = a.buffer_read_bytes * lib.buffer.read_pj_per_byte + a.buffer_write_bytes * lib.buffer.write_pj_per_byte;

@@ -43,6 +43,12 @@ struct CostModel {
   ComponentLibrary lib;
   int dac_bits = 8, adc_bits = 8;
   double clock_mhz = 100;
+  /// Every DAC has an input pre-distortion lookup table (converters.dac_predistortion with a
+  /// nonlinear memristor): the library's dac_lut figures are added to each DAC's.
+  bool dac_lut = false;
+  double dac_conversion_pj() const {
+    return lib.dac.conversion_pj_at(dac_bits_priced()) + (dac_lut ? lib.dac_lut.read_pj : 0.0);
+  }
   int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.dac.reference_bits; }
   int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.adc.reference_bits; }
 

@@ -201,6 +201,7 @@ namespace {
 /// A library text with every section; `adc` and `dac` replace those sections.
 std::string library(const std::string& adc, const std::string& dac) {
   return "adc: " + adc + "\ndac: " + dac + R"(
+dac_lut: {area_mm2: 5e-5, leakage_mw: 0, read_pj: 0.05}
 cell: {area_mm2: 1e-8, leakage_mw: 0, read_pj: 1e-3}
 accumulator: {area_mm2: 6e-5, leakage_mw: 0, accumulate_pj: 0.5}
 shift_register: {area_mm2_per_entry: 1e-6, leakage_mw_per_entry: 0, shift_pj: 0.03}
@@ -436,4 +437,22 @@ TEST(Presets, MatchTheSharedOnnxTopologies) {
           << name << " layer " << k;
     }
   }
+}
+
+TEST(CostModel, PredistortionTablesArePricedPerDac) {
+  const ComponentLibrary lib = parse_component_library(
+      library("{area_mm2: 1e-4, leakage_mw: 0, conversion_pj: 2, reference_bits: 8, columns_per_unit: 128, "
+              "sample_rate_gsps: 1.28}",
+              "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}"),
+      "test");
+  const LayerInventory v = matrix_inventory(144, 16, 1024, MappingSpec(), 128);
+  CostModel plain{lib, 8, 8, 100.0};
+  CostModel with_lut = plain;
+  with_lut.dac_lut = true;
+  // 144 DACs: + 144 x 5e-5 mm^2 of tables, + 0.05 pJ per conversion.
+  EXPECT_NEAR(with_lut.area_mm2(v).dac - plain.area_mm2(v).dac, 144 * 5e-5, 1e-12);
+  ActionCounts a;
+  a.dac_conversions = 1000;
+  EXPECT_NEAR(with_lut.dynamic_energy_pj(a).dac - plain.dynamic_energy_pj(a).dac, 1000 * 0.05, 1e-9);
+  EXPECT_EQ(with_lut.area_mm2(v).crossbar, plain.area_mm2(v).crossbar);
 }
