@@ -207,42 +207,55 @@ void LineSolver::batch_residual(const double* v_in, BatchState& st, Workspace& w
     fm.setZero();
   else
     fm = Eigen::Map<const Eigen::ArrayXd>(im, mn) - Eigen::Map<const Eigen::ArrayXd>(it, mn);
-  double n2 = 0;  // a plain loop: a fixed summation order whatever the buffers' alignment
-  for (int k = 0; k < mn; ++k) n2 += st.ft[k] * st.ft[k] + st.fb[k] * st.fb[k] + st.fm[k] * st.fm[k];
-  norm = std::sqrt(n2);
+  // Fixed summation order whatever the buffers' alignment (Eigen's reductions peel to it).
+  norm = std::sqrt(line_dot(st.ft.data(), st.ft.data(), mn) + line_dot(st.fb.data(), st.fb.data(), mn) +
+                   line_dot(st.fm.data(), st.fm.data(), mn));
   fmax = std::max({ft.abs().maxCoeff(), fb.abs().maxCoeff(), fm.abs().maxCoeff()});
 }
 
 double LineSolver::batch_direction(BatchState& st, Workspace& w, double step_tol) const {
   const int mn = m_ * n_;
   const bool short_tr = transistor_.is_short();
-  double *jtt = w.r.data(), *jbb = w.z.data();  // free until the PCG
-  for (int k = 0; k < mn; ++k) {
-    if (short_tr) {
-      jtt[k] = jbb[k] = st.gm[k];
-      st.sys.cx[k] = -st.gm[k];
-      st.ft[k] = -st.ft[k];
-      st.fb[k] = -st.fb[k];
-    } else {
-      const double den = st.gm[k] + st.ga[k], c = st.gm[k] / den;
-      jtt[k] = st.ga[k] * c;
-      jbb[k] = -st.gb[k] * c;
-      st.sys.cx[k] = -c * std::min(st.ga[k], -st.gb[k]);  // symmetrised off-diagonal (keeps the block PSD)
-      st.ft[k] = -st.ft[k] + c * st.fm[k];
-      st.fb[k] = -st.fb[k] + (st.ga[k] / den) * st.fm[k];
+  // Restrict-qualified pointers and the branch hoisted, so that the loops vectorise.
+  double* __restrict jtt = w.r.data();  // free until the PCG
+  double* __restrict jbb = w.z.data();
+  double* __restrict cx = st.sys.cx.data();
+  double* __restrict ft = st.ft.data();
+  double* __restrict fb = st.fb.data();
+  const double* __restrict gm = st.gm.data();
+  const double* __restrict ga = st.ga.data();
+  const double* __restrict gb = st.gb.data();
+  const double* __restrict fm = st.fm.data();
+  if (short_tr) {
+    for (int k = 0; k < mn; ++k) {
+      jtt[k] = jbb[k] = gm[k];
+      cx[k] = -gm[k];
+      ft[k] = -ft[k];
+      fb[k] = -fb[k];
+    }
+  } else {
+    for (int k = 0; k < mn; ++k) {
+      const double inv = 1.0 / (gm[k] + ga[k]), c = gm[k] * inv;
+      jtt[k] = ga[k] * c;
+      jbb[k] = -gb[k] * c;
+      cx[k] = -c * std::min(ga[k], -gb[k]);  // symmetrised off-diagonal (keeps the block PSD)
+      ft[k] = -ft[k] + c * fm[k];
+      fb[k] = -fb[k] + ga[k] * inv * fm[k];
     }
   }
   factor_rows(jtt, st.sys.p_inv.data());
   factor_cols(jbb, st.sys.q_diag.data(), st.sys.q_inv.data());
   solve_tb(st.sys, st.ft.data(), st.fb.data(), st.dt.data(), st.db.data(), w, step_tol);
-  double dmax = 0;
-  for (int k = 0; k < mn; ++k) {
-    const double dm =
-        short_tr ? st.db[k] : (st.fm[k] + st.gm[k] * st.dt[k] - st.gb[k] * st.db[k]) / (st.gm[k] + st.ga[k]);
-    st.dm[k] = dm;
-    dmax = std::max(dmax, std::max(std::abs(st.dt[k]), std::max(std::abs(st.db[k]), std::abs(dm))));
-  }
-  return dmax;
+  double* __restrict dm_out = st.dm.data();
+  const double* __restrict dt_in = st.dt.data();
+  const double* __restrict db_in = st.db.data();
+  if (short_tr)
+    std::copy(db_in, db_in + mn, dm_out);
+  else
+    for (int k = 0; k < mn; ++k) dm_out[k] = (fm[k] + gm[k] * dt_in[k] - gb[k] * db_in[k]) / (gm[k] + ga[k]);
+  // Vectorised maxima (a single max chain would wait on its latency at every element).
+  const Eigen::Map<const Eigen::ArrayXd> dt(st.dt.data(), mn), db(st.db.data(), mn), dm(st.dm.data(), mn);
+  return std::max({dt.abs().maxCoeff(), db.abs().maxCoeff(), dm.abs().maxCoeff()});
 }
 
 bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, double* out) const {
@@ -260,11 +273,12 @@ bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, d
     if (!std::isfinite(dmax)) return false;
     double scale = dmax > options_.max_step_v ? options_.max_step_v / dmax : 1.0;
     auto step = [&](double f) {
-      for (int k = 0; k < mn; ++k) {
-        st.vt[k] += f * st.dt[k];
-        st.vm[k] += f * st.dm[k];
-        st.vb[k] += f * st.db[k];
-      }
+      auto axpy = [mn, f](double* __restrict y, const double* __restrict x) {
+        for (int k = 0; k < mn; ++k) y[k] += f * x[k];
+      };
+      axpy(st.vt.data(), st.dt.data());
+      axpy(st.vm.data(), st.dm.data());
+      axpy(st.vb.data(), st.db.data());
     };
     step(scale);
     double new_norm;

@@ -8,6 +8,9 @@ namespace xbarsim {
 
 constexpr int kGmresRestart = 30;
 
+/// a . b with eight partial sums in a fixed order (line_solver.cpp).
+double line_dot(const double* a, const double* b, int n);
+
 struct LineSolver::Workspace {
   /// `krylov_basis`: GMRES (Newton steps) needs its restart basis; CG does not.
   Workspace(int mn, bool krylov_basis)
