@@ -160,7 +160,7 @@ nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool pr
   if (!ac.xbar.is_linear())
     std::fprintf(stderr,
                  "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
-                 "(batched Newton, about 1 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
+                 "(batched Newton, about 0.6 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
   CrossbarBackend programmed(model, ac);
   {
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");

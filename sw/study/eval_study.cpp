@@ -164,6 +164,8 @@ nlohmann::json EvalResult::to_json() const {
   j["adc_bits"] = bits(ac->converters.adc_bits);
   j["sigma_us"] = ac->noise.sigma_s * 1e6;
   j["memristor_model"] = to_string(ac->xbar.memristor.model);
+  if (ac->xbar.memristor.model == MemristorModel::Sinh) j["memristor_k_per_v"] = ac->xbar.memristor.k_per_v;
+  j["dac_predistortion"] = ac->converters.dac_predistortion;
   j["transistor_model"] = to_string(ac->xbar.transistor.model);
   j["max_rows"] = size(ac->mapping.max_rows);
   j["max_cols"] = size(ac->mapping.max_cols);

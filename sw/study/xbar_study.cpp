@@ -45,6 +45,8 @@ nlohmann::json XbarStudyResult::to_json() const {
   j["sparsity"] = spec.sparsity;
   j["method"] = spec.ac.mitigation.name();
   j["memristor_model"] = to_string(spec.ac.xbar.memristor.model);
+  if (spec.ac.xbar.memristor.model == MemristorModel::Sinh) j["memristor_k_per_v"] = spec.ac.xbar.memristor.k_per_v;
+  j["dac_predistortion"] = spec.ac.converters.dac_predistortion;
   j["transistor_model"] = to_string(spec.ac.xbar.transistor.model);
   j["mean_relative_error"] = error.mean_relative_error;
   j["worst_relative_error"] = error.worst_relative_error;
