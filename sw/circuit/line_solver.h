@@ -18,15 +18,16 @@
 /// Many vectors with nonlinear devices (column_currents, solver.nonlinear = batched) use a
 /// leaner inexact Newton (line_solver_batch.cpp) than the per-vector reference solve():
 ///  - it starts at the ideal operating point (row wires at the source voltage, column wires at
-///    0 V, middle nodes dividing the source voltage between memristor and transistor), a few
-///    percent from the answer because the cells are weak compared with the wires;
+///    0 V, middle nodes dividing the cell voltage between memristor and transistor) plus one
+///    Jacobi step through the wires (the ideal cell currents' drops along the rows and rises
+///    up the columns, by suffix and prefix sums);
 ///  - the devices are evaluated over the whole array at once: sinh from one vectorised exp,
 ///    the level-1 transistor branch-free;
 ///  - each step condenses the middle node into a 2x2 cell block and replaces the block's small
 ///    nonsymmetric part (the transistor's dependence on its source voltage, ~kp V_ds against
-///    ~kp V_gst) by the geometric mean of its off-diagonal terms. The step is then an SPD
-///    problem solved by PCG to a loose tolerance (its preconditioner leaves ~1e-3 per
-///    iteration, so one or two iterations); the approximation only slows the outer iteration
+///    ~kp V_gst) by the smaller of its off-diagonal terms (which keeps the block PSD). The step
+///    is then an SPD problem solved by PCG to a loose tolerance (its preconditioner leaves
+///    ~1e-3 per iteration, so one or two iterations); the approximation only slows the outer iteration
 ///    by a factor of ~V_ds / V_gst per step, because the residual is always the exact KCL of
 ///    the full circuit;
 ///  - its buffers are allocated once per thread and reused for every vector.
