@@ -120,10 +120,12 @@ void LineSolver::schur_apply(const System& s, const double* x, double* y, Worksp
   }
 }
 
-int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol) const {
+int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol, double* t) const {
   // Preconditioned CG; stops when the residual in the Q^-1 norm, sqrt(r' Q^-1 r), has
   // dropped by `tolerance`. That norm is well conditioned (Q^-1 S ~ I), unlike |r|_2,
-  // whose attainable floor is eps * cond(Q).
+  // whose attainable floor is eps * cond(Q). Each step's S p computes P^-1 X p on the way
+  // (w.b): subtracting alpha times it from t keeps t = P^-1 (r_T - X x) without a final
+  // row solve.
   const int mn = m_ * n_;
   double *r = w.r.data(), *z = w.z.data(), *p = w.p.data(), *q = w.q.data();
   std::fill(x, x + mn, 0.0);
@@ -139,6 +141,10 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
     for (int k = 0; k < mn; ++k) {
       x[k] += alpha * p[k];
       r[k] -= alpha * q[k];
+    }
+    if (t) {
+      const double* pxp = w.b.data();
+      for (int k = 0; k < mn; ++k) t[k] -= alpha * pxp[k];
     }
     col_solve(s.q_inv.data(), r, z);
     const double rz_new = dot(r, z, mn);
@@ -240,8 +246,9 @@ int LineSolver::solve_tb(const System& s, const double* r_t, const double* r_b, 
   row_solve(s.p_inv.data(), r_t, t);
   const double* cy = s.y();
   for (int k = 0; k < mn; ++k) schur_rhs[k] = r_b[k] - cy[k] * t[k];
-  const int its = s.symmetric ? pcg(s, schur_rhs.data(), b, w, tol) : gmres(s, schur_rhs.data(), b, w);
-  // Back-substitute the row wires: t = P^-1 (r_T - X b).
+  // CG updates t = P^-1 (r_T - X b) as it goes; after GMRES, back-substitute the row wires.
+  if (s.symmetric) return pcg(s, schur_rhs.data(), b, w, tol, t);
+  const int its = gmres(s, schur_rhs.data(), b, w);
   for (int k = 0; k < mn; ++k) schur_rhs[k] = r_t[k] - s.cx[k] * b[k];
   row_solve(s.p_inv.data(), schur_rhs.data(), t);
   return its;

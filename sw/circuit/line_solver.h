@@ -79,7 +79,8 @@ class LineSolver : public CrossbarSolver {
   /// `tol`: relative residual of the Schur solve (PCG; GMRES uses solver.tolerance).
   int solve_tb(const System& s, const double* r_t, const double* r_b, double* t, double* b, Workspace& w,
                double tol) const;
-  int pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol) const;
+  /// CG on S x = rhs; when `t` (holding P^-1 r_T) is given, it ends as P^-1 (r_T - X x).
+  int pcg(const System& s, const double* rhs, double* x, Workspace& w, double tol, double* t = nullptr) const;
   int gmres(const System& s, const double* rhs, double* x, Workspace& w) const;
   CircuitSolution solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const;
   CircuitSolution solve_newton(const Eigen::VectorXd& v_in, Workspace& w) const;
