@@ -17,6 +17,44 @@ constexpr double kStepTolerance = 1e-4;
 /// The first step's error is dominated by the quadratic term: a looser solve costs nothing.
 constexpr double kFirstStepTolerance = 1e-2;
 using Arr = Eigen::Map<Eigen::ArrayXd>;
+
+// The per-cell loops of a Newton step, with restrict-qualified parameters so that they
+// vectorise (through the state's std::vectors GCC cannot prove the arrays distinct).
+
+/// No transistor: the memristor alone between T and B; right-hand sides negated in place.
+void condense_short(int mn, const double* __restrict gm, double* __restrict jtt, double* __restrict jbb,
+                    double* __restrict cx, double* __restrict ft, double* __restrict fb) {
+  for (int k = 0; k < mn; ++k) {
+    jtt[k] = gm[k];
+    jbb[k] = gm[k];
+    cx[k] = -gm[k];
+    ft[k] = -ft[k];
+    fb[k] = -fb[k];
+  }
+}
+
+/// Middle node condensed into a 2x2 block; its off-diagonal made symmetric with the smaller
+/// term (which keeps the block PSD); ft, fb become the condensed right-hand sides in place.
+void condense_cell(int mn, const double* __restrict gm, const double* __restrict ga, const double* __restrict gb,
+                   const double* __restrict fm, double* __restrict jtt, double* __restrict jbb, double* __restrict cx,
+                   double* __restrict ft, double* __restrict fb) {
+  for (int k = 0; k < mn; ++k) {
+    const double inv = 1.0 / (gm[k] + ga[k]), c = gm[k] * inv;
+    const double gs = ga[k] < -gb[k] ? ga[k] : -gb[k];
+    jtt[k] = ga[k] * c;
+    jbb[k] = -gb[k] * c;
+    cx[k] = -c * gs;
+    ft[k] = -ft[k] + c * fm[k];
+    fb[k] = -fb[k] + ga[k] * inv * fm[k];
+  }
+}
+
+/// The middle node's update from its own KCL row.
+void middle_update(int mn, const double* __restrict gm, const double* __restrict ga, const double* __restrict gb,
+                   const double* __restrict fm, const double* __restrict dt, const double* __restrict db,
+                   double* __restrict dm) {
+  for (int k = 0; k < mn; ++k) dm[k] = (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
+}
 }  // namespace
 
 /// One thread's iterate, residuals, device derivatives and Newton system (reused per vector).
@@ -216,43 +254,21 @@ void LineSolver::batch_residual(const double* v_in, BatchState& st, Workspace& w
 double LineSolver::batch_direction(BatchState& st, Workspace& w, double step_tol) const {
   const int mn = m_ * n_;
   const bool short_tr = transistor_.is_short();
-  // Restrict-qualified pointers and the branch hoisted, so that the loops vectorise.
-  double* __restrict jtt = w.r.data();  // free until the PCG
-  double* __restrict jbb = w.z.data();
-  double* __restrict cx = st.sys.cx.data();
-  double* __restrict ft = st.ft.data();
-  double* __restrict fb = st.fb.data();
-  const double* __restrict gm = st.gm.data();
-  const double* __restrict ga = st.ga.data();
-  const double* __restrict gb = st.gb.data();
-  const double* __restrict fm = st.fm.data();
-  if (short_tr) {
-    for (int k = 0; k < mn; ++k) {
-      jtt[k] = jbb[k] = gm[k];
-      cx[k] = -gm[k];
-      ft[k] = -ft[k];
-      fb[k] = -fb[k];
-    }
-  } else {
-    for (int k = 0; k < mn; ++k) {
-      const double inv = 1.0 / (gm[k] + ga[k]), c = gm[k] * inv;
-      jtt[k] = ga[k] * c;
-      jbb[k] = -gb[k] * c;
-      cx[k] = -c * std::min(ga[k], -gb[k]);  // symmetrised off-diagonal (keeps the block PSD)
-      ft[k] = -ft[k] + c * fm[k];
-      fb[k] = -fb[k] + ga[k] * inv * fm[k];
-    }
-  }
+  double* jtt = w.r.data();  // free until the PCG
+  double* jbb = w.z.data();
+  if (short_tr)
+    condense_short(mn, st.gm.data(), jtt, jbb, st.sys.cx.data(), st.ft.data(), st.fb.data());
+  else
+    condense_cell(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), jtt, jbb, st.sys.cx.data(),
+                  st.ft.data(), st.fb.data());
   factor_rows(jtt, st.sys.p_inv.data());
   factor_cols(jbb, st.sys.q_diag.data(), st.sys.q_inv.data());
   solve_tb(st.sys, st.ft.data(), st.fb.data(), st.dt.data(), st.db.data(), w, step_tol);
-  double* __restrict dm_out = st.dm.data();
-  const double* __restrict dt_in = st.dt.data();
-  const double* __restrict db_in = st.db.data();
   if (short_tr)
-    std::copy(db_in, db_in + mn, dm_out);
+    std::copy(st.db.begin(), st.db.end(), st.dm.begin());
   else
-    for (int k = 0; k < mn; ++k) dm_out[k] = (fm[k] + gm[k] * dt_in[k] - gb[k] * db_in[k]) / (gm[k] + ga[k]);
+    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(),
+                  st.dm.data());
   // Vectorised maxima (a single max chain would wait on its latency at every element).
   const Eigen::Map<const Eigen::ArrayXd> dt(st.dt.data(), mn), db(st.db.data(), mn), dm(st.dm.data(), mn);
   return std::max({dt.abs().maxCoeff(), db.abs().maxCoeff(), dm.abs().maxCoeff()});
