@@ -107,6 +107,10 @@ TEST(Robustness, OutputFilesAreCheckedBeforeWorkAndNeverClobberInputs) {  // ite
 }
 
 TEST(Robustness, InputProblemsAreInputErrors) {  // items 12, 14 and 15
+  expect_clean_error(run("xbar-study --set study.rows=8 --set study.cols=4 --set study.vectors=4 --set "
+                         "crossbar.memristor.model=sinh --set converters.dac_predistortion=true --set "
+                         "study.method=matrix-conversion"),
+                     2, "converters.dac_predistortion", "pre-distortion with the matrix conversion");
   expect_clean_error(run("xbar-study --config " + file("complex.yaml", "? [a, b] : 1\n")), 2, "complex.yaml:1",
                      "item 12 complex key");
   expect_clean_error(run("xbar-study --config " + file("dup.yaml", "study:\n  rows: 8\n  rows: 9\n")), 2,
