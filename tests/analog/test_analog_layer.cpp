@@ -125,6 +125,16 @@ TEST(AnalogLayer, PredistortionMakesSinhCellsLinearInTheCode) {
   };
   EXPECT_LT(error(true), 1e-6);
   EXPECT_GT(error(false), 0.05);
+  {  // signed inputs (sign-magnitude DAC levels): the table is odd, so still exact
+    AnalogConfig c = ideal_config("none");
+    c.xbar.memristor.model = MemristorModel::Sinh;
+    c.converters.dac_predistortion = true;
+    Eigen::MatrixXd xs = x;
+    for (Eigen::Index k = 0; k < xs.size(); k += 3) xs.data()[k] = -xs.data()[k];
+    AnalogLayer layer(c, w, 1.0, true);
+    layer.program(Eigen::MatrixXd());
+    EXPECT_LT(rel(layer.forward(xs), xs * w), 1e-6);
+  }
   // The table spans the DAC's voltage range and is odd (signed inputs keep their sign).
   AnalogConfig c = ideal_config("none");
   c.xbar.memristor.model = MemristorModel::Sinh;
