@@ -16,7 +16,7 @@ rm -f "$log"
 # The fuzzing and the sanitizer run count as one check each.
 checks_passed=0 checks_failed=0
 if [ "${XBARSIM_QUICK:-0}" != 1 ] && [ "$rc" = 0 ]; then
-  for check in "scripts/fuzz.sh ${XBARSIM_FUZZ_SECONDS:-30}" "scripts/sanitize.sh"; do
+  for check in "scripts/fuzz.sh ${XBARSIM_FUZZ_SECONDS:-20}" "scripts/sanitize.sh"; do
     if FUZZ_FRESH=1 $check; then checks_passed=$((checks_passed + 1)); else checks_failed=$((checks_failed + 1)); fi
   done
 fi
