@@ -66,8 +66,7 @@ SolverOptions parse_solver_options(const ConfigTree& cfg) {
   o.max_step_v = cfg.get_double("solver.max_step");
   o.newton_abstol_a = cfg.get_double("solver.newton_abstol");
   o.threads = cfg.get_int32("solver.threads");
-  const std::string nl = require_one_of(cfg, "solver.nonlinear", {"batched", "newton"});
-  o.batched_nonlinear = nl == "batched";
+  o.batched_nonlinear = require_enum<bool>(cfg, "solver.nonlinear", {{"batched", true}, {"newton", false}});
   o.nonlinear_tolerance = cfg.get_double("solver.nonlinear_tolerance");
   return o;
 }

@@ -11,10 +11,11 @@ namespace xbarsim {
 
 namespace {
 constexpr int kRowBlock = 16;  ///< row recurrences stepped together
+}  // namespace
 
-/// Eight partial sums in a fixed order: vectorised (one add chain would wait on its own
-/// latency at every element) and the same bits on every run.
-double dot(const double* a, const double* b, int n) {
+double line_dot(const double* a, const double* b, int n) {
+  // Eight partial sums in a fixed order: vectorised (one add chain would wait on its own
+  // latency at every element) and the same bits on every run.
   double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   int k = 0;
   for (; k + 8 <= n; k += 8)
@@ -22,9 +23,6 @@ double dot(const double* a, const double* b, int n) {
   for (int l = 0; k < n; ++k, ++l) part[l] += a[k] * b[k];
   return ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
 }
-}  // namespace
-
-double line_dot(const double* a, const double* b, int n) { return dot(a, b, n); }
 
 LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
     : CrossbarSolver(p, o), memristor_(p.memristor), transistor_(p.transistor) {
@@ -131,13 +129,13 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
   std::fill(x, x + mn, 0.0);
   std::copy(rhs, rhs + mn, r);
   col_solve(s.q_inv.data(), r, z);
-  double rz = dot(r, z, mn);
+  double rz = line_dot(r, z, mn);
   if (rz == 0) return 0;
   std::copy(z, z + mn, p);
   const double target2 = tol * tol * rz;
   for (int it = 1; it <= options_.max_iterations; ++it) {
     schur_apply(s, p, q, w);
-    const double alpha = rz / dot(p, q, mn);
+    const double alpha = rz / line_dot(p, q, mn);
     for (int k = 0; k < mn; ++k) {
       x[k] += alpha * p[k];
       r[k] -= alpha * q[k];
@@ -147,7 +145,7 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
       for (int k = 0; k < mn; ++k) t[k] -= alpha * pxp[k];
     }
     col_solve(s.q_inv.data(), r, z);
-    const double rz_new = dot(r, z, mn);
+    const double rz_new = line_dot(r, z, mn);
     if (rz_new <= target2) return it;
     const double beta = rz_new / rz;
     rz = rz_new;
@@ -167,7 +165,7 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   double *r = w.r.data(), *z = w.z.data();
   std::fill(x, x + mn, 0.0);
   col_solve(s.q_inv.data(), rhs, r);
-  const double b_norm = std::sqrt(dot(r, r, mn));
+  const double b_norm = std::sqrt(line_dot(r, r, mn));
   if (b_norm == 0) return 0;
   const double target = options_.tolerance * b_norm;
   double h[kGmresRestart + 1][kGmresRestart];
@@ -175,7 +173,7 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   int total = 0;
   double prev_beta = 0;
   while (total < options_.max_iterations) {
-    const double beta = std::sqrt(dot(r, r, mn));
+    const double beta = std::sqrt(line_dot(r, r, mn));
     if (beta <= target) return total;
     if (prev_beta > 0 && beta > 0.99 * prev_beta) break;  // stagnation
     prev_beta = beta;
@@ -193,10 +191,10 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
       col_solve(s.q_inv.data(), z, vn);
       for (int i = 0; i <= k; ++i) {
         const double* vi = w.v.data() + static_cast<size_t>(i) * mn;
-        h[i][k] = dot(vn, vi, mn);
+        h[i][k] = line_dot(vn, vi, mn);
         for (int q = 0; q < mn; ++q) vn[q] -= h[i][k] * vi[q];
       }
-      h[k + 1][k] = std::sqrt(dot(vn, vn, mn));
+      h[k + 1][k] = std::sqrt(line_dot(vn, vn, mn));
       if (h[k + 1][k] > 0)
         for (int q = 0; q < mn; ++q) vn[q] /= h[k + 1][k];
       for (int i = 0; i < k; ++i) {

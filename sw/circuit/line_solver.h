@@ -51,8 +51,8 @@ class LineSolver : public CrossbarSolver {
 
   void program(const Eigen::MatrixXd& g_s) override;
   CircuitSolution solve(const Eigen::VectorXd& v_in) const override;
-  /// Nonlinear devices: BatchNewtonSolver (solver.nonlinear = batched), falling back to the
-  /// per-vector Newton for a vector it does not converge on; otherwise as CrossbarSolver.
+  /// Nonlinear devices: the batched inexact Newton above (solver.nonlinear = batched), falling
+  /// back to the per-vector Newton for a vector it does not converge on; otherwise as CrossbarSolver.
   Eigen::MatrixXd column_currents(const Eigen::MatrixXd& v_in) const override;
   Eigen::MatrixXd effective_matrix() const override;
 

@@ -59,8 +59,22 @@ void middle_update(int mn, const double* __restrict gm, const double* __restrict
 
 /// One thread's iterate, residuals, device derivatives and Newton system (reused per vector).
 struct LineSolver::BatchState {
-  explicit BatchState(int mn)
-      : vt(mn), vm(mn), vb(mn), ft(mn), fm(mn), fb(mn), gm(mn), ga(mn), gb(mn), dt(mn), db(mn), dm(mn), g(mn), ratio(mn), exp_kv(mn) {
+  BatchState(int mn, const double* g_cells, const double* start_ratio)
+      : vt(mn),
+        vm(mn),
+        vb(mn),
+        ft(mn),
+        fm(mn),
+        fb(mn),
+        gm(mn),
+        ga(mn),
+        gb(mn),
+        dt(mn),
+        db(mn),
+        dm(mn),
+        g(g_cells),
+        ratio(start_ratio),
+        exp_kv(mn) {
     sys.symmetric = true;
     sys.p_inv.resize(mn);
     sys.q_diag.resize(mn);
@@ -71,8 +85,8 @@ struct LineSolver::BatchState {
   std::vector<double> ft, fm, fb;  ///< A, KCL residuals; ft, fb become the step's right-hand sides
   std::vector<double> gm, ga, gb;  ///< memristor dI/dV, transistor dI/dV_M, dI/dV_B
   std::vector<double> dt, db, dm;  ///< V, Newton update
-  std::vector<double> g;           ///< S, conductances (row-major like the node arrays)
-  std::vector<double> ratio;       ///< (V_M - V_B) / (V_T - V_B) of a cell at small signal (starting point)
+  const double* g;                 ///< S, conductances (row-major like the node arrays; shared)
+  const double* ratio;             ///< (V_M - V_B) / (V_T - V_B) of each cell at small signal (shared)
   Eigen::ArrayXd exp_kv;           ///< exp(k V) of every memristor
   System sys;
 };
@@ -87,16 +101,18 @@ Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
   const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> v = v_in;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> out(count, n_);
   const int mn = m_ * n_;
+  // Read-only for every thread: the conductances and the starting point's voltage divider.
+  std::vector<double> g(mn), ratio(mn, 0.0);
+  const double g_t0 = transistor_.is_short() ? 0.0 : transistor_.g0();
+  for (int i = 0; i < m_; ++i)
+    for (int j = 0; j < n_; ++j) {
+      const int k = i * n_ + j;
+      g[k] = g_(i, j);
+      const double g_m0 = memristor_.g0(g[k]);
+      if (!transistor_.is_short()) ratio[k] = g_m0 / (g_m0 + g_t0);
+    }
   parallel_for(threads, threads, [&](int tid) {
-    BatchState st(mn);
-    const double g_t0 = transistor_.is_short() ? 0.0 : transistor_.g0();
-    for (int i = 0; i < m_; ++i)
-      for (int j = 0; j < n_; ++j) {
-        const int k = i * n_ + j;
-        st.g[k] = g_(i, j);
-        const double g_m0 = memristor_.g0(st.g[k]);
-        st.ratio[k] = transistor_.is_short() ? 0.0 : g_m0 / (g_m0 + g_t0);
-      }
+    BatchState st(mn, g.data(), ratio.data());
     Workspace w(mn, false);
     for (int k = tid; k < count; k += threads) {
       if (batch_solve(v.row(k).data(), st, w, out.row(k).data())) continue;
@@ -115,7 +131,7 @@ void LineSolver::batch_start(const double* v_in, BatchState& st, Workspace& w) c
   // Ideal wires: T at the source voltage, B at 0 V, the middle node dividing the cell voltage
   // between memristor and transistor (small signal).
   const bool short_tr = transistor_.is_short();
-  const double* ratio = st.ratio.data();
+  const double* ratio = st.ratio;
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
@@ -158,7 +174,7 @@ void LineSolver::batch_devices(BatchState& st, Workspace& w) const {
   double* it = w.s.data();
   // Memristors, all cells at once.
   const double* vlow = short_tr ? st.vb.data() : st.vm.data();
-  const double* g = st.g.data();
+  const double* g = st.g;
   double* gm = st.gm.data();
   if (memristor_.linear()) {
     for (int k = 0; k < mn; ++k) {
