@@ -48,34 +48,23 @@ class TransistorDevice {
       di_dvb = -g_on_;
       return;
     }
-    // Level 1, symmetric: the lower terminal is the source.
+    eval_level1(va, vb, i, di_dva, di_dvb);
+  }
+  /// The level-1 model, branch-free (selects only) so that a loop over cells vectorises.
+  /// Symmetric: the lower terminal is the source.
+  void eval_level1(double va, double vb, double& i, double& di_dva, double& di_dvb) const {
+    const double kp = p_.kp_a_per_v2;
     const bool a_is_drain = va >= vb;
-    const double vd = a_is_drain ? va : vb;
     const double vs = a_is_drain ? vb : va;
+    const double vds = a_is_drain ? va - vb : vb - va;
     const double vgst = p_.vg_v - vs - p_.vth_v;
-    const double vds = vd - vs;
-    double id = 0, did_dvd = 0, did_dvs = 0;
-    if (vgst > 0) {
-      const double kp = p_.kp_a_per_v2;
-      if (vds < vgst) {
-        id = kp * (vgst * vds - 0.5 * vds * vds);
-        did_dvd = kp * (vgst - vds);
-        did_dvs = -kp * vgst;
-      } else {
-        id = 0.5 * kp * vgst * vgst;
-        did_dvd = 0;
-        did_dvs = -kp * vgst;
-      }
-    }
-    if (a_is_drain) {
-      i = id;
-      di_dva = did_dvd;
-      di_dvb = did_dvs;
-    } else {
-      i = -id;
-      di_dva = -did_dvs;
-      di_dvb = -did_dvd;
-    }
+    const bool on = vgst > 0, triode = vds < vgst;
+    const double id = on ? (triode ? kp * (vgst * vds - 0.5 * vds * vds) : 0.5 * kp * vgst * vgst) : 0.0;
+    const double did_dvd = on && triode ? kp * (vgst - vds) : 0.0;  // saturation: lambda = 0
+    const double did_dvs = on ? -kp * vgst : 0.0;
+    i = a_is_drain ? id : -id;
+    di_dva = a_is_drain ? did_dvd : -did_dvs;
+    di_dvb = a_is_drain ? did_dvs : -did_dvd;
   }
   /// Small-signal conductance at V_a = V_b = 0 (S).
   double g0() const {

@@ -419,8 +419,11 @@ int LineSolver::newton_direction(NewtonState& st, Workspace& w) const {
   factor_rows(st.jtt.data(), st.sys.p_inv.data());
   factor_cols(st.jbb.data(), st.sys.q_diag.data(), st.sys.q_inv.data());
   const int inner = solve_tb(st.sys, st.rt.data(), st.rb.data(), st.dt.data(), st.db.data(), w, options_.tolerance);
-  for (int k = 0; k < mn; ++k)
-    st.dm[k] = short_tr ? st.db[k] : (st.fm[k] + st.gm[k] * st.dt[k] - st.gb[k] * st.db[k]) / (st.gm[k] + st.ga[k]);
+  if (short_tr)
+    st.dm = st.db;
+  else
+    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(),
+                  st.dm.data());
   return inner;
 }
 

@@ -49,12 +49,6 @@ void condense_cell(int mn, const double* __restrict gm, const double* __restrict
   }
 }
 
-/// The middle node's update from its own KCL row.
-void middle_update(int mn, const double* __restrict gm, const double* __restrict ga, const double* __restrict gb,
-                   const double* __restrict fm, const double* __restrict dt, const double* __restrict db,
-                   double* __restrict dm) {
-  for (int k = 0; k < mn; ++k) dm[k] = (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
-}
 }  // namespace
 
 /// One thread's iterate, residuals, device derivatives and Newton system (reused per vector).
@@ -198,31 +192,21 @@ void LineSolver::batch_devices(BatchState& st, Workspace& w) const {
       gm[k] = g[k] * (scale * k_v * 0.5) * (ek + eik);
     }
   }
-  // Access transistors M -> B (branch-free level 1).
-  if (!short_tr) {
-    const TransistorParams& tp = params_.transistor;
-    const double vg = tp.vg_v, vth = tp.vth_v, kp = tp.kp_a_per_v2, g_on = 1.0 / tp.r_on_ohm;
-    const bool level1 = !transistor_.linear();
-    for (int k = 0; k < mn; ++k) {
-      const double va = st.vm[k], vb = st.vb[k];
-      if (!level1) {
-        it[k] = g_on * (va - vb);
+  // Access transistors M -> B.
+  if (transistor_.linear()) {
+    if (!short_tr) {
+      const double g_on = 1.0 / params_.transistor.r_on_ohm;
+      for (int k = 0; k < mn; ++k) {
+        it[k] = g_on * (st.vm[k] - st.vb[k]);
         st.ga[k] = g_on;
         st.gb[k] = -g_on;
-        continue;
       }
-      const bool fwd = va >= vb;
-      const double vs = fwd ? vb : va;
-      const double vds = fwd ? va - vb : vb - va;
-      const double vgst = vg - vs - vth;
-      const bool on = vgst > 0, triode = vds < vgst;
-      const double id = on ? (triode ? kp * (vgst * vds - 0.5 * vds * vds) : 0.5 * kp * vgst * vgst) : 0.0;
-      const double dd = on && triode ? kp * (vgst - vds) : 0.0;
-      const double ds = on ? -kp * vgst : 0.0;
-      it[k] = fwd ? id : -id;
-      st.ga[k] = fwd ? dd : -ds;
-      st.gb[k] = fwd ? ds : -dd;
     }
+  } else {
+    // A local copy: GCC cannot prove the member's parameters distinct from the outputs and
+    // would not vectorise the loop.
+    const TransistorDevice tr = transistor_;
+    for (int k = 0; k < mn; ++k) tr.eval_level1(st.vm[k], st.vb[k], it[k], st.ga[k], st.gb[k]);
   }
 }
 

@@ -1,5 +1,6 @@
 #pragma once
-/// LineSolver's per-thread scratch buffers (shared by line_solver.cpp and line_solver_batch.cpp).
+/// LineSolver internals shared by line_solver.cpp and line_solver_batch.cpp: per-thread scratch
+/// buffers and two kernels.
 #include <vector>
 
 #include "sw/circuit/line_solver.h"
@@ -10,6 +11,14 @@ constexpr int kGmresRestart = 30;
 
 /// a . b with eight partial sums in a fixed order (line_solver.cpp).
 double line_dot(const double* a, const double* b, int n);
+
+/// A Newton step's middle-node update from the node's own KCL row (both Newton solvers);
+/// restrict-qualified so that it vectorises.
+inline void middle_update(int mn, const double* __restrict gm, const double* __restrict ga,
+                          const double* __restrict gb, const double* __restrict fm, const double* __restrict dt,
+                          const double* __restrict db, double* __restrict dm) {
+  for (int k = 0; k < mn; ++k) dm[k] = (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
+}
 
 struct LineSolver::Workspace {
   /// `krylov_basis`: GMRES (Newton steps) needs its restart basis; CG does not.
