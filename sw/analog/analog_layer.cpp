@@ -10,6 +10,7 @@
 #include "sw/analog/error_metrics.h"
 #include "sw/analog/synthetic.h"
 #include "sw/analog/analog_layer_impl.h"
+#include "sw/circuit/device_models.h"
 #include "sw/common/seed.h"
 #include "sw/mitigation/conversion.h"
 
@@ -26,8 +27,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
   c.noise = parse_noise_spec(cfg);
-  if (c.converters.dac_predistortion && c.mitigation.conversion() == ConversionKind::Matrix &&
-      c.xbar.memristor.model == MemristorModel::Sinh)
+  if (c.dac_predistorts() && c.mitigation.conversion() == ConversionKind::Matrix)
     throw InputError(
         "configuration key 'converters.dac_predistortion': not combinable with the matrix conversion (" +
         std::string(c.mitigation.name()) +
@@ -41,11 +41,8 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
   alpha_ = cfg.xbar.v_in_max_v / x_max;
-  predistort_ = cfg.converters.dac_predistortion && cfg.xbar.memristor.model == MemristorModel::Sinh;
-  if (predistort_) {  // I/G = h(V) = v_read sinh(kV) / sinh(k v_read), linear in x through the LUT
-    const MemristorParams& mp = cfg.xbar.memristor;
-    alpha_ = mp.v_read_v * std::sinh(mp.k_per_v * cfg.xbar.v_in_max_v) / std::sinh(mp.k_per_v * mp.v_read_v) / x_max;
-  }
+  // With pre-distortion I/G = h(V(x)) = alpha x, full scale at v_in_max.
+  if (cfg.dac_predistorts()) alpha_ = MemristorDevice(cfg.xbar.memristor).current_per_siemens(cfg.xbar.v_in_max_v) / x_max;
   // Signed inputs: sign-magnitude, so that 0 is exactly a DAC level.
   const int bits = cfg.converters.dac_bits;
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};
@@ -131,12 +128,11 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
 }
 
 Eigen::MatrixXd AnalogLayer::volts(const Eigen::MatrixXd& x) const {
-  if (!predistort_) return alpha_ * x;
-  // The lookup table's entry for each code: h(V) = alpha x, V = asinh(alpha x / scale) / k
-  // with scale = v_read / sinh(k v_read); odd, so signed inputs keep their sign.
-  const MemristorParams& mp = cfg_.xbar.memristor;
-  const double scale = mp.v_read_v / std::sinh(mp.k_per_v * mp.v_read_v);
-  return x.unaryExpr([&](double u) { return std::asinh(alpha_ * u / scale) / mp.k_per_v; });
+  if (!cfg_.dac_predistorts()) return alpha_ * x;
+  // The lookup table's entry for each code: h(V) = alpha x; h is odd, so signed inputs keep
+  // their sign.
+  const MemristorDevice mem(cfg_.xbar.memristor);
+  return x.unaryExpr([&](double u) { return mem.voltage_for(alpha_ * u); });
 }
 
 Eigen::MatrixXd AnalogLayer::dac(const Eigen::MatrixXd& x) const {

@@ -36,6 +36,11 @@ struct AnalogConfig {
   NoiseSpec noise;
   /// Sets the mitigation from a method name; throws InputError naming `key`.
   void set_method(const std::string& name, const std::string& key) { mitigation = mitigation_from_name(name, key); }
+  /// The DACs pre-distort (and carry lookup tables): converters.dac_predistortion with a sinh
+  /// memristor; with a linear one the table would be the identity.
+  bool dac_predistorts() const {
+    return converters.dac_predistortion && xbar.memristor.model == MemristorModel::Sinh;
+  }
 };
 
 /// Reads and validates the sections above; the method comes from `method_key`.
@@ -147,7 +152,6 @@ class AnalogLayer {
   bool signed_;
   uint64_t salt_;
   double alpha_;        ///< A/S per input unit (see volts_per_unit)
-  bool predistort_ = false;  ///< converters.dac_predistortion with a sinh memristor
   Quantizer dac_q_;
   std::vector<Block> blocks_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;

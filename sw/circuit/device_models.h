@@ -28,6 +28,13 @@ class MemristorDevice {
   /// Small-signal conductance at v = 0 (S).
   double g0(double g_s) const { return sinh_ ? g_s * scale_ * k_ : g_s; }
   bool linear() const { return !sinh_; }
+  double k_per_v() const { return k_; }
+  /// v_read / sinh(k v_read) for sinh (I = G scale sinh(kV)); 1 for linear.
+  double scale() const { return scale_; }
+  /// h(v) = I / G at voltage v: v (linear) or scale sinh(k v).
+  double current_per_siemens(double v) const { return sinh_ ? scale_ * std::sinh(k_ * v) : v; }
+  /// The voltage at which I / G = u: the inverse of current_per_siemens.
+  double voltage_for(double u) const { return sinh_ ? std::asinh(u / scale_) / k_ : u; }
 
  private:
   bool sinh_;

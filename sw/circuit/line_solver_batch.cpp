@@ -176,8 +176,7 @@ void LineSolver::batch_devices(BatchState& st, Workspace& w) const {
       gm[k] = g[k];
     }
   } else {
-    const double k_v = params_.memristor.k_per_v;
-    const double scale = params_.memristor.v_read_v / std::sinh(k_v * params_.memristor.v_read_v);
+    const double k_v = memristor_.k_per_v(), scale = memristor_.scale();
     // exp(k V), vectorised. Eigen's own aligned array: Eigen evaluates exp with SIMD on an
     // aligned body and with std::exp on the rest, so an alignment that varied with the
     // allocation would change the last bits from one thread (or run) to another.

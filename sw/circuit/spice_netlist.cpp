@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "sw/circuit/device_models.h"
 #include "sw/common/errors.h"
 
 namespace xbarsim {
@@ -48,7 +49,7 @@ void write_spice_netlist(std::ostream& out, const CrossbarParams& p, const Eigen
     out << "rout_" << j << " d_" << j << " s_" << j << " " << num(p.r_out_ohm) << "\n";
     out << "vsense_" << j << " s_" << j << " 0 dc 0\n";
   }
-  const double sinh_scale = p.memristor.v_read_v / std::sinh(p.memristor.k_per_v * p.memristor.v_read_v);
+  const double sinh_scale = MemristorDevice(p.memristor).scale();
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < n; ++j) {
       const std::string t = "t_" + std::to_string(i) + "_" + std::to_string(j);

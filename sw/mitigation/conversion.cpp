@@ -74,7 +74,7 @@ ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::Matri
       vb(i, j) = v;
     }
   }
-  const double sinh_scale = p.memristor.v_read_v / std::sinh(p.memristor.k_per_v * p.memristor.v_read_v);
+  const MemristorDevice mem(p.memristor);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < n; ++j) {
       const double c = cur(i, j);
@@ -88,9 +88,7 @@ ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::Matri
       if (p.transistor.model == TransistorModel::Level1) vm = level1_mid_voltage(p.transistor, vb(i, j), c);
       const double u = vt(i, j) - vm;
       double gp = std::numeric_limits<double>::infinity();
-      if (std::isfinite(u) && u * c > 0)
-        gp =
-            p.memristor.model == MemristorModel::Linear ? c / u : c / (sinh_scale * std::sinh(p.memristor.k_per_v * u));
+      if (std::isfinite(u) && u * c > 0) gp = c / mem.current_per_siemens(u);
       if (!(gp <= p.g_max_s)) {
         ++r.above_max;
         if (clip) gp = p.g_max_s;

@@ -11,7 +11,7 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
   hw.cost.lib = hw.lib;
   hw.cost.dac_bits = ac.converters.dac_bits;
-  hw.cost.dac_lut = ac.converters.dac_predistortion && ac.xbar.memristor.model == MemristorModel::Sinh;
+  hw.cost.dac_lut = ac.dac_predistorts();
   hw.cost.adc_bits = ac.converters.adc_bits;
   hw.cost.clock_mhz = hw.platform.clock_mhz;
   return hw;
