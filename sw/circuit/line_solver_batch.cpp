@@ -6,6 +6,7 @@
 
 #include "sw/circuit/line_solver.h"
 #include "sw/circuit/line_solver_workspace.h"
+#include "sw/circuit/wire_voltages.h"
 #include "sw/common/errors.h"
 
 namespace xbarsim {
@@ -133,30 +134,9 @@ void LineSolver::batch_start(const double* v_in, BatchState& st, Workspace& w) c
       st.vb[k] = 0.0;
       st.vm[k] = ratio[k] * v_in[i];
     }
-  // One Jacobi step through the wires: the ideal cell currents flow in the row wires (drop
-  // from the source) and the column wires (rise above ground). Segment currents are suffix
-  // sums along a row and prefix sums down a column.
+  // One Jacobi step through the wires: the node voltages that the ideal cell currents imply.
   batch_devices(st, w);
-  const double* im = w.b.data();
-  const double r_s = 1.0 / g_s_, r_w = 1.0 / g_w_, r_d = 1.0 / g_d_;
-  for (int i = 0; i < m_; ++i) {
-    double* t = st.vt.data() + i * n_;
-    const double* c = im + i * n_;
-    double* suffix = w.q.data() + i * n_;
-    double acc = 0;
-    for (int j = n_ - 1; j >= 0; --j) suffix[j] = acc += c[j];
-    double v = v_in[i] - r_s * suffix[0];
-    t[0] = v;
-    for (int j = 1; j < n_; ++j) t[j] = v -= r_w * suffix[j];
-  }
-  double* down = w.q.data();  // current in the segment below B(i, j)
-  for (int j = 0; j < n_; ++j) down[j] = im[j];
-  for (int i = 1; i < m_; ++i)
-    for (int j = 0; j < n_; ++j) down[i * n_ + j] = down[(i - 1) * n_ + j] + im[i * n_ + j];
-  const int bottom = (m_ - 1) * n_;
-  for (int j = 0; j < n_; ++j) st.vb[bottom + j] = r_d * down[bottom + j];
-  for (int i = m_ - 2; i >= 0; --i)
-    for (int j = 0; j < n_; ++j) st.vb[i * n_ + j] = st.vb[(i + 1) * n_ + j] + r_w * down[i * n_ + j];
+  wire_voltages(params_, m_, n_, v_in, w.b.data(), st.vt.data(), st.vb.data());
   const int mn = m_ * n_;
   for (int k = 0; k < mn; ++k) st.vm[k] = short_tr ? st.vb[k] : st.vb[k] + ratio[k] * (st.vt[k] - st.vb[k]);
 }

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "sw/circuit/device_models.h"
+#include "sw/circuit/wire_voltages.h"
 
 namespace xbarsim {
 
@@ -49,31 +50,11 @@ ConversionResult convert_signal_impl(const CrossbarParams& p, const Eigen::Matri
   ConversionResult r;
   r.g_prime.resize(m, n);
   // Target cell currents and the node voltages they imply.
-  Eigen::MatrixXd cur(m, n), vt(m, n), vb(m, n);
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMajor cur(m, n), vt(m, n), vb(m, n);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < n; ++j) cur(i, j) = v_ideal(i) * g(i, j);
-  for (int i = 0; i < m; ++i) {
-    double suffix = cur.row(i).sum();  // current entering T(i,0) from the source
-    double v = v_conv(i) - (p.r_in_ohm + p.r_wire_ohm) * suffix;
-    for (int j = 0; j < n; ++j) {
-      if (j > 0) {
-        suffix -= cur(i, j - 1);
-        v -= p.r_wire_ohm * suffix;
-      }
-      vt(i, j) = v;
-    }
-  }
-  for (int j = 0; j < n; ++j) {
-    double prefix = cur.col(j).sum();  // current leaving B(m-1,j) toward ground
-    double v = (p.r_wire_ohm + p.r_out_ohm) * prefix;
-    for (int i = m - 1; i >= 0; --i) {
-      if (i < m - 1) {
-        prefix -= cur(i + 1, j);
-        v += p.r_wire_ohm * prefix;
-      }
-      vb(i, j) = v;
-    }
-  }
+  wire_voltages(p, m, n, v_conv.data(), cur.data(), vt.data(), vb.data());
   const MemristorDevice mem(p.memristor);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < n; ++j) {
