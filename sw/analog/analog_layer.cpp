@@ -28,10 +28,9 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.converters = parse_converters_spec(cfg);
   c.noise = parse_noise_spec(cfg);
   if (c.dac_predistorts() && c.mitigation.conversion() == ConversionKind::Matrix)
-    throw InputError(
-        "configuration key 'converters.dac_predistortion': not combinable with the matrix conversion (" +
-        std::string(c.mitigation.name()) +
-        "), which targets I = V G at the applied voltage; use conversion or conversion+calibration");
+    throw InputError("configuration key 'converters.dac_predistortion': not combinable with the matrix conversion (" +
+                     std::string(c.mitigation.name()) +
+                     "), which targets I = V G at the applied voltage; use conversion or conversion+calibration");
   return c;
 }
 
@@ -42,7 +41,8 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
   alpha_ = cfg.xbar.v_in_max_v / x_max;
   // With pre-distortion I/G = h(V(x)) = alpha x, full scale at v_in_max.
-  if (cfg.dac_predistorts()) alpha_ = MemristorDevice(cfg.xbar.memristor).current_per_siemens(cfg.xbar.v_in_max_v) / x_max;
+  if (cfg.dac_predistorts())
+    alpha_ = MemristorDevice(cfg.xbar.memristor).current_per_siemens(cfg.xbar.v_in_max_v) / x_max;
   // Signed inputs: sign-magnitude, so that 0 is exactly a DAC level.
   const int bits = cfg.converters.dac_bits;
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};

@@ -38,9 +38,7 @@ struct AnalogConfig {
   void set_method(const std::string& name, const std::string& key) { mitigation = mitigation_from_name(name, key); }
   /// The DACs pre-distort (and carry lookup tables): converters.dac_predistortion with a sinh
   /// memristor; with a linear one the table would be the identity.
-  bool dac_predistorts() const {
-    return converters.dac_predistortion && xbar.memristor.model == MemristorModel::Sinh;
-  }
+  bool dac_predistorts() const { return converters.dac_predistortion && xbar.memristor.model == MemristorModel::Sinh; }
 };
 
 /// Reads and validates the sections above; the method comes from `method_key`.
@@ -151,7 +149,7 @@ class AnalogLayer {
   double x_max_;
   bool signed_;
   uint64_t salt_;
-  double alpha_;        ///< A/S per input unit (see volts_per_unit)
+  double alpha_;  ///< A/S per input unit (see volts_per_unit)
   Quantizer dac_q_;
   std::vector<Block> blocks_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;

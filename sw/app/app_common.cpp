@@ -114,8 +114,8 @@ void ProgressBar::update(int done) {
   }
   const int width = 30;
   const int fill = total_ > 0 ? static_cast<int>(static_cast<double>(width) * done / total_) : width;
-  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.3g/s%s   ", label_.c_str(), fill, "==============================",
-               width - fill, "", done, total_, rate, eta.c_str());
+  std::fprintf(stderr, "\r%s [%.*s%*s] %d/%d  %.3g/s%s   ", label_.c_str(), fill,
+               "==============================", width - fill, "", done, total_, rate, eta.c_str());
   std::fflush(stderr);
 }
 

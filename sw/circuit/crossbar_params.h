@@ -69,7 +69,7 @@ struct SolverOptions {
   double max_step_v = 0.2;          ///< Newton voltage limiting
   bool batched_nonlinear = true;    ///< many vectors with nonlinear devices: BatchNewtonSolver (else per-vector Newton)
   double nonlinear_tolerance = 1e-9;  ///< batched: column currents within this (relative) of the exact solution
-  int threads = 0;                  ///< 0 = hardware concurrency
+  int threads = 0;                    ///< 0 = hardware concurrency
 };
 
 SolverOptions parse_solver_options(const ConfigTree& cfg);

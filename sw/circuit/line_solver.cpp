@@ -422,8 +422,7 @@ int LineSolver::newton_direction(NewtonState& st, Workspace& w) const {
   if (short_tr)
     st.dm = st.db;
   else
-    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(),
-                  st.dm.data());
+    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(), st.dm.data());
   return inner;
 }
 

@@ -238,16 +238,15 @@ double LineSolver::batch_direction(BatchState& st, Workspace& w, double step_tol
   if (short_tr)
     condense_short(mn, st.gm.data(), jtt, jbb, st.sys.cx.data(), st.ft.data(), st.fb.data());
   else
-    condense_cell(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), jtt, jbb, st.sys.cx.data(),
-                  st.ft.data(), st.fb.data());
+    condense_cell(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), jtt, jbb, st.sys.cx.data(), st.ft.data(),
+                  st.fb.data());
   factor_rows(jtt, st.sys.p_inv.data());
   factor_cols(jbb, st.sys.q_diag.data(), st.sys.q_inv.data());
   solve_tb(st.sys, st.ft.data(), st.fb.data(), st.dt.data(), st.db.data(), w, step_tol);
   if (short_tr)
     std::copy(st.db.begin(), st.db.end(), st.dm.begin());
   else
-    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(),
-                  st.dm.data());
+    middle_update(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), st.dt.data(), st.db.data(), st.dm.data());
   // Vectorised maxima (a single max chain would wait on its latency at every element).
   const Eigen::Map<const Eigen::ArrayXd> dt(st.dt.data(), mn), db(st.db.data(), mn), dm(st.dm.data(), mn);
   return std::max({dt.abs().maxCoeff(), db.abs().maxCoeff(), dm.abs().maxCoeff()});

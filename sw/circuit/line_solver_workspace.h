@@ -14,9 +14,9 @@ double line_dot(const double* a, const double* b, int n);
 
 /// A Newton step's middle-node update from the node's own KCL row (both Newton solvers);
 /// restrict-qualified so that it vectorises.
-inline void middle_update(int mn, const double* __restrict gm, const double* __restrict ga,
-                          const double* __restrict gb, const double* __restrict fm, const double* __restrict dt,
-                          const double* __restrict db, double* __restrict dm) {
+inline void middle_update(int mn, const double* __restrict gm, const double* __restrict ga, const double* __restrict gb,
+                          const double* __restrict fm, const double* __restrict dt, const double* __restrict db,
+                          double* __restrict dm) {
   for (int k = 0; k < mn; ++k) dm[k] = (fm[k] + gm[k] * dt[k] - gb[k] * db[k]) / (gm[k] + ga[k]);
 }
 

@@ -34,8 +34,8 @@ ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& 
                                 const Eigen::VectorXd& v_conv);
 /// The same with the ideal currents I_ij = V_target,i * G_ij while V_conv is applied: with an
 /// input pre-distortion (a DAC lookup table), V_conv = f^-1(x) and the target stays linear in x.
-ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& g_target,
-                                const Eigen::VectorXd& v_conv, const Eigen::VectorXd& v_target);
+ConversionResult convert_signal(const CrossbarParams& p, const Eigen::MatrixXd& g_target, const Eigen::VectorXd& v_conv,
+                                const Eigen::VectorXd& v_target);
 
 /// Options of the matrix conversion.
 struct MatrixConversionOptions {

@@ -70,30 +70,31 @@ TEST_P(BatchedNewton, MatchesThePerVectorNewton) {
   solver->program(g);
   const Eigen::MatrixXd got = solver->column_currents(v);
   Eigen::MatrixXd ref(v.rows(), c.n);
-  for (Eigen::Index a = 0; a < v.rows(); ++a) ref.row(a) = solver->solve(v.row(a).transpose()).column_current.transpose();
+  for (Eigen::Index a = 0; a < v.rows(); ++a)
+    ref.row(a) = solver->solve(v.row(a).transpose()).column_current.transpose();
   EXPECT_EQ(got.row(0).cwiseAbs().maxCoeff(), 0.0) << "0 V in, 0 A out";
   EXPECT_LT(worst_relative(got, ref), 1e-9);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Devices, BatchedNewton,
-    ::testing::Values(Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 144, 64, false},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 144, 64, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 0.5, 1, 40, 17, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 10, 1, 27, 16, false},
-                      Case{MemristorModel::Sinh, TransistorModel::None, 5, 1, 64, 32, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Linear, 3, 1, 33, 9, true},
-                      Case{MemristorModel::Linear, TransistorModel::Level1, 5, 1, 64, 32, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 10, 64, 64, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 1, 1, true},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 1, 9, false},
-                      Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 12, 1, true}),
-    [](const auto& info) {
-      const Case& c = info.param;
-      return std::string(to_string(c.mem)) + "_" + to_string(c.tr) + "_k" + std::to_string(static_cast<int>(c.k * 10)) +
-             "_rwire" + std::to_string(static_cast<int>(c.r_wire)) + "_" + std::to_string(c.m) + "x" +
-             std::to_string(c.n) + (c.bipolar ? "_bipolar" : "_unipolar");
-    });
+INSTANTIATE_TEST_SUITE_P(Devices, BatchedNewton,
+                         ::testing::Values(Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 144, 64, false},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 144, 64, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 0.5, 1, 40, 17, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 10, 1, 27, 16, false},
+                                           Case{MemristorModel::Sinh, TransistorModel::None, 5, 1, 64, 32, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Linear, 3, 1, 33, 9, true},
+                                           Case{MemristorModel::Linear, TransistorModel::Level1, 5, 1, 64, 32, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 10, 64, 64, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 1, 1, true},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 1, 9, false},
+                                           Case{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 12, 1, true}),
+                         [](const auto& info) {
+                           const Case& c = info.param;
+                           return std::string(to_string(c.mem)) + "_" + to_string(c.tr) + "_k" +
+                                  std::to_string(static_cast<int>(c.k * 10)) + "_rwire" +
+                                  std::to_string(static_cast<int>(c.r_wire)) + "_" + std::to_string(c.m) + "x" +
+                                  std::to_string(c.n) + (c.bipolar ? "_bipolar" : "_unipolar");
+                         });
 
 TEST(BatchedNewtonRun, SameBitsOnAnyThreadCount) {
   const Case c{MemristorModel::Sinh, TransistorModel::Level1, 5, 1, 64, 16, true};
