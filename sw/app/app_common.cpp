@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "sw/common/errors.h"
+#include "sw/common/ranks.h"
 
 namespace xbarsim {
 
@@ -100,7 +101,7 @@ std::string duration_text(double s) {
 }  // namespace
 
 void ProgressBar::update(int done) {
-  if (finished_) return;
+  if (finished_ || !Ranks::root()) return;  // under MPI, rank 0 speaks for the job
   const double t = now_s();
   // A terminal gets a bar redrawn 5 times a second; a log file a line every 30 s.
   if (done < total_ && t - last_ < (tty_ ? 0.2 : 30.0)) return;

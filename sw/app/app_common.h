@@ -93,6 +93,7 @@ struct CommandInfo {
   std::string name;
   CommandFn run;
   std::string usage;  ///< one-line synopsis plus a short description
+  bool shards = false;  ///< shares its work among MPI ranks; the others refuse to run under mpirun -n N > 1
 };
 
 /// All registered subcommands, sorted by registration order.
@@ -101,8 +102,8 @@ std::vector<CommandInfo>& command_registry();
 /// Registers a subcommand at static-initialisation time. Use in the command's .cpp
 /// (compiled into the xbarsim executable): `static CommandRegistrar reg{"name", fn, "usage"};`
 struct CommandRegistrar {
-  CommandRegistrar(const char* name, CommandFn fn, const char* usage) {
-    command_registry().push_back({name, fn, usage});
+  CommandRegistrar(const char* name, CommandFn fn, const char* usage, bool shards = false) {
+    command_registry().push_back({name, fn, usage, shards});
   }
 };
 

@@ -6,6 +6,7 @@
 
 #include "sw/app/app_common.h"
 #include "sw/common/errors.h"
+#include "sw/common/ranks.h"
 
 namespace {
 
@@ -13,7 +14,36 @@ void usage(std::ostream& os) {
   os << "usage: xbarsim <command> [options]\n\ncommands:\n";
   for (const auto& c : xbarsim::command_registry()) os << "  " << c.usage << "\n";
   os << "\nCommon options: --config FILE (YAML; every key is documented in configs/default.yaml),\n"
-        "--set dotted.key=value (repeatable), --json FILE, --csv FILE.\n";
+        "--set dotted.key=value (repeatable), --json FILE, --csv FILE.\n"
+        "Under mpirun (when built with MPI), explore, eval and xbar-study share the work among the ranks.\n";
+}
+
+/// Runs one subcommand; its errors become a message and an exit code (2 input, 3 solver, 4 internal).
+int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
+  // Under MPI every rank would print the same message: the first rank's is enough, but any
+  // rank may be the one that fails, so each prints with its rank.
+  const std::string who = "xbarsim " + c.name +
+                          (xbarsim::Ranks::size() > 1 ? " [rank " + std::to_string(xbarsim::Ranks::rank()) + "]" : "");
+  try {
+    if (xbarsim::Ranks::size() > 1 && !c.shards)
+      throw xbarsim::InputError(c.name + " does not share its work among MPI ranks (explore, eval and xbar-study do): "
+                                "run it without mpirun, or with one rank");
+    return c.run(argc - 2, argv + 2);
+  } catch (const xbarsim::InputError& e) {
+    std::cerr << who << ": error: " << e.what() << "\n";
+    return 2;
+  } catch (const xbarsim::SolverError& e) {
+    std::cerr << who << ": solver error: " << e.what() << "\n";
+    return 3;
+  } catch (const std::bad_alloc&) {
+    std::cerr << who
+              << ": error: out of memory: the requested problem does not fit in this machine's memory "
+                 "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << who << ": internal error: " << e.what() << "\n";
+    return 4;
+  }
 }
 
 }  // namespace
@@ -23,26 +53,21 @@ int main(int argc, char** argv) {
     usage(argc < 2 ? std::cerr : std::cout);
     return argc < 2 ? 2 : 0;
   }
+  try {
+    xbarsim::Ranks::init(&argc, &argv);
+  } catch (const xbarsim::InputError& e) {
+    std::cerr << "xbarsim: error: " << e.what() << "\n";
+    return 2;
+  }
   for (const auto& c : xbarsim::command_registry()) {
     if (c.name != argv[1]) continue;
-    try {
-      return c.run(argc - 2, argv + 2);
-    } catch (const xbarsim::InputError& e) {
-      std::cerr << "xbarsim " << c.name << ": error: " << e.what() << "\n";
-      return 2;
-    } catch (const xbarsim::SolverError& e) {
-      std::cerr << "xbarsim " << c.name << ": solver error: " << e.what() << "\n";
-      return 3;
-    } catch (const std::bad_alloc&) {
-      std::cerr << "xbarsim " << c.name
-                << ": error: out of memory: the requested problem does not fit in this machine's memory "
-                   "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
-      return 2;
-    } catch (const std::exception& e) {
-      std::cerr << "xbarsim " << c.name << ": internal error: " << e.what() << "\n";
-      return 4;
-    }
+    const int code = run_command(c, argc, argv);
+    // One rank's error ends the whole MPI job, so the other ranks never wait for it.
+    if (code != 0 && xbarsim::Ranks::size() > 1) xbarsim::Ranks::abort(code);
+    xbarsim::Ranks::finalize();
+    return code;
   }
+  xbarsim::Ranks::finalize();
   std::cerr << "xbarsim: unknown command '" << argv[1] << "'\n\n";
   usage(std::cerr);
   return 2;
