@@ -1,0 +1,35 @@
+#pragma once
+/// One run of the SystemC/TLM-2.0 accelerator (platform/Pipeline.h) on a network, reported
+/// as JSON: timing, stalls and throughput come from the simulation, counts from the shared
+/// inventory, energy from the actions the processes counted. Used by simulate and explore.
+#include <nlohmann/json.hpp>
+#include <functional>
+#include <string>
+
+#include "sw/common/config.h"
+#include "sw/nn/dataset.h"
+#include "sw/nn/model.h"
+
+namespace xbarsim {
+
+/// The images of a simulation: the dataset's (labelled, so accuracy is reported) or seeded
+/// random ones.
+struct SimulationData {
+  Dataset test, calib;
+  bool labelled = false;
+};
+/// `images` test images of `dataset` (eval's split and calibration images), or random images
+/// from data.synthetic_seed when `dataset` is empty.
+SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg, const Model& model, int images);
+
+/// Programs `model` for `cfg` and simulates the accelerator on data.test (SystemC
+/// elaborates once per process: call it once, or in run_in_child). `vcd`: trace file or "".
+/// `print`: the per-layer table on stdout.
+nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
+                              const std::string& vcd, bool print);
+
+/// Runs `run` in a forked child process (a fresh SystemC kernel) and returns its JSON; the
+/// child's InputError / SolverError is rethrown here with its message.
+nlohmann::json run_in_child(const std::function<nlohmann::json()>& run);
+
+}  // namespace xbarsim
