@@ -5,6 +5,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/ranks.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/sweep.h"
 
@@ -37,8 +38,14 @@ int cmd_eval(int argc, char** argv) {
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
   if (!data.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
 
-  SweepOutputs out(args, points.front(),
-                   "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
+  // Under MPI every rank evaluates its share of the images; rank 0 reduces, prints and writes.
+  const bool root = Ranks::root();
+  ImageShard shard;
+  if (Ranks::size() > 1) shard = {Ranks::rank(), Ranks::size(), Ranks::gather};
+  std::unique_ptr<SweepOutputs> out;
+  if (root)
+    out = std::make_unique<SweepOutputs>(
+        args, points.front(), "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
   const Table table({{"run", -44},
                      {"images", 7},
                      {"software_%", 10, 2},
@@ -46,35 +53,37 @@ int cmd_eval(int argc, char** argv) {
                      {"xbars", 8},
                      {"oor", 7},
                      {"img/s", 9, 1}});
-  table.print_header(stdout);
+  if (root) table.print_header(stdout);
   for (size_t run = 0; run < points.size(); ++run) {
     const std::string label = sweep_label(points[run]);
     ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + label);
-    ProgressBar eval_bar(data.test.count(), "evaluating  " + label);
+    ProgressBar eval_bar((data.test.count() - shard.index + shard.count - 1) / shard.count, "evaluating  " + label);
     const EvalResult r = run_eval(model, designs[run], spec, data.test, data.calib,
                                   {[&](int d, int) { prog.update(d); },
                                    [&](int d, int) {
                                      prog.finish();
                                      eval_bar.update(d);
-                                   }});
+                                   }},
+                                  shard);
     eval_bar.finish();
+    if (!root) continue;
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
     nlohmann::json j = r.to_json();
     long long oor = j["out_of_range_cells"];
     table.print_row(stdout, {label, static_cast<long long>(r.images), 100 * r.software_accuracy,
                              100 * r.crossbar_accuracy, r.cost.crossbars, oor, j["images_per_s"].get<double>()});
     if (points.size() == 1) print_layers(r);
-    if (out.csv().enabled())
+    if (out->csv().enabled())
       for (size_t l = 0; l < r.layers.size(); ++l) {
         const EvalLayer& el = r.layers[l];
-        out.csv().row(static_cast<int>(run), points[run])
+        out->csv().row(static_cast<int>(run), points[run])
             << "," << l << "," << el.name << "," << el.inventory.rows << "," << el.inventory.cols << ","
             << el.inventory.crossbars << "," << el.inventory.adcs << "," << el.inventory.dacs << ","
             << el.mean_relative_error << "," << el.worst_relative_error << "\n";
       }
-    out.add(std::move(j), points[run]);
+    out->add(std::move(j), points[run]);
   }
-  out.finish();
+  if (out) out->finish();
   return 0;
 }
 
@@ -84,7 +93,9 @@ namespace {
 const CommandRegistrar kRegister{
     "eval", cmd_eval,
     "eval --model M.onnx [--dataset cifar10|mnist] [--images N] [--offset K] [--config F] [--set k=v]...\n"
-    "      accuracy on crossbars vs software, per-layer error propagation; list values sweep"};
+    "      accuracy on crossbars vs software, per-layer error propagation; list values sweep;\n"
+    "      under mpirun the images are shared among the ranks",
+    true};
 }  // namespace
 
 }  // namespace xbarsim

@@ -3,6 +3,8 @@
 #include "sw/analog/error_metrics.h"
 
 #include <chrono>
+#include <cstring>
+#include <stdexcept>
 #include <mutex>
 
 namespace xbarsim {
@@ -69,19 +71,20 @@ struct ImageTallies {
 };
 
 ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, const Dataset& test, int images,
-                             int threads, const std::function<void(int, int)>& progress) {
+                             int threads, const ImageShard& shard, const std::function<void(int, int)>& progress) {
   const int L = static_cast<int>(model.linear.size());
   ImageTallies t{std::vector<ErrorTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
                  std::vector<char>(images, 0)};
   std::mutex mu;
   int done = 0;
+  const int mine = (images - shard.index + shard.count - 1) / shard.count;  // images of this share
   // Images in parallel; inside an image, linear layers run serially.
   parallel_for(threads, threads, [&](int th) {
     SoftwareBackend sw(model);
     LayerTrace sw_trace, xb_trace;
     sw_trace.record_inputs = xb_trace.record_inputs = false;
     std::vector<float> x(model.input.size());
-    for (int k = th; k < images; k += threads) {
+    for (int k = shard.index + th * shard.count; k < images; k += threads * shard.count) {
       test.preprocess(k, model.pre, x.data());
       Eigen::Index a, b;
       run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
@@ -92,16 +95,41 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
         t.layer[static_cast<size_t>(k) * L + l] =
             layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
       std::lock_guard<std::mutex> lock(mu);
-      if (progress) progress(++done, images);
+      if (progress) progress(++done, mine);
     }
   });
   return t;
 }
 
+/// Brings every share's tallies to share 0: each sends its arrays whole (the images of
+/// other shares are zero) and share 0 takes image k from share k % count.
+void gather_tallies(ImageTallies& t, int images, int L, const ImageShard& shard) {
+  auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
+  std::string mine(bytes(t.layer) + bytes(t.sw_correct) + bytes(t.xb_correct), '\0');
+  std::memcpy(&mine[0], t.layer.data(), bytes(t.layer));
+  std::memcpy(&mine[bytes(t.layer)], t.sw_correct.data(), bytes(t.sw_correct));
+  std::memcpy(&mine[bytes(t.layer) + bytes(t.sw_correct)], t.xb_correct.data(), bytes(t.xb_correct));
+  const std::vector<std::string> all = shard.gather(mine);
+  if (shard.index != 0) return;
+  if (static_cast<int>(all.size()) != shard.count) throw std::runtime_error("gather returned the wrong share count");
+  for (int s = 1; s < shard.count; ++s) {
+    if (all[s].size() != mine.size()) throw std::runtime_error("a share's tallies have the wrong size");
+    ImageTallies o{std::vector<ErrorTally>(t.layer.size()), std::vector<char>(images), std::vector<char>(images)};
+    std::memcpy(o.layer.data(), all[s].data(), bytes(o.layer));
+    std::memcpy(o.sw_correct.data(), all[s].data() + bytes(o.layer), bytes(o.sw_correct));
+    std::memcpy(o.xb_correct.data(), all[s].data() + bytes(o.layer) + bytes(o.sw_correct), bytes(o.xb_correct));
+    for (int k = s; k < images; k += shard.count) {
+      t.sw_correct[k] = o.sw_correct[k];
+      t.xb_correct[k] = o.xb_correct[k];
+      for (int l = 0; l < L; ++l) t.layer[static_cast<size_t>(k) * L + l] = o.layer[static_cast<size_t>(k) * L + l];
+    }
+  }
+}
+
 }  // namespace
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
-                    const Dataset& calib, const EvalProgress& progress) {
+                    const Dataset& calib, const EvalProgress& progress, const ImageShard& shard) {
   const AnalogConfig& ac = point.ac;
   if (spec.calibration_samples < ac.calibration.samples)
     throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
@@ -115,7 +143,9 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
   const auto t1 = std::chrono::steady_clock::now();
   r.images = test.count();
   const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), r.images));
-  const ImageTallies t = evaluate_images(model, xb, test, r.images, threads, progress.evaluating);
+  ImageTallies t = evaluate_images(model, xb, test, r.images, threads, shard, progress.evaluating);
+  const int L = static_cast<int>(model.linear.size());
+  if (shard.count > 1) gather_tallies(t, r.images, L, shard);
   r.program_time_s = std::chrono::duration<double>(t1 - t0).count();
   r.evaluate_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   int swc = 0, xbc = 0;
@@ -125,7 +155,6 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
   }
   r.software_accuracy = static_cast<double>(swc) / r.images;
   r.crossbar_accuracy = static_cast<double>(xbc) / r.images;
-  const int L = static_cast<int>(model.linear.size());
   const double clock_ns = point.hw.platform.clock_ns();
   for (int l = 0; l < L; ++l) {
     EvalLayer el;

@@ -56,12 +56,21 @@ struct EvalResult {
   nlohmann::json to_json() const;
 };
 
+/// The share of the images one process evaluates (MPI ranks): images k with k % count == index.
+/// `gather` is collective: every share's bytes, in share order, at share 0 (Ranks::gather).
+/// Share 0 reduces the tallies in image order, so its result equals one process's, bit for bit.
+struct ImageShard {
+  int index = 0, count = 1;
+  std::function<std::vector<std::string>(const std::string&)> gather;
+};
+
 /// Progress callbacks: (done, total) for programming (layers) and evaluation (images).
 struct EvalProgress {
   std::function<void(int, int)> programming, evaluating;
 };
 
+/// Evaluates `test` (this process's share of it); the result is complete on share 0 only.
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
-                    const Dataset& calib, const EvalProgress& progress = {});
+                    const Dataset& calib, const EvalProgress& progress = {}, const ImageShard& shard = {});
 
 }  // namespace xbarsim
