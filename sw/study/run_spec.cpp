@@ -10,6 +10,7 @@ RunSpec parse_run_spec(const ConfigTree& cfg) {
   r.design = parse_eval_point(cfg);
   r.study = parse_xbar_study_spec(cfg);
   r.eval = parse_eval_spec(cfg);
+  r.explore = parse_explore_spec(cfg);
   r.preprocessing.mean = {0.0};
   r.preprocessing.std = {1.0};
   apply_preprocessing_overrides(cfg, r.preprocessing, 3);

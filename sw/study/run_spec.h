@@ -3,6 +3,7 @@
 /// point is. Used to validate a configuration completely and to prove (in a test) that every
 /// key of configs/default.yaml is read by some spec.
 #include "sw/study/eval_study.h"
+#include "sw/study/explore.h"
 #include "sw/study/xbar_study.h"
 
 namespace xbarsim {
@@ -12,6 +13,7 @@ struct RunSpec {
                                         ///< noise, components, platform
   XbarStudySpec study;                  ///< study.*
   EvalSpec eval;                        ///< eval.*
+  ExploreSpec explore;                  ///< explore.*
   Preprocessing preprocessing;          ///< preprocessing.* applied to the defaults (3 channels)
   uint64_t synthetic_seed = 0;          ///< data.synthetic_seed
   unsigned long long sweep_points = 1;  ///< limits.max_sweep_points checked

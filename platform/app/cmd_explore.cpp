@@ -1,0 +1,287 @@
+// xbarsim explore: a design space run point by point — accuracy and per-layer error from the
+// evaluation, cost and timing from the SystemC platform — with the Pareto front over the
+// chosen objectives. Resumable (a journal of finished points) and sharded over MPI ranks.
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "platform/app/simulation.h"
+#include "sw/app/app_common.h"
+#include "sw/app/model_source.h"
+#include "sw/app/table.h"
+#include "sw/common/errors.h"
+#include "sw/common/ranks.h"
+#include "sw/common/seed.h"
+#include "sw/study/eval_study.h"
+#include "sw/study/explore.h"
+
+namespace xbarsim {
+
+namespace {
+
+/// One point of the space: its values, its configuration and its identity.
+struct SpacePoint {
+  SweepPoint values;
+  ConfigTree cfg;
+  std::string key, label;
+};
+
+nlohmann::json point_json(const SweepPoint& p) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& kv : p) j[kv.first] = kv.second;
+  return j;
+}
+
+/// The row of a finished point: the evaluation's accuracy and per-layer error, the platform's
+/// energy, area, latency and per-layer busy/stall.
+nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
+  nlohmann::json row;
+  row["status"] = "ok";
+  row["accuracy"] = ev["crossbar_accuracy"];
+  row["software_accuracy"] = ev["software_accuracy"];
+  double mean = 0, worst = 0;
+  nlohmann::json layers = nlohmann::json::array();
+  const auto& el = ev["layers"];
+  const auto& pl = pf["layers"];
+  for (size_t l = 0; l < el.size(); ++l) {
+    mean += el[l]["mean_relative_error"].get<double>() / el.size();
+    worst = std::max(worst, el[l]["worst_relative_error"].get<double>());
+    nlohmann::json L = {{"name", el[l]["name"]},
+                        {"mean_relative_error", el[l]["mean_relative_error"]},
+                        {"worst_relative_error", el[l]["worst_relative_error"]}};
+    if (l < pl.size() && pl[l]["name"] == el[l]["name"])
+      for (const char* k : {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"}) L[k] = pl[l][k];
+    layers.push_back(L);
+  }
+  row["mean_relative_error"] = mean;
+  row["worst_relative_error"] = worst;
+  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw",
+                        "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
+                        "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "tiles", "iterations_total"})
+    row[k] = pf[k];
+  for (const char* k : {"adc_bits", "dac_bits", "method", "max_rows", "max_cols", "out_of_range_cells"})
+    row[k] = ev[k];
+  row["layers"] = layers;
+  // Timing of this run (not results: they differ between runs and ranks).
+  row["program_time_s"] = ev["program_time_s"];
+  row["evaluate_time_s"] = ev["evaluate_time_s"];
+  row["simulation_wall_time_s"] = pf["simulation_wall_time_s"];
+  return row;
+}
+
+/// Evaluates one point and simulates its platform; a point that fails is a row with a reason.
+nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData& data, const EvalSpec& spec,
+                         const std::string& progress_label) {
+  try {
+    const EvalPoint design = parse_eval_point(p.cfg);
+    // The platform first (it rejects an unschedulable design at once): on seeded random images
+    // (timing and counted actions do not depend on the pixel values), calibrated on the
+    // evaluation's calibration images.
+    SimulationData sim;
+    sim.test = random_dataset(model.input, design.hw.platform.images,
+                              derive_seed(static_cast<uint64_t>(p.cfg.get_int("data.synthetic_seed")), {1}));
+    sim.calib = data.calib;
+    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false); });
+    ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + progress_label);
+    ProgressBar bar(data.test.count(), "evaluating  " + progress_label);
+    const EvalResult r = run_eval(model, design, spec, data.test, data.calib,
+                                  {[&](int d, int) { prog.update(d); },
+                                   [&](int d, int) {
+                                     prog.finish();
+                                     bar.update(d);
+                                   }});
+    bar.finish();
+    const nlohmann::json ev = r.to_json();
+    return result_row(ev, pf);
+  } catch (const InputError& e) {
+    return {{"status", "failed"}, {"reason", e.what()}};
+  } catch (const SolverError& e) {
+    return {{"status", "failed"}, {"reason", std::string("solver: ") + e.what()}};
+  } catch (const std::bad_alloc&) {
+    return {{"status", "failed"}, {"reason", "out of memory: the design does not fit in this machine's memory"}};
+  }
+}
+
+const Table& explore_table() {
+  static const Table t({{"point", -44},
+                        {"status", -7},
+                        {"acc_%", 7, 2},
+                        {"energy_uJ", 10, 3},
+                        {"area_mm2", 9, 4},
+                        {"latency_us", 11, 2},
+                        {"front", -5}});
+  return t;
+}
+
+/// A CSV field in double quotes (reasons contain commas).
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return q + "\"";
+}
+
+double num(const nlohmann::json& row, const char* k) {
+  const auto it = row.find(k);
+  return it != row.end() && it->is_number() ? it->get<double>() : std::nan("");
+}
+
+int cmd_explore(int argc, char** argv) {
+  const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--out", "--report"});
+  check_outputs(args, {"--json", "--csv", "--report"});
+  const std::string out_path = args.require("--out");
+  check_output_path(out_path, "--out", {args.get("--config")});
+  std::vector<std::string> sets = args.sets();
+  if (args.has("--model")) sets.push_back("explore.model=" + args.get("--model"));
+  if (args.has("--dataset")) sets.push_back("explore.dataset=" + args.get("--dataset"));
+  if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
+  const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
+  const ExploreSpec spec = parse_explore_spec(base);
+  const EvalSpec eval_spec = parse_eval_spec(base);
+  if (spec.model.empty()) throw InputError("no model: give --model or explore.model");
+  const std::vector<SweepPoint> values = explore_points(base, spec.combine);
+  std::vector<SpacePoint> space;
+  space.reserve(values.size());
+  {
+    ProgressBar bar(static_cast<int>(values.size()), "checking the space");
+    for (const SweepPoint& v : values) {
+      SpacePoint p{v, sweep_config(base, v), "", sweep_label(v)};
+      p.key = point_key(p.cfg);
+      space.push_back(std::move(p));
+      bar.update(static_cast<int>(space.size()));
+    }
+  }
+  const std::string color = spec.color_by.empty() && !base.sweep_keys().empty() ? base.sweep_keys()[0] : spec.color_by;
+
+  Model model = load_onnx_model(find_model_file(spec.model, base));
+  apply_preprocessing_overrides(base, model.pre, model.input.c);
+  const EvalData data = load_eval_data(model, spec.dataset, resolve_data_dir(base), eval_spec);
+  if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim explore: %s\n", data.note.c_str());
+
+  // Points already in the journal are done; the rest are shared round-robin among the ranks.
+  const ResultJournal journal(out_path);
+  if (Ranks::root()) journal.repair();
+  Ranks::barrier();
+  int skipped = 0;
+  std::map<std::string, nlohmann::json> done;
+  for (auto& row : journal.read(&skipped)) {
+    const std::string key = row["key"];  // (the assignment's right side is evaluated first)
+    done[key] = std::move(row);
+  }
+  Ranks::barrier();  // everyone has read the journal before anyone appends to it
+  std::vector<size_t> pending;
+  for (size_t k = 0; k < space.size(); ++k)
+    if (!done.count(space[k].key)) pending.push_back(k);
+  if (Ranks::root()) {
+    std::fprintf(stderr, "xbarsim explore: %zu points, %zu already in %s, %zu to run", space.size(),
+                 space.size() - pending.size(), out_path.c_str(), pending.size());
+    if (Ranks::size() > 1) std::fprintf(stderr, " on %d ranks", Ranks::size());
+    std::fprintf(stderr, "\n");
+    if (skipped) std::fprintf(stderr, "xbarsim explore: %d unreadable lines of %s ignored\n", skipped, out_path.c_str());
+  }
+  for (size_t i = Ranks::rank(); i < pending.size(); i += Ranks::size()) {
+    const SpacePoint& p = space[pending[i]];
+    if (Ranks::root()) std::fprintf(stderr, "[%zu/%zu] %s\n", i + 1, pending.size(), p.label.c_str());
+    nlohmann::json row = run_point(p, model, data, eval_spec, p.label);
+    row["key"] = p.key;
+    row["index"] = pending[i];
+    row["label"] = p.label;
+    row["point"] = point_json(p.values);
+    journal.append(row);
+  }
+  Ranks::barrier();
+  if (!Ranks::root()) return 0;
+
+  // Rank 0: every point of the space from the journal, in space order, and the front.
+  done.clear();
+  for (auto& row : journal.read()) {
+    const std::string key = row["key"];
+    done[key] = std::move(row);
+  }
+  nlohmann::json rows = nlohmann::json::array();
+  for (size_t k = 0; k < space.size(); ++k) {
+    const auto it = done.find(space[k].key);
+    if (it == done.end()) throw InputError("point '" + space[k].label + "' is missing from " + out_path);
+    nlohmann::json row = it->second;
+    row["index"] = k;  // its place in this space (the journal may come from a reordered one)
+    rows.push_back(std::move(row));
+  }
+  std::vector<std::vector<double>> costs;
+  for (const auto& row : rows) {
+    std::vector<double> c;
+    for (Objective o : spec.objectives) c.push_back(objective_cost(row, o));
+    costs.push_back(c);
+  }
+  const std::vector<bool> front = pareto_front(costs);
+  nlohmann::json front_labels = nlohmann::json::array();
+  for (size_t k = 0; k < rows.size(); ++k) {
+    rows[k]["front"] = static_cast<bool>(front[k]);
+    if (front[k]) front_labels.push_back(rows[k]["label"]);
+  }
+
+  const Table& table = explore_table();
+  table.print_header(stdout);
+  int failed = 0;
+  for (const auto& row : rows) {
+    const bool ok = row["status"] == "ok";
+    failed += !ok;
+    const std::string dash = "-";
+    table.print_row(stdout, {row["label"].get<std::string>(), row["status"].get<std::string>(),
+                             ok ? Table::Cell(100 * num(row, "accuracy")) : dash,
+                             ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
+                             ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
+                             std::string(row["front"].get<bool>() ? "*" : "")});
+    if (!ok) std::printf("    reason: %s\n", row["reason"].get<std::string>().c_str());
+  }
+  std::string objectives;
+  for (Objective o : spec.objectives) objectives += (objectives.empty() ? "" : ", ") + to_string(o);
+  std::printf("\n%zu points (%d failed); Pareto front over %s: %zu point%s (*)\n", rows.size(), failed,
+              objectives.c_str(), front_labels.size(), front_labels.size() == 1 ? "" : "s");
+
+  if (args.has("--csv")) {
+    SweepCsv csv(args.get("--csv"), space.front().values,
+                 "status,accuracy,software_accuracy,mean_relative_error,worst_relative_error,energy_uj_per_image,"
+                 "area_mm2,latency_us,throughput_images_per_s,avg_power_mw,front,reason");
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const auto& r = rows[k];
+      auto& os = csv.row(static_cast<int>(k), space[k].values);
+      os << "," << r["status"].get<std::string>();
+      for (const char* f : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
+                            "energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s",
+                            "avg_power_mw"}) {
+        os << ",";
+        if (r.contains(f)) os << r[f];
+      }
+      os << "," << (r["front"].get<bool>() ? 1 : 0) << "," << quoted(r.value("reason", "")) << "\n";
+    }
+    csv.commit();
+  }
+  nlohmann::json j;
+  j["command"] = "explore";
+  j["model"] = model.path;
+  j["dataset"] = data.test.name;
+  j["images"] = data.test.count();
+  j["combine"] = spec.combine == ExploreSpec::Combine::Zip ? "zip" : "product";
+  j["swept_keys"] = base.sweep_keys();
+  j["objectives"] = nlohmann::json::array();
+  for (Objective o : spec.objectives) j["objectives"].push_back(to_string(o));
+  j["color_by"] = color;
+  j["points"] = rows;
+  j["front"] = front_labels;
+  if (args.has("--json")) write_json(args.get("--json"), j);
+  return 0;
+}
+
+}  // namespace
+
+namespace {
+const CommandRegistrar kRegister{
+    "explore", cmd_explore,
+    "explore --config SPACE.yaml --out RESULTS.jsonl [--model M.onnx] [--dataset D] [--images N]\n"
+    "        [--json F] [--csv F] [--report F.html]\n"
+    "      design-space exploration: every point's accuracy and per-layer error (eval) and platform cost and\n"
+    "      timing (simulate), the Pareto front over explore.objectives; resumable (finished points in --out\n"
+    "      are skipped); under mpirun the points are shared among the ranks",
+    true};
+}  // namespace
+
+}  // namespace xbarsim

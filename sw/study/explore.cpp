@@ -1,0 +1,222 @@
+#include "sw/study/explore.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "sw/common/errors.h"
+
+namespace xbarsim {
+
+std::string to_string(Objective o) {
+  switch (o) {
+    case Objective::Accuracy: return "accuracy";
+    case Objective::Energy: return "energy";
+    case Objective::Area: return "area";
+    case Objective::Latency: return "latency";
+    case Objective::Power: return "power";
+  }
+  return "?";
+}
+
+namespace {
+
+bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
+
+std::string trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t"), b = s.find_last_not_of(" \t");
+  return a == std::string::npos ? "" : s.substr(a, b - a + 1);
+}
+
+}  // namespace
+
+ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
+  ExploreSpec s;
+  for (const auto& key : cfg.sweep_keys())
+    for (const char* fixed : {"explore.", "eval.", "data.", "preprocessing."})
+      if (starts_with(key, fixed))
+        throw InputError("configuration key '" + key +
+                         "' cannot be a list in an exploration: the model, the images, the data and the "
+                         "preprocessing are the same for every point (run one exploration per setting)");
+  s.model = cfg.get_string("explore.model");
+  s.dataset = cfg.get_string("explore.dataset");
+  s.combine = require_enum<ExploreSpec::Combine>(
+      cfg, "explore.combine", {{"product", ExploreSpec::Combine::Product}, {"zip", ExploreSpec::Combine::Zip}});
+  const std::string list = cfg.get_string("explore.objectives");
+  std::stringstream ss(list);
+  std::string name;
+  const std::vector<std::pair<std::string, Objective>> names{{"accuracy", Objective::Accuracy},
+                                                             {"energy", Objective::Energy},
+                                                             {"area", Objective::Area},
+                                                             {"latency", Objective::Latency},
+                                                             {"power", Objective::Power}};
+  while (std::getline(ss, name, ',')) {
+    name = trim(name);
+    bool found = false;
+    for (const auto& n : names)
+      if (n.first == name) {
+        for (Objective o : s.objectives)
+          if (o == n.second) throw InputError("configuration key 'explore.objectives': '" + name + "' appears twice");
+        s.objectives.push_back(n.second);
+        found = true;
+      }
+    if (!found)
+      throw InputError("configuration key 'explore.objectives': '" + name +
+                       "' is not one of: accuracy, energy, area, latency, power (comma-separated)");
+  }
+  if (s.objectives.size() < 2)
+    throw InputError("configuration key 'explore.objectives': '" + list +
+                     "' names fewer than two objectives (a front needs two or more)");
+  s.color_by = cfg.get_string("explore.color_by");
+  if (!s.color_by.empty()) {
+    bool swept = false;
+    for (const auto& k : cfg.sweep_keys()) swept = swept || k == s.color_by;
+    if (!swept)
+      throw InputError("configuration key 'explore.color_by': '" + s.color_by +
+                       "' is not a key given as a list in this space");
+  }
+  return s;
+}
+
+std::vector<SweepPoint> explore_points(const ConfigTree& cfg, ExploreSpec::Combine combine) {
+  if (combine == ExploreSpec::Combine::Product) return sweep_points(cfg);
+  const std::vector<std::string> keys = cfg.sweep_keys();
+  if (keys.empty()) return {SweepPoint{}};
+  const size_t n = cfg.list_items(keys[0]).size();
+  for (const auto& k : keys)
+    if (cfg.list_items(k).size() != n)
+      throw InputError("explore.combine = zip pairs the lists value by value, but '" + keys[0] + "' has " +
+                       std::to_string(n) + " values and '" + k + "' has " + std::to_string(cfg.list_items(k).size()));
+  if (n > static_cast<size_t>(cfg.get_int("limits.max_sweep_points")))
+    throw InputError("the space has " + std::to_string(n) + " points, more than limits.max_sweep_points = " +
+                     std::to_string(cfg.get_int("limits.max_sweep_points")));
+  std::vector<SweepPoint> out(n);
+  for (const auto& k : keys) {
+    const auto items = cfg.list_items(k);
+    for (size_t i = 0; i < n; ++i) out[i].emplace_back(k, items[i]);
+  }
+  return out;
+}
+
+std::string point_key(const ConfigTree& cfg) {
+  // FNV-1a, 64 bit, over "key=value\n" of every effective key that can change a result.
+  uint64_t h = 1469598103934665603ULL;
+  for (const auto& key : cfg.leaf_keys()) {
+    if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
+        key == "explore.combine" || starts_with(key, "limits."))
+      continue;
+    for (unsigned char c : key + "=" + cfg.get_string(key) + "\n") {
+      h ^= c;
+      h *= 1099511628211ULL;
+    }
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+double objective_cost(const nlohmann::json& row, Objective o) {
+  const char* field = nullptr;
+  switch (o) {
+    case Objective::Accuracy: field = "accuracy"; break;
+    case Objective::Energy: field = "energy_uj_per_image"; break;
+    case Objective::Area: field = "area_mm2"; break;
+    case Objective::Latency: field = "latency_us"; break;
+    case Objective::Power: field = "avg_power_mw"; break;
+  }
+  const auto it = row.find(field);
+  if (it == row.end() || !it->is_number()) return std::numeric_limits<double>::quiet_NaN();
+  const double v = it->get<double>();
+  return o == Objective::Accuracy ? -v : v;
+}
+
+std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs) {
+  const size_t n = costs.size();
+  auto valid = [&](size_t i) {
+    for (double c : costs[i])
+      if (std::isnan(c)) return false;
+    return true;
+  };
+  std::vector<bool> front(n, false);
+  for (size_t i = 0; i < n; ++i) {
+    if (!valid(i)) continue;
+    bool dominated = false;
+    for (size_t j = 0; j < n && !dominated; ++j) {
+      if (j == i || !valid(j)) continue;
+      bool no_worse = true, better = false;
+      for (size_t o = 0; o < costs[i].size(); ++o) {
+        no_worse = no_worse && costs[j][o] <= costs[i][o];
+        better = better || costs[j][o] < costs[i][o];
+      }
+      dominated = no_worse && better;
+    }
+    front[i] = !dominated;
+  }
+  return front;
+}
+
+void ResultJournal::repair() const {
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) return;
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  if (text.empty() || text.back() == '\n') return;
+  const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+  if (truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
+    throw InputError("cannot repair the results file '" + path_ + "': " + std::strerror(errno));
+  std::fprintf(stderr, "xbarsim explore: dropped an incomplete last line of %s (a point cut short)\n",
+               path_.c_str());
+}
+
+std::vector<nlohmann::json> ResultJournal::read(int* skipped) const {
+  std::vector<nlohmann::json> rows;
+  int bad = 0;
+  std::ifstream in(path_);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("key") || !j["key"].is_string()) {
+      ++bad;
+      continue;
+    }
+    rows.push_back(std::move(j));
+  }
+  if (skipped) *skipped = bad;
+  return rows;
+}
+
+void ResultJournal::append(const nlohmann::json& row) const {
+  const std::string line = row.dump() + "\n";
+  const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  if (fd < 0) throw InputError("cannot open the results file '" + path_ + "': " + std::strerror(errno));
+  struct flock lock {};
+  lock.l_type = F_WRLCK;
+  lock.l_whence = SEEK_SET;
+  while (fcntl(fd, F_SETLKW, &lock) < 0 && errno == EINTR) {
+  }
+  size_t done = 0;
+  bool ok = true;
+  while (done < line.size()) {
+    const ssize_t w = write(fd, line.data() + done, line.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) {
+      ok = false;
+      break;
+    }
+    done += static_cast<size_t>(w);
+  }
+  const int err = errno;
+  ok = ok && fsync(fd) == 0;
+  close(fd);  // releases the lock
+  if (!ok) throw InputError("cannot write the results file '" + path_ + "': " + std::strerror(err));
+}
+
+}  // namespace xbarsim
