@@ -12,6 +12,7 @@
 #include "sw/common/errors.h"
 #include "sw/common/ranks.h"
 #include "sw/common/seed.h"
+#include "sw/report/html_report.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
 
@@ -268,6 +269,18 @@ int cmd_explore(int argc, char** argv) {
   j["points"] = rows;
   j["front"] = front_labels;
   if (args.has("--json")) write_json(args.get("--json"), j);
+  if (args.has("--report")) {
+    ReportInput rep;
+    rep.command = "explore";
+    rep.title = "xbarsim explore: " + model.path + " on " + std::to_string(data.test.count()) + " " + data.test.name +
+                " images, " + std::to_string(rows.size()) + " design points";
+    rep.config_yaml = base.dump();
+    rep.swept_keys = base.sweep_keys();
+    rep.color_key = color;
+    for (Objective o : spec.objectives) rep.objectives.push_back(to_string(o));
+    rep.rows = rows;
+    write_html_report(args.get("--report"), rep);
+  }
   return 0;
 }
 

@@ -39,8 +39,8 @@ void print_summary(const nlohmann::json& j) {
 
 int cmd_simulate(int argc, char** argv) {
   const CliArgs args(argc, argv, 0,
-                     {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images"});
-  check_outputs(args, {"--json", "--csv", "--vcd"});
+                     {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images", "--report"});
+  check_outputs(args, {"--json", "--csv", "--vcd", "--report"});
   const std::string vcd = args.get("--vcd");
   if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
     throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
@@ -56,6 +56,7 @@ int cmd_simulate(int argc, char** argv) {
   SweepOutputs out(args, points.front(),
                    "latency_us,makespan_us,throughput_images_per_s,energy_uj_per_image,avg_power_mw,peak_power_mw,"
                    "area_mm2");
+  out.set_report("simulate", base);
   if (points.size() == 1) {
     const nlohmann::json j = simulate_once(args, base, true);
     print_summary(j);
@@ -99,6 +100,7 @@ const CommandRegistrar kRegister{
     "simulate", cmd_simulate,
     "simulate (--model M.onnx | --preset resnet20) [--dataset cifar10 --images N] [--timing ideal|detailed]\n"
     "         [--vcd out.vcd [--vcd-images K]] [--config F] [--set k=v]... [--json F] [--csv F]\n"
+    "         [--report F.html]\n"
     "      SystemC/TLM-2.0 accelerator: latency, makespan, throughput, stalls, energy, power, area, accuracy;\n"
     "      list values sweep (one process per point)"};
 }  // namespace

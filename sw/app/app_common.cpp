@@ -10,6 +10,7 @@
 
 #include "sw/common/errors.h"
 #include "sw/common/ranks.h"
+#include "sw/report/html_report.h"
 
 namespace xbarsim {
 
@@ -64,9 +65,18 @@ std::ostream& SweepCsv::row(int run, const std::vector<std::pair<std::string, st
 
 SweepOutputs::SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
                            const std::string& csv_columns)
-    : json_path_(args.get("--json")), csv_(args.get("--csv"), first_point, csv_columns) {}
+    : json_path_(args.get("--json")), report_path_(args.get("--report")),
+      csv_(args.get("--csv"), first_point, csv_columns) {}
+
+void SweepOutputs::set_report(const std::string& command, const ConfigTree& base) {
+  report_.command = command;
+  report_.title = "xbarsim " + command;
+  report_.config_yaml = base.dump();
+  report_.swept_keys = base.sweep_keys();
+}
 
 void SweepOutputs::add(nlohmann::json j, const std::vector<std::pair<std::string, std::string>>& point) {
+  if (!report_path_.empty()) report_.rows.push_back(report_row(j, point));
   for (const auto& kv : point) j["sweep"][kv.first] = kv.second;
   all_.push_back(std::move(j));
 }
@@ -74,6 +84,40 @@ void SweepOutputs::add(nlohmann::json j, const std::vector<std::pair<std::string
 void SweepOutputs::finish() {
   csv_.commit();
   if (!json_path_.empty()) write_json(json_path_, all_.size() == 1 ? all_[0] : all_);
+  if (!report_path_.empty()) write_html_report(report_path_, report_);
+}
+
+nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point) {
+  nlohmann::json row;
+  row["label"] = sweep_label(point);
+  row["point"] = nlohmann::json::object();
+  for (const auto& kv : point) row["point"][kv.first] = kv.second;
+  if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
+  for (const char* k : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
+                        "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "time_ns_per_image",
+                        "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits"})
+    if (j.contains(k) && !row.contains(k)) row[k] = j[k];
+  if (j.contains("layers") && j["layers"].is_array()) {
+    row["layers"] = nlohmann::json::array();
+    double mean = 0, worst = 0;
+    bool errors = false;
+    for (const auto& l : j["layers"]) {
+      nlohmann::json L = {{"name", l.value("name", std::string())}};
+      for (const char* k : {"mean_relative_error", "worst_relative_error", "busy_us", "stall_us"})
+        if (l.contains(k)) L[k] = l[k];
+      if (l.contains("mean_relative_error")) {
+        errors = true;
+        mean += l["mean_relative_error"].get<double>() / j["layers"].size();
+        worst = std::max(worst, l["worst_relative_error"].get<double>());
+      }
+      row["layers"].push_back(L);
+    }
+    if (errors && !row.contains("mean_relative_error")) {
+      row["mean_relative_error"] = mean;
+      row["worst_relative_error"] = worst;
+    }
+  }
+  return row;
 }
 
 namespace {

@@ -10,6 +10,7 @@
 #include "sw/common/cli_args.h"
 #include "sw/common/config.h"
 #include "sw/common/output_file.h"
+#include "sw/report/html_report.h"
 #include "sw/study/sweep.h"
 
 namespace xbarsim {
@@ -43,19 +44,26 @@ class SweepCsv {
   std::unique_ptr<OutputFile> out_;
 };
 
+/// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
+/// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.
+nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point);
+
 /// What a sweeping command writes: one JSON object per point (with its "sweep" values;
-/// the object alone for a single point, a list otherwise) and its CSV rows.
+/// the object alone for a single point, a list otherwise), its CSV rows and the HTML report.
 class SweepOutputs {
  public:
   SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
                const std::string& csv_columns);
+  /// Names the command and its configuration for --report.
+  void set_report(const std::string& command, const ConfigTree& base);
   SweepCsv& csv() { return csv_; }
   void add(nlohmann::json j, const std::vector<std::pair<std::string, std::string>>& point);
-  /// Completes the CSV and writes the JSON (--json).
+  /// Completes the CSV and writes the JSON (--json) and the report (--report).
   void finish();
 
  private:
-  std::string json_path_;
+  std::string json_path_, report_path_;
+  ReportInput report_;
   SweepCsv csv_;
   nlohmann::json all_ = nlohmann::json::array();
 };

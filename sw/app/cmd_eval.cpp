@@ -23,8 +23,8 @@ void print_layers(const EvalResult& r) {
 }
 
 int cmd_eval(int argc, char** argv) {
-  const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset"});
-  check_outputs(args, {"--json", "--csv"});
+  const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset", "--report"});
+  check_outputs(args, {"--json", "--csv", "--report"});
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
@@ -46,6 +46,7 @@ int cmd_eval(int argc, char** argv) {
   if (root)
     out = std::make_unique<SweepOutputs>(
         args, points.front(), "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
+  if (out) out->set_report("eval", base);
   const Table table({{"run", -44},
                      {"images", 7},
                      {"software_%", 10, 2},
@@ -93,6 +94,7 @@ namespace {
 const CommandRegistrar kRegister{
     "eval", cmd_eval,
     "eval --model M.onnx [--dataset cifar10|mnist] [--images N] [--offset K] [--config F] [--set k=v]...\n"
+    "     [--json F] [--csv F] [--report F.html]\n"
     "      accuracy on crossbars vs software, per-layer error propagation; list values sweep;\n"
     "      under mpirun the images are shared among the ranks",
     true};

@@ -19,8 +19,8 @@ struct PointSpec {
 };
 
 int cmd_xbar_study(int argc, char** argv) {
-  const CliArgs args(argc, argv, 0, {});
-  check_outputs(args, {"--json", "--csv"});
+  const CliArgs args(argc, argv, 0, {"--report"});
+  check_outputs(args, {"--json", "--csv", "--report"});
   const ConfigTree base = load_config(args);
   const auto points = sweep_points(base);
   const std::vector<PointSpec> specs = check_sweep<PointSpec>(base, points, [](const ConfigTree& cfg) {
@@ -43,6 +43,7 @@ int cmd_xbar_study(int argc, char** argv) {
   std::unique_ptr<SweepOutputs> out;
   if (rank == 0) {
     out = std::make_unique<SweepOutputs>(args, points.front(), "vector,column,ideal,actual");
+    out->set_report("xbar-study", base);
     table.print_header(stdout);
   }
   auto emit = [&](size_t run, const nlohmann::json& done) {
@@ -106,6 +107,7 @@ namespace {
 const CommandRegistrar kRegister{
     "xbar-study", cmd_xbar_study,
     "xbar-study [--config F] [--set study.rows=576 --set study.method=[none,conversion]]... [--json F] [--csv F]\n"
+    "           [--report F.html]\n"
     "      single-crossbar error study (mapping, conversion, calibration, converters, noise); list values sweep;\n"
     "      under mpirun the sweep points are shared among the ranks",
     true};

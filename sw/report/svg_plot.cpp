@@ -1,0 +1,191 @@
+#include "sw/report/svg_plot.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace xbarsim {
+
+std::string html_escape(const std::string& s) {
+  std::string o;
+  o.reserve(s.size());
+  for (char c : s) switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      case '\'': o += "&#39;"; break;
+      default: o += c;
+    }
+  return o;
+}
+
+std::string fmt_num(double v) {
+  if (std::isnan(v)) return "n/a";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
+const std::string& palette(size_t i) {
+  static const std::vector<std::string> p{"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#17becf",
+                                          "#e377c2", "#8c564b", "#bcbd22", "#3b3eac", "#e6550d", "#31a354"};
+  return p[i % p.size()];
+}
+
+namespace {
+
+/// About `n` round tick values covering [lo, hi].
+std::vector<double> nice_ticks(double lo, double hi, int n) {
+  if (!(hi > lo)) return {lo};
+  const double raw = (hi - lo) / n, mag = std::pow(10.0, std::floor(std::log10(raw)));
+  const double step = mag * (raw / mag < 1.5 ? 1 : raw / mag < 3 ? 2 : raw / mag < 7 ? 5 : 10);
+  std::vector<double> t;
+  for (double v = std::ceil(lo / step - 1e-9) * step; v <= hi + 1e-9 * step; v += step)
+    t.push_back(std::abs(v) < step * 1e-9 ? 0.0 : v);
+  return t;
+}
+
+std::string num_attr(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f", v);
+  return b;
+}
+
+}  // namespace
+
+SvgPlot::SvgPlot(std::string id, int width, int height, PlotAxis x, PlotAxis y, int margin_left, int margin_bottom,
+                 int legend_width)
+    : id_(std::move(id)), w_(width), h_(height), ml_(margin_left), mb_(margin_bottom), lw_(legend_width),
+      x_(std::move(x)), y_(std::move(y)) {
+  for (PlotAxis* a : {&x_, &y_}) {
+    if (!a->categories.empty()) {
+      a->lo = -0.5;
+      a->hi = a->categories.size() - 0.5;
+      a->log = false;
+    } else if (a->log) {
+      a->lo = std::max(a->lo, 1e-300);
+      a->hi = std::max(a->hi, a->lo * 1.0001);
+    } else if (!(a->hi > a->lo)) {
+      const double pad = a->lo == 0 ? 1 : std::abs(a->lo) * 0.1;
+      a->lo -= pad;
+      a->hi += pad;
+    }
+  }
+}
+
+double SvgPlot::px(double x) const {
+  const double l = ml_, r = w_ - 20 - lw_;
+  const double f = x_.log ? (std::log(x) - std::log(x_.lo)) / (std::log(x_.hi) - std::log(x_.lo))
+                          : (x - x_.lo) / (x_.hi - x_.lo);
+  return l + f * (r - l);
+}
+
+double SvgPlot::py(double y) const {
+  const double t = 20, b = h_ - mb_;
+  const double f = y_.log ? (std::log(y) - std::log(y_.lo)) / (std::log(y_.hi) - std::log(y_.lo))
+                          : (y - y_.lo) / (y_.hi - y_.lo);
+  return b - f * (b - t);
+}
+
+void SvgPlot::circle(double x, double y, double r, const std::string& fill, const std::string& title, bool outline) {
+  marks_ += "<circle cx=\"" + num_attr(px(x)) + "\" cy=\"" + num_attr(py(y)) + "\" r=\"" + fmt_num(r) + "\" fill=\"" +
+            fill + "\"" + (outline ? " stroke=\"#111\" stroke-width=\"2\"" : " fill-opacity=\"0.85\"") + "><title>" +
+            html_escape(title) + "</title></circle>\n";
+}
+
+void SvgPlot::line(const std::vector<std::pair<double, double>>& pts, const std::string& color, bool dashed,
+                   double width, const std::string& title) {
+  if (pts.empty()) return;
+  std::string p;
+  for (const auto& xy : pts) p += num_attr(px(xy.first)) + "," + num_attr(py(xy.second)) + " ";
+  marks_ += "<polyline fill=\"none\" stroke=\"" + color + "\" stroke-width=\"" + fmt_num(width) + "\"" +
+            (dashed ? " stroke-dasharray=\"6 4\"" : "") + " points=\"" + p + "\">" +
+            (title.empty() ? "" : "<title>" + html_escape(title) + "</title>") + "</polyline>\n";
+}
+
+void SvgPlot::rect(double x0, double y0, double x1, double y1, const std::string& fill, const std::string& title) {
+  const double a = std::min(px(x0), px(x1)), b = std::max(px(x0), px(x1));
+  const double c = std::min(py(y0), py(y1)), d = std::max(py(y0), py(y1));
+  marks_ += "<rect x=\"" + num_attr(a) + "\" y=\"" + num_attr(c) + "\" width=\"" + num_attr(b - a) + "\" height=\"" +
+            num_attr(d - c) + "\" fill=\"" + fill + "\"><title>" + html_escape(title) + "</title></rect>\n";
+}
+
+void SvgPlot::label(double x, double y, const std::string& text, int dx, int dy) {
+  labels_ += "<text x=\"" + num_attr(px(x) + dx) + "\" y=\"" + num_attr(py(y) + dy) +
+             "\" font-size=\"11\" fill=\"#222\">" + html_escape(text) + "</text>\n";
+}
+
+void SvgPlot::legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& title) {
+  const int x = w_ - lw_ + 4;
+  int y = 30;
+  if (!title.empty()) {
+    legend_ += "<text x=\"" + std::to_string(x) + "\" y=\"" + std::to_string(y) +
+               "\" font-size=\"12\" font-weight=\"bold\">" + html_escape(title) + "</text>\n";
+    y += 18;
+  }
+  for (const auto& it : items) {
+    legend_ += "<rect x=\"" + std::to_string(x) + "\" y=\"" + std::to_string(y - 10) +
+               "\" width=\"12\" height=\"12\" fill=\"" + it.second + "\"/><text x=\"" + std::to_string(x + 18) +
+               "\" y=\"" + std::to_string(y) + "\" font-size=\"12\">" + html_escape(it.first) + "</text>\n";
+    y += 18;
+  }
+}
+
+std::string SvgPlot::axis_svg() const {
+  std::string s;
+  const double l = ml_, r = w_ - 20 - lw_, t = 20, b = h_ - mb_;
+  s += "<rect x=\"" + num_attr(l) + "\" y=\"" + num_attr(t) + "\" width=\"" + num_attr(r - l) + "\" height=\"" +
+       num_attr(b - t) + "\" fill=\"none\" stroke=\"#444\"/>\n";
+  auto ticks = [](const PlotAxis& a) {
+    std::vector<std::pair<double, std::string>> out = a.ticks;
+    if (!out.empty()) return out;
+    if (!a.categories.empty()) {
+      for (size_t i = 0; i < a.categories.size(); ++i) out.emplace_back(static_cast<double>(i), a.categories[i]);
+    } else if (a.log) {
+      for (double d = std::floor(std::log10(a.lo)); d <= std::ceil(std::log10(a.hi)); ++d)
+        for (double m : {1.0, 2.0, 5.0}) {
+          const double v = m * std::pow(10.0, d);
+          if (v >= a.lo * 0.999 && v <= a.hi * 1.001) out.emplace_back(v, fmt_num(v));
+        }
+    } else {
+      for (double v : nice_ticks(a.lo, a.hi, 6)) out.emplace_back(v, fmt_num(v));
+    }
+    return out;
+  };
+  for (const auto& tk : ticks(x_)) {
+    const double x = px(tk.first);
+    if (x < l - 0.5 || x > r + 0.5) continue;
+    s += "<line x1=\"" + num_attr(x) + "\" y1=\"" + num_attr(t) + "\" x2=\"" + num_attr(x) + "\" y2=\"" + num_attr(b) +
+         "\" stroke=\"#e4e4e4\"/>\n";
+    if (x_.rotate_labels)
+      s += "<text font-size=\"11\" text-anchor=\"end\" transform=\"translate(" + num_attr(x + 4) + "," +
+           num_attr(b + 12) + ") rotate(" + std::to_string(x_.rotate_labels) + ")\">" + html_escape(tk.second) +
+           "</text>\n";
+    else
+      s += "<text x=\"" + num_attr(x) + "\" y=\"" + num_attr(b + 16) + "\" font-size=\"11\" text-anchor=\"middle\">" +
+           html_escape(tk.second) + "</text>\n";
+  }
+  for (const auto& tk : ticks(y_)) {
+    const double y = py(tk.first);
+    if (y < t - 0.5 || y > b + 0.5) continue;
+    s += "<line x1=\"" + num_attr(l) + "\" y1=\"" + num_attr(y) + "\" x2=\"" + num_attr(r) + "\" y2=\"" + num_attr(y) +
+         "\" stroke=\"#e4e4e4\"/>\n";
+    s += "<text x=\"" + num_attr(l - 6) + "\" y=\"" + num_attr(y + 4) + "\" font-size=\"11\" text-anchor=\"end\">" +
+         html_escape(tk.second) + "</text>\n";
+  }
+  s += "<text x=\"" + num_attr((l + r) / 2) + "\" y=\"" + std::to_string(h_ - 8) +
+       "\" font-size=\"13\" text-anchor=\"middle\">" + html_escape(x_.label) + "</text>\n";
+  s += "<text font-size=\"13\" text-anchor=\"middle\" transform=\"translate(16," + num_attr((t + b) / 2) +
+       ") rotate(-90)\">" + html_escape(y_.label) + "</text>\n";
+  return s;
+}
+
+std::string SvgPlot::str() const {
+  return "<svg class=\"plot\" id=\"" + html_escape(id_) + "\" width=\"" +
+         std::to_string(w_) + "\" height=\"" + std::to_string(h_) + "\" viewBox=\"0 0 " + std::to_string(w_) + " " +
+         std::to_string(h_) + "\" font-family=\"sans-serif\">\n" + axis_svg() + "<g class=\"marks\">\n" + marks_ +
+         "</g>\n" + labels_ + legend_ + "</svg>\n";
+}
+
+}  // namespace xbarsim

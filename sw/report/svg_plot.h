@@ -1,0 +1,52 @@
+#pragma once
+/// Minimal SVG plotting for the HTML report: one plot = axes (linear, log or categorical)
+/// with nice ticks, data marks inside <g class="marks">, and a legend. Output is deterministic.
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace xbarsim {
+
+/// Escapes &, <, >, " and ' for HTML text and attributes.
+std::string html_escape(const std::string& s);
+/// A compact number (%.4g).
+std::string fmt_num(double v);
+/// Saturated categorical colours (cycled).
+const std::string& palette(size_t i);
+
+struct PlotAxis {
+  PlotAxis(std::string label_ = "", double lo_ = 0, double hi_ = 1, bool log_ = false)
+      : label(std::move(label_)), lo(lo_), hi(hi_), log(log_) {}
+  std::string label;
+  double lo = 0, hi = 1;
+  bool log = false;
+  std::vector<std::string> categories;  ///< non-empty: categorical axis, value i at category i
+  /// Extra ticks with text (e.g. "none" beside the numbers); replaces the automatic ticks when set.
+  std::vector<std::pair<double, std::string>> ticks;
+  int rotate_labels = 0;  ///< degrees (e.g. -40 for long category names)
+};
+
+class SvgPlot {
+ public:
+  /// `margin_left` / `margin_bottom` make room for long tick labels; `legend_width` on the right.
+  SvgPlot(std::string id, int width, int height, PlotAxis x, PlotAxis y, int margin_left = 70,
+          int margin_bottom = 50, int legend_width = 0);
+  double px(double x) const;
+  double py(double y) const;
+  void circle(double x, double y, double r, const std::string& fill, const std::string& title, bool outline = false);
+  void line(const std::vector<std::pair<double, double>>& pts, const std::string& color, bool dashed = false,
+            double width = 2, const std::string& title = "");
+  void rect(double x0, double y0, double x1, double y1, const std::string& fill, const std::string& title);
+  void label(double x, double y, const std::string& text, int dx = 6, int dy = -6);
+  void legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& title = "");
+  std::string str() const;
+
+ private:
+  std::string axis_svg() const;
+  std::string id_;
+  int w_, h_, ml_, mb_, lw_;
+  PlotAxis x_, y_;
+  std::string marks_, labels_, legend_;
+};
+
+}  // namespace xbarsim
