@@ -1,0 +1,108 @@
+// Design-space exploration pieces against hand-made cases: the Pareto front, the points of a
+// space, a point's identity, the resumable journal and the explore.* checks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+
+#include "sw/common/errors.h"
+#include "sw/study/explore.h"
+
+using namespace xbarsim;
+
+namespace {
+const double NaN = std::nan("");
+ConfigTree cfg_with(const std::vector<std::string>& sets) { return ConfigTree::load("", sets); }
+}  // namespace
+
+TEST(Pareto, HandMadeTable) {
+  // (energy, area) to minimise. Row 1 dominates rows 0 and 3 (better in both), row 2 and row 4
+  // trade off against it, row 5 equals row 2 (both stay), row 6 failed (NaN) and would
+  // otherwise dominate everything.
+  const std::vector<std::vector<double>> costs{{5, 5}, {2, 3}, {1, 6}, {2, 4}, {4, 1}, {1, 6}, {NaN, 0}};
+  const std::vector<bool> f = pareto_front(costs);
+  const std::vector<bool> expected{false, true, true, false, true, true, false};
+  EXPECT_EQ(f, expected);
+}
+
+TEST(Pareto, AccuracyIsMaximised) {
+  const nlohmann::json a = {{"accuracy", 0.9}, {"energy_uj_per_image", 2.0}};
+  const nlohmann::json b = {{"accuracy", 0.8}, {"energy_uj_per_image", 2.0}};
+  const nlohmann::json failed = {{"status", "failed"}};
+  const std::vector<Objective> obj{Objective::Accuracy, Objective::Energy};
+  std::vector<std::vector<double>> costs;
+  for (const auto* r : {&a, &b, &failed}) costs.push_back({objective_cost(*r, obj[0]), objective_cost(*r, obj[1])});
+  EXPECT_EQ(costs[0][0], -0.9);
+  EXPECT_TRUE(std::isnan(costs[2][1]));
+  EXPECT_EQ(pareto_front(costs), (std::vector<bool>{true, false, false}));
+}
+
+TEST(ExplorePoints, ProductAndZip) {
+  const ConfigTree c = cfg_with({"converters.adc_bits=[4,6,8]", "mapping.max_rows=[64,128,256]"});
+  EXPECT_EQ(explore_points(c, ExploreSpec::Combine::Product).size(), 9u);
+  const auto zip = explore_points(c, ExploreSpec::Combine::Zip);
+  ASSERT_EQ(zip.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    ASSERT_EQ(zip[k].size(), 2u);
+    std::map<std::string, std::string> v(zip[k].begin(), zip[k].end());
+    EXPECT_EQ(v["converters.adc_bits"], std::vector<std::string>({"4", "6", "8"})[k]);
+    EXPECT_EQ(v["mapping.max_rows"], std::vector<std::string>({"64", "128", "256"})[k]);
+  }
+  const ConfigTree bad = cfg_with({"converters.adc_bits=[4,6]", "mapping.max_rows=[64,128,256]"});
+  try {
+    explore_points(bad, ExploreSpec::Combine::Zip);
+    FAIL() << "unequal lists accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'converters.adc_bits' has 2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ExplorePoints, KeyIgnoresThreadsButNotDesign) {
+  const std::string a = point_key(cfg_with({"converters.adc_bits=6"}));
+  EXPECT_EQ(a, point_key(cfg_with({"converters.adc_bits=6", "solver.threads=3"})));
+  EXPECT_EQ(a, point_key(cfg_with({"converters.adc_bits=6", "explore.objectives=accuracy,area"})));
+  EXPECT_NE(a, point_key(cfg_with({"converters.adc_bits=7"})));
+  EXPECT_NE(a, point_key(cfg_with({"converters.adc_bits=6", "eval.images=10"})));
+}
+
+TEST(ExploreSpec, ChecksNameTheKey) {
+  auto message = [](const std::vector<std::string>& sets) {
+    try {
+      parse_explore_spec(cfg_with(sets));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message({"explore.objectives=accuracy,speed"}).find("'speed'"), std::string::npos);
+  EXPECT_NE(message({"explore.objectives=accuracy"}).find("fewer than two"), std::string::npos);
+  EXPECT_NE(message({"explore.color_by=converters.adc_bits"}).find("explore.color_by"), std::string::npos);
+  EXPECT_NE(message({"eval.images=[10,20]"}).find("eval.images"), std::string::npos);
+  EXPECT_EQ(message({"converters.adc_bits=[4,8]", "explore.color_by=converters.adc_bits"}), "");
+  const ExploreSpec s = parse_explore_spec(cfg_with({"explore.objectives= energy , accuracy"}));
+  EXPECT_EQ(s.objectives, (std::vector<Objective>{Objective::Energy, Objective::Accuracy}));
+}
+
+TEST(ResultJournal, AppendsRepairsAndSkipsBadLines) {
+  const std::string path = ::testing::TempDir() + "xbarsim_journal_test.jsonl";
+  std::remove(path.c_str());
+  const ResultJournal j(path);
+  EXPECT_TRUE(j.read().empty());  // no file yet
+  j.append({{"key", "a"}, {"accuracy", 0.5}});
+  j.append({{"key", "b"}, {"accuracy", 0.25}});
+  {
+    std::ofstream(path, std::ios::app) << "not json\n{\"key\": \"c\", \"accur";  // a garbage line, then a cut-off one
+  }
+  j.repair();
+  int skipped = 0;
+  const auto rows = j.read(&skipped);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[1]["key"], "b");
+  EXPECT_EQ(rows[1]["accuracy"], 0.25);
+  EXPECT_EQ(skipped, 1);
+  j.append({{"key", "c"}});  // lands on its own line after the repair
+  EXPECT_EQ(j.read().size(), 3u);
+  std::remove(path.c_str());
+}
