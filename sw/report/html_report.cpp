@@ -19,7 +19,16 @@ double num(const json& row, const char* key) {
   const auto it = row.find(key);
   return it != row.end() && it->is_number() ? it->get<double>() : kNaN;
 }
-bool ok(const json& row) { return row.value("status", std::string("ok")) == "ok"; }
+/// Whether a row is usable: an object without a status other than "ok" (odd types are skipped).
+bool ok(const json& row) {
+  if (!row.is_object()) return false;
+  const auto it = row.find("status");
+  return it == row.end() || (it->is_string() && *it == "ok");
+}
+bool on_front(const json& row) {
+  const auto it = row.find("front");
+  return it != row.end() && it->is_boolean() && it->get<bool>();
+}
 std::string text(const json& row, const char* key) {
   const auto it = row.find(key);
   if (it == row.end()) return "";
@@ -59,7 +68,7 @@ std::string tooltip(const json& r) {
   for (const auto& f : {std::make_pair("energy_uj_per_image", "energy uJ/image"), std::make_pair("area_mm2", "area mm2"),
                         std::make_pair("latency_us", "latency us"), std::make_pair("avg_power_mw", "power mW")})
     if (!std::isnan(num(r, f.first))) t += "\n" + std::string(f.second) + " " + fmt_num(num(r, f.first));
-  if (r.value("front", false)) t += "\non the Pareto front";
+  if (on_front(r)) t += "\non the Pareto front";
   return t;
 }
 
@@ -122,7 +131,7 @@ std::string pareto_plot(const json& rows, const std::string& color_key) {
   SvgPlot p("plot-pareto", 1100, 460, xa, ya, 70, 50, col.legend.empty() ? 0 : 190);
   std::vector<std::pair<double, double>> front;
   for (const json* r : pts) {
-    const bool f = r->value("front", false);
+    const bool f = on_front(*r);
     const double x = num(*r, "energy_uj_per_image"), y = 100 * num(*r, m.key);
     p.circle(x, y, f ? 8 : 5.5, col.of(*r, color_key), tooltip(*r), f);
     if (f) front.emplace_back(x, y);
@@ -131,7 +140,7 @@ std::string pareto_plot(const json& rows, const std::string& color_key) {
   if (front.size() > 1) p.line(front, "#555", true, 1.5, "Pareto front (projection on energy and " + m.name + ")");
   size_t labelled = 0;
   for (const json* r : pts)
-    if (r->value("front", false) && labelled++ < 12)
+    if (on_front(*r) && labelled++ < 12)
       p.label(num(*r, "energy_uj_per_image"), 100 * num(*r, m.key), short_label(text(*r, "label"), 40));
   if (!col.legend.empty()) p.legend(col.legend, short_label(color_key, 24));
   return p.str();
@@ -186,7 +195,7 @@ std::string bits_plot(const json& rows, const char* key, const std::string& id, 
 std::vector<const json*> selected(const json& rows) {
   std::vector<const json*> s;
   for (const auto& r : rows)
-    if (ok(r) && r.value("front", false)) s.push_back(&r);
+    if (ok(r) && on_front(r)) s.push_back(&r);
   if (s.empty())
     for (const auto& r : rows)
       if (ok(r)) s.push_back(&r);
@@ -332,7 +341,7 @@ std::string rows_table(const json& rows) {
          html_escape(ok(r) ? std::string("ok") : "failed: " + text(r, "reason")) + "</td>" + cell(num(r, "accuracy"), 100) +
          cell(num(r, "mean_relative_error"), 100) + cell(num(r, "worst_relative_error"), 100) +
          cell(num(r, "energy_uj_per_image")) + cell(num(r, "area_mm2")) + cell(num(r, "latency_us")) +
-         cell(num(r, "avg_power_mw")) + "<td>" + (r.value("front", false) ? "&#9733;" : "") + "</td></tr>\n";
+         cell(num(r, "avg_power_mw")) + "<td>" + (on_front(r) ? "&#9733;" : "") + "</td></tr>\n";
   }
   return s + "</table>\n";
 }
@@ -346,7 +355,7 @@ std::string render_html_report(const ReportInput& in) {
   int n_ok = 0, n_failed = 0, n_front = 0;
   for (const auto& r : rows) {
     ok(r) ? ++n_ok : ++n_failed;
-    n_front += r.is_object() && r.value("front", false);
+    n_front += on_front(r);
   }
   std::string objectives;
   for (const auto& o : in.objectives) objectives += (objectives.empty() ? "" : ", ") + o;
