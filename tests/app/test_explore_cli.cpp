@@ -1,0 +1,161 @@
+// xbarsim explore end to end on LeNet/MNIST (skipped without the shared data): rows, a
+// failing point, the report; a run killed mid-way resumes with only the missing points; and
+// mpirun -n 2 gives the same JSON as one rank (skipped without mpirun or an MPI build).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "cli_test_util.h"
+
+using xbarsim_test::run_xbarsim;
+
+namespace {
+
+bool have_data() {
+  struct stat st;
+  const char* env = std::getenv("XBARSIM_DATA_DIR");
+  return stat(env ? env : "../shared/data", &st) == 0 ||
+         stat((std::string(XBARSIM_SOURCE_DIR) + "/../shared/data").c_str(), &st) == 0;
+}
+
+std::string tmp(const std::string& name) { return ::testing::TempDir() + "xbarsim_explore_" + name; }
+
+/// A 6-point LeNet space: 2 max_rows x 3 ADC widths, one of which cannot be scheduled.
+std::string write_space(const std::string& name, int images) {
+  const std::string path = tmp(name + ".yaml");
+  std::ofstream(path) << "explore:\n  model: lenet_mnist\n  color_by: converters.adc_bits\n"
+                         "mapping:\n  max_rows: [64, 128]\nconverters:\n  adc_bits: [4, 8, none]\n"
+                         "eval:\n  images: "
+                      << images << "\n  calibration_images: 20\n  calibration_samples: 256\ncalibration:\n  samples: 64\n"
+                      << "solver:\n  threads: 1\n";
+  return path;
+}
+
+int lines(const std::string& path) {
+  std::ifstream in(path);
+  int n = 0;
+  std::string l;
+  while (std::getline(in, l)) n += !l.empty();
+  return n;
+}
+
+nlohmann::json without_timing(nlohmann::json j) {
+  for (auto& r : j["points"])
+    for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s"}) r.erase(k);
+  return j;
+}
+
+}  // namespace
+
+TEST(ExploreCommand, RowsFrontFailureAndReport) {
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string space = write_space("rows", 60), out = tmp("rows.jsonl"), json = tmp("rows.json"),
+                    csv = tmp("rows.csv"), html = tmp("rows.html");
+  std::remove(out.c_str());
+  // One more dimension whose second value cannot be scheduled: those points are rows with a reason.
+  const auto r = run_xbarsim("explore --config " + space + " --set \"platform.buffer_bytes=[auto,1]\" --out " + out +
+                             " --json " + json + " --csv " + csv + " --report " + html);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream in(json);
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["points"].size(), 12u);
+  int failed = 0, front = 0;
+  for (const auto& p : j["points"]) {
+    if (p["status"] == "failed") {
+      ++failed;
+      EXPECT_NE(p["reason"].get<std::string>().find("buffer_bytes"), std::string::npos) << p;
+      EXPECT_EQ(p["point"]["platform.buffer_bytes"], "1");
+      EXPECT_FALSE(p["front"].get<bool>());
+    } else {
+      EXPECT_GT(p["accuracy"].get<double>(), 0.9) << p["label"];
+      EXPECT_GT(p["energy_uj_per_image"].get<double>(), 0) << p["label"];
+      EXPECT_EQ(p["layers"].size(), 4u);
+      front += p["front"].get<bool>();
+    }
+  }
+  EXPECT_EQ(failed, 6);
+  EXPECT_GE(front, 1);
+  EXPECT_EQ(lines(csv), 13);
+  std::ifstream h(html);
+  const std::string page((std::istreambuf_iterator<char>(h)), {});
+  for (const char* id : {"plot-pareto", "plot-bits", "plot-layers", "plot-power", "plot-area", "plot-timing"})
+    EXPECT_NE(page.find(std::string("id=\"") + id + "\""), std::string::npos) << id;
+}
+
+TEST(ExploreCommand, KilledRunResumesWithOnlyTheMissingPoints) {
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string space = write_space("kill", 400), out = tmp("kill.jsonl"), json = tmp("kill.json");
+  std::remove(out.c_str());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    freopen("/dev/null", "w", stdout);
+    freopen("/dev/null", "w", stderr);
+    execl(XBARSIM_BINARY, XBARSIM_BINARY, "explore", "--config", space.c_str(), "--out", out.c_str(), nullptr);
+    _exit(127);
+  }
+  // Kill it (SIGKILL: no cleanup) as soon as the first points are in the journal.
+  const auto t0 = std::chrono::steady_clock::now();
+  while (lines(out) < 2 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(120))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(pid, SIGKILL);
+  int st = 0;
+  waitpid(pid, &st, 0);
+  const int finished = lines(out);
+  ASSERT_GE(finished, 2) << "no point finished in 120 s";
+  ASSERT_LT(finished, 6) << "the run ended before it could be killed";
+  // Simulate a kill in the middle of a write too: a cut-off last line.
+  std::ofstream(out, std::ios::app) << "{\"key\":\"00";
+  const auto r = run_xbarsim("explore --config " + space + " --out " + out + " --json " + json);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("6 points, " + std::to_string(finished) + " already in"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(std::to_string(6 - finished) + " to run"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dropped an incomplete last line"), std::string::npos) << r.out;
+  EXPECT_EQ(lines(out), 6);  // every point once
+  // A rerun has nothing left to do and gives the same rows.
+  const std::string json2 = tmp("kill2.json");
+  const auto again = run_xbarsim("explore --config " + space + " --out " + out + " --json " + json2);
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find("0 to run"), std::string::npos) << again.out;
+  std::ifstream a(json), b(json2);
+  EXPECT_EQ(nlohmann::json::parse(a), nlohmann::json::parse(b));
+}
+
+TEST(ExploreCommand, TwoMpiRanksEqualOne) {
+  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not found; MPI test skipped";
+  const std::string space = write_space("mpi", 100);
+  const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 2 --oversubscribe ";
+  for (const char* cmd : {"explore", "eval"}) {
+    const std::string one = tmp(std::string(cmd) + "_1.json"), two = tmp(std::string(cmd) + "_2.json");
+    const std::string out1 = tmp(std::string(cmd) + "_1.jsonl"), out2 = tmp(std::string(cmd) + "_2.jsonl");
+    std::remove(out1.c_str());
+    std::remove(out2.c_str());
+    const std::string args = std::string(cmd) == "explore"
+                                 ? "explore --config " + space + " --set \"converters.adc_bits=[4,8]\" --out "
+                                 : "eval --model lenet_mnist --images 100 --set \"converters.adc_bits=[4,8]\" --csv ";
+    const auto r1 = run_xbarsim(args + out1 + " --json " + one);
+    ASSERT_EQ(r1.code, 0) << r1.out;
+    const auto r2 = run_xbarsim(args + out2 + " --json " + two, mpirun);
+    if (r2.out.find("built without MPI") != std::string::npos) GTEST_SKIP() << "xbarsim built without MPI";
+    ASSERT_EQ(r2.code, 0) << r2.out;
+    std::ifstream a(one), b(two);
+    nlohmann::json ja = nlohmann::json::parse(a), jb = nlohmann::json::parse(b);
+    if (std::string(cmd) == "explore") {
+      EXPECT_EQ(without_timing(ja).dump(1), without_timing(jb).dump(1));
+    } else {
+      for (auto* j : {&ja, &jb})
+        for (auto& run : *j)
+          for (const char* k : {"program_time_s", "evaluate_time_s", "images_per_s"}) run.erase(k);
+      EXPECT_EQ(ja.dump(1), jb.dump(1));
+    }
+  }
+}
