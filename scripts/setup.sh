@@ -5,7 +5,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${1:-build}
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev
-          libsystemc-dev nlohmann-json3-dev libonnx-dev libprotobuf-dev protobuf-compiler zlib1g-dev ngspice)
+          libsystemc-dev nlohmann-json3-dev libonnx-dev libprotobuf-dev protobuf-compiler zlib1g-dev ngspice
+          libopenmpi-dev openmpi-bin chromium)
+# Open MPI: mpirun -n N shards explore/eval/xbar-study (the build works without it); chromium:
+# the report's browser test (skipped without it).
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
