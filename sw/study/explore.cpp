@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "sw/common/errors.h"
+#include "sw/nn/dataset.h"
 
 namespace xbarsim {
 
@@ -47,7 +48,26 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
                          "' cannot be a list in an exploration: the model, the images, the data and the "
                          "preprocessing are the same for every point (run one exploration per setting)");
   s.model = cfg.get_string("explore.model");
+  if (!s.model.empty()) {
+    // As --model: a path, or a name in the models directory (with or without .onnx).
+    std::vector<std::string> tried{s.model};
+    try {
+      const std::string dir = resolve_models_dir(cfg);
+      tried.push_back(dir + "/" + s.model);
+      tried.push_back(dir + "/" + s.model + ".onnx");
+    } catch (const InputError&) {
+    }
+    bool found = false;
+    struct stat st;
+    for (const auto& t : tried) found = found || (stat(t.c_str(), &st) == 0 && S_ISREG(st.st_mode));
+    if (!found) {
+      std::string list;
+      for (const auto& t : tried) list += " " + t;
+      throw InputError("configuration key 'explore.model': '" + s.model + "' not found (looked at:" + list + ")");
+    }
+  }
   s.dataset = cfg.get_string("explore.dataset");
+  if (!s.dataset.empty()) require_one_of(cfg, "explore.dataset", {"cifar10", "mnist"});
   s.combine = require_enum<ExploreSpec::Combine>(
       cfg, "explore.combine", {{"product", ExploreSpec::Combine::Product}, {"zip", ExploreSpec::Combine::Zip}});
   const std::string list = cfg.get_string("explore.objectives");
