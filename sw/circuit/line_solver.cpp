@@ -269,13 +269,8 @@ void LineSolver::program(const Eigen::MatrixXd& g_s) {
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) g_cell_[i * n_ + j] = linear_cell_conductance(params_, g_(i, j));
   if (!params_.is_linear()) return;  // Newton builds its systems per iteration
-  linear_.p_inv.assign(mn, 0.0);
-  linear_.q_diag.assign(mn, 0.0);
-  linear_.q_inv.assign(mn, 0.0);
-  linear_.cx.resize(mn);
-  linear_.cy.resize(mn);
-  for (int k = 0; k < mn; ++k) linear_.cx[k] = linear_.cy[k] = -g_cell_[k];
-  linear_.symmetric = true;
+  linear_.resize(mn, true);
+  for (int k = 0; k < mn; ++k) linear_.cx[k] = -g_cell_[k];
   factor_rows(g_cell_.data(), linear_.p_inv.data());
   factor_cols(g_cell_.data(), linear_.q_diag.data(), linear_.q_inv.data());
 }
@@ -339,12 +334,7 @@ struct LineSolver::NewtonState {
         tft(mn),
         tfm(mn),
         tfb(mn) {
-    sys.symmetric = false;
-    sys.p_inv.resize(mn);
-    sys.q_diag.resize(mn);
-    sys.q_inv.resize(mn);
-    sys.cx.resize(mn);
-    sys.cy.resize(mn);
+    sys.resize(mn, false);
   }
   std::vector<double> vt, vm, vb;                    ///< V, current iterate
   std::vector<double> ft, fm, fb;                    ///< A, KCL residuals at the iterate

@@ -69,6 +69,12 @@ class LineSolver : public CrossbarSolver {
     std::vector<double> cy;      ///< Y diagonal (column equation, row unknown); empty: Y = X
     bool symmetric = true;
     const double* y() const { return cy.empty() ? cx.data() : cy.data(); }
+    /// Zeroed operator for `mn` cells; a symmetric one keeps cy empty (Y = X).
+    void resize(size_t mn, bool is_symmetric) {
+      for (auto* v : {&p_inv, &q_diag, &q_inv, &cx}) v->assign(mn, 0.0);
+      cy.assign(is_symmetric ? 0 : mn, 0.0);
+      symmetric = is_symmetric;
+    }
   };
   void factor_rows(const double* extra, double* p_inv) const;
   void factor_cols(const double* extra, double* q_diag, double* q_inv) const;

@@ -70,11 +70,7 @@ struct LineSolver::BatchState {
         g(g_cells),
         ratio(start_ratio),
         exp_kv(mn) {
-    sys.symmetric = true;
-    sys.p_inv.resize(mn);
-    sys.q_diag.resize(mn);
-    sys.q_inv.resize(mn);
-    sys.cx.resize(mn);  // cy stays empty: Y = X
+    sys.resize(mn, true);
   }
   std::vector<double> vt, vm, vb;  ///< V, iterate (T, M, B nodes)
   std::vector<double> ft, fm, fb;  ///< A, KCL residuals; ft, fb become the step's right-hand sides
