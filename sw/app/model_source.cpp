@@ -1,7 +1,5 @@
 #include "sw/app/model_source.h"
 
-#include <sys/stat.h>
-
 #include "sw/common/parse.h"
 #include "sw/nn/dataset.h"
 #include "sw/nn/presets.h"
@@ -10,27 +8,7 @@ namespace xbarsim {
 
 namespace {
 constexpr long long kMaxInputSide = 8192;  ///< --input-size: largest image height or width
-bool file_exists(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0;
-}
 }  // namespace
-
-std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
-  if (file_exists(given)) return given;
-  std::vector<std::string> tried{given};
-  try {
-    const std::string dir = resolve_models_dir(cfg);
-    for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
-      if (file_exists(c)) return c;
-      tried.push_back(c);
-    }
-  } catch (const InputError&) {
-  }
-  std::string list;
-  for (const auto& t : tried) list += " " + t;
-  throw InputError("model '" + given + "' not found (looked at:" + list + ")");
-}
 
 Model model_from_args(const CliArgs& args, const ConfigTree& cfg) {
   if (args.has("--model") == args.has("--preset")) throw InputError("give exactly one of --model and --preset");

@@ -174,6 +174,22 @@ std::string resolve_models_dir(const ConfigTree& cfg) {
   return resolve_data_dir(cfg) + "/../models";
 }
 
+std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
+  if (exists(given)) return given;
+  std::vector<std::string> tried{given};
+  try {
+    const std::string dir = resolve_models_dir(cfg);
+    for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
+      if (exists(c)) return c;
+      tried.push_back(c);
+    }
+  } catch (const InputError&) {
+  }
+  std::string list;
+  for (const auto& t : tried) list += " " + t;
+  throw InputError("model '" + given + "' not found (looked at:" + list + ")");
+}
+
 Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
   if (name == "cifar10") {
     const std::string file = dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin");

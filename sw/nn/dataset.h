@@ -42,6 +42,10 @@ void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, in
 /// The models directory: `data.models_dir`, else <data dir>/../models.
 std::string resolve_models_dir(const ConfigTree& cfg);
 
+/// Path of a model given as a path, or as a name in the models directory (with or without
+/// .onnx); throws InputError listing every place it looked.
+std::string find_model_file(const std::string& given, const ConfigTree& cfg);
+
 /// Images of a named dataset ("cifar10" or "mnist") in `data_dir`; `split` is "test" or
 /// "calib". CIFAR-10 calibration images are calib_batch.bin (training images). MNIST ships
 /// no training images here, so its calibration split is test images 9000-9999, which

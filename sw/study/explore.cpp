@@ -1,7 +1,6 @@
 #include "sw/study/explore.h"
 
 #include <fcntl.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -19,11 +18,16 @@ namespace xbarsim {
 
 std::string to_string(Objective o) {
   switch (o) {
-    case Objective::Accuracy: return "accuracy";
-    case Objective::Energy: return "energy";
-    case Objective::Area: return "area";
-    case Objective::Latency: return "latency";
-    case Objective::Power: return "power";
+    case Objective::Accuracy:
+      return "accuracy";
+    case Objective::Energy:
+      return "energy";
+    case Objective::Area:
+      return "area";
+    case Objective::Latency:
+      return "latency";
+    case Objective::Power:
+      return "power";
   }
   return "?";
 }
@@ -49,21 +53,10 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
                          "preprocessing are the same for every point (run one exploration per setting)");
   s.model = cfg.get_string("explore.model");
   if (!s.model.empty()) {
-    // As --model: a path, or a name in the models directory (with or without .onnx).
-    std::vector<std::string> tried{s.model};
     try {
-      const std::string dir = resolve_models_dir(cfg);
-      tried.push_back(dir + "/" + s.model);
-      tried.push_back(dir + "/" + s.model + ".onnx");
-    } catch (const InputError&) {
-    }
-    bool found = false;
-    struct stat st;
-    for (const auto& t : tried) found = found || (stat(t.c_str(), &st) == 0 && S_ISREG(st.st_mode));
-    if (!found) {
-      std::string list;
-      for (const auto& t : tried) list += " " + t;
-      throw InputError("configuration key 'explore.model': '" + s.model + "' not found (looked at:" + list + ")");
+      find_model_file(s.model, cfg);  // as --model: a path, or a name in the models directory
+    } catch (const InputError& e) {
+      throw InputError("configuration key 'explore.model': " + std::string(e.what()));
     }
   }
   s.dataset = cfg.get_string("explore.dataset");
@@ -146,11 +139,21 @@ std::string point_key(const ConfigTree& cfg) {
 double objective_cost(const nlohmann::json& row, Objective o) {
   const char* field = nullptr;
   switch (o) {
-    case Objective::Accuracy: field = "accuracy"; break;
-    case Objective::Energy: field = "energy_uj_per_image"; break;
-    case Objective::Area: field = "area_mm2"; break;
-    case Objective::Latency: field = "latency_us"; break;
-    case Objective::Power: field = "avg_power_mw"; break;
+    case Objective::Accuracy:
+      field = "accuracy";
+      break;
+    case Objective::Energy:
+      field = "energy_uj_per_image";
+      break;
+    case Objective::Area:
+      field = "area_mm2";
+      break;
+    case Objective::Latency:
+      field = "latency_us";
+      break;
+    case Objective::Power:
+      field = "avg_power_mw";
+      break;
   }
   const auto it = row.find(field);
   if (it == row.end() || !it->is_number()) return std::numeric_limits<double>::quiet_NaN();
@@ -191,8 +194,7 @@ void ResultJournal::repair() const {
   const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
   if (truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
     throw InputError("cannot repair the results file '" + path_ + "': " + std::strerror(errno));
-  std::fprintf(stderr, "xbarsim explore: dropped an incomplete last line of %s (a point cut short)\n",
-               path_.c_str());
+  std::fprintf(stderr, "xbarsim explore: dropped an incomplete last line of %s (a point cut short)\n", path_.c_str());
 }
 
 std::vector<nlohmann::json> ResultJournal::read(int* skipped) const {
