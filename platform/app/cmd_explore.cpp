@@ -27,12 +27,6 @@ struct SpacePoint {
   std::string key, label;
 };
 
-nlohmann::json point_json(const SweepPoint& p) {
-  nlohmann::json j = nlohmann::json::object();
-  for (const auto& kv : p) j[kv.first] = kv.second;
-  return j;
-}
-
 /// The row of a finished point: the evaluation's accuracy and per-layer error, the platform's
 /// energy, area, latency and per-layer busy/stall.
 nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
@@ -40,13 +34,10 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
   row["status"] = "ok";
   row["accuracy"] = ev["crossbar_accuracy"];
   row["software_accuracy"] = ev["software_accuracy"];
-  double mean = 0, worst = 0;
   nlohmann::json layers = nlohmann::json::array();
   const auto& el = ev["layers"];
   const auto& pl = pf["layers"];
   for (size_t l = 0; l < el.size(); ++l) {
-    mean += el[l]["mean_relative_error"].get<double>() / el.size();
-    worst = std::max(worst, el[l]["worst_relative_error"].get<double>());
     nlohmann::json L = {{"name", el[l]["name"]},
                         {"mean_relative_error", el[l]["mean_relative_error"]},
                         {"worst_relative_error", el[l]["worst_relative_error"]}};
@@ -54,14 +45,15 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
       for (const char* k : {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"}) L[k] = pl[l][k];
     layers.push_back(L);
   }
+  double mean = 0, worst = 0;
+  network_errors(el, mean, worst);
   row["mean_relative_error"] = mean;
   row["worst_relative_error"] = worst;
   for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw",
                         "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
                         "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "tiles", "iterations_total"})
     row[k] = pf[k];
-  for (const char* k : {"adc_bits", "dac_bits", "method", "max_rows", "max_cols", "out_of_range_cells"})
-    row[k] = ev[k];
+  for (const char* k : {"adc_bits", "dac_bits", "method", "max_rows", "max_cols", "out_of_range_cells"}) row[k] = ev[k];
   row["layers"] = layers;
   // Timing of this run (not results: they differ between runs and ranks).
   row["program_time_s"] = ev["program_time_s"];
@@ -101,17 +93,6 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
   } catch (const std::bad_alloc&) {
     return {{"status", "failed"}, {"reason", "out of memory: the design does not fit in this machine's memory"}};
   }
-}
-
-const Table& explore_table() {
-  static const Table t({{"point", -44},
-                        {"status", -7},
-                        {"acc_%", 7, 2},
-                        {"energy_uJ", 10, 3},
-                        {"area_mm2", 9, 4},
-                        {"latency_us", 11, 2},
-                        {"front", -5}});
-  return t;
 }
 
 /// A CSV field in double quotes (reasons contain commas).
@@ -177,7 +158,8 @@ int cmd_explore(int argc, char** argv) {
                  space.size() - pending.size(), out_path.c_str(), pending.size());
     if (Ranks::size() > 1) std::fprintf(stderr, " on %d ranks", Ranks::size());
     std::fprintf(stderr, "\n");
-    if (skipped) std::fprintf(stderr, "xbarsim explore: %d unreadable lines of %s ignored\n", skipped, out_path.c_str());
+    if (skipped)
+      std::fprintf(stderr, "xbarsim explore: %d unreadable lines of %s ignored\n", skipped, out_path.c_str());
   }
   for (size_t i = Ranks::rank(); i < pending.size(); i += Ranks::size()) {
     const SpacePoint& p = space[pending[i]];
@@ -219,18 +201,25 @@ int cmd_explore(int argc, char** argv) {
     if (front[k]) front_labels.push_back(rows[k]["label"]);
   }
 
-  const Table& table = explore_table();
+  const Table table({{"point", -44},
+                     {"status", -7},
+                     {"acc_%", 7, 2},
+                     {"energy_uJ", 10, 3},
+                     {"area_mm2", 9, 4},
+                     {"latency_us", 11, 2},
+                     {"front", -5}});
   table.print_header(stdout);
   int failed = 0;
   for (const auto& row : rows) {
     const bool ok = row["status"] == "ok";
     failed += !ok;
     const std::string dash = "-";
-    table.print_row(stdout, {row["label"].get<std::string>(), row["status"].get<std::string>(),
-                             ok ? Table::Cell(100 * num(row, "accuracy")) : dash,
-                             ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
-                             ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
-                             std::string(row["front"].get<bool>() ? "*" : "")});
+    table.print_row(
+        stdout,
+        {row["label"].get<std::string>(), row["status"].get<std::string>(),
+         ok ? Table::Cell(100 * num(row, "accuracy")) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
+         ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
+         std::string(row["front"].get<bool>() ? "*" : "")});
     if (!ok) std::printf("    reason: %s\n", row["reason"].get<std::string>().c_str());
   }
   std::string objectives;
@@ -246,9 +235,9 @@ int cmd_explore(int argc, char** argv) {
       const auto& r = rows[k];
       auto& os = csv.row(static_cast<int>(k), space[k].values);
       os << "," << r["status"].get<std::string>();
-      for (const char* f : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
-                            "energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s",
-                            "avg_power_mw"}) {
+      for (const char* f :
+           {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error", "energy_uj_per_image",
+            "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw"}) {
         os << ",";
         if (r.contains(f)) os << r[f];
       }

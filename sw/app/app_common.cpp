@@ -65,7 +65,8 @@ std::ostream& SweepCsv::row(int run, const std::vector<std::pair<std::string, st
 
 SweepOutputs::SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
                            const std::string& csv_columns)
-    : json_path_(args.get("--json")), report_path_(args.get("--report")),
+    : json_path_(args.get("--json")),
+      report_path_(args.get("--report")),
       csv_(args.get("--csv"), first_point, csv_columns) {}
 
 void SweepOutputs::set_report(const std::string& command, const ConfigTree& base) {
@@ -87,11 +88,28 @@ void SweepOutputs::finish() {
   if (!report_path_.empty()) write_html_report(report_path_, report_);
 }
 
+nlohmann::json point_json(const std::vector<std::pair<std::string, std::string>>& point) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& kv : point) j[kv.first] = kv.second;
+  return j;
+}
+
+bool network_errors(const nlohmann::json& layers, double& mean, double& worst) {
+  mean = worst = 0;
+  bool errors = false;
+  for (const auto& l : layers)
+    if (l.contains("mean_relative_error")) {
+      errors = true;
+      mean += l["mean_relative_error"].get<double>() / layers.size();
+      worst = std::max(worst, l["worst_relative_error"].get<double>());
+    }
+  return errors;
+}
+
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point) {
   nlohmann::json row;
   row["label"] = sweep_label(point);
-  row["point"] = nlohmann::json::object();
-  for (const auto& kv : point) row["point"][kv.first] = kv.second;
+  row["point"] = point_json(point);
   if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
   for (const char* k : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
                         "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "time_ns_per_image",
@@ -99,20 +117,14 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];
   if (j.contains("layers") && j["layers"].is_array()) {
     row["layers"] = nlohmann::json::array();
-    double mean = 0, worst = 0;
-    bool errors = false;
     for (const auto& l : j["layers"]) {
       nlohmann::json L = {{"name", l.value("name", std::string())}};
       for (const char* k : {"mean_relative_error", "worst_relative_error", "busy_us", "stall_us"})
         if (l.contains(k)) L[k] = l[k];
-      if (l.contains("mean_relative_error")) {
-        errors = true;
-        mean += l["mean_relative_error"].get<double>() / j["layers"].size();
-        worst = std::max(worst, l["worst_relative_error"].get<double>());
-      }
       row["layers"].push_back(L);
     }
-    if (errors && !row.contains("mean_relative_error")) {
+    double mean = 0, worst = 0;
+    if (network_errors(j["layers"], mean, worst) && !row.contains("mean_relative_error")) {
       row["mean_relative_error"] = mean;
       row["worst_relative_error"] = worst;
     }

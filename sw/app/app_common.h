@@ -44,6 +44,13 @@ class SweepCsv {
   std::unique_ptr<OutputFile> out_;
 };
 
+/// {key: value} of a sweep point.
+nlohmann::json point_json(const std::vector<std::pair<std::string, std::string>>& point);
+
+/// The network's error from per-layer JSON (eval's "layers"): the mean of the layers' mean
+/// relative errors and the largest worst error. False when no layer carries errors.
+bool network_errors(const nlohmann::json& layers, double& mean, double& worst);
+
 /// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
 /// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point);
@@ -100,7 +107,7 @@ using CommandFn = int (*)(int argc, char** argv);
 struct CommandInfo {
   std::string name;
   CommandFn run;
-  std::string usage;  ///< one-line synopsis plus a short description
+  std::string usage;    ///< one-line synopsis plus a short description
   bool shards = false;  ///< shares its work among MPI ranks; the others refuse to run under mpirun -n N > 1
 };
 
