@@ -1,6 +1,8 @@
 // End-to-end runs of eval and simulate through the executable.
 #include <gtest/gtest.h>
 
+#include "tests/app/cli_test_util.h"
+
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -26,17 +28,10 @@ nlohmann::json read_json(const std::string& path) {
   return nlohmann::json::parse(in);
 }
 
-bool have_data() {
-  struct stat st;
-  const char* env = std::getenv("XBARSIM_DATA_DIR");
-  return stat(env ? env : "../shared/data", &st) == 0 ||
-         stat((std::string(XBARSIM_SOURCE_DIR) + "/../shared/data").c_str(), &st) == 0;
-}
-
 }  // namespace
 
 TEST(EvalCommand, IdealCrossbarReproducesSoftware) {
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   // Negligible parasitics, no converters, no mitigation: the analog path must reproduce
   // the software network (an independent check of mapping and recovery on real layers).
   const std::string json = "/tmp/xbarsim_eval_ideal.json";
@@ -63,7 +58,7 @@ TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
   std::string out;
   EXPECT_NE(run("eval --model no_such_model", &out), 0);
   EXPECT_NE(out.find("no_such_model"), std::string::npos) << out;
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; rest skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; rest skipped";
   const std::string json = "/tmp/xbarsim_eval_default.json";
   ASSERT_EQ(run("eval --model resnet20_cifar10 --images 50 --json " + json, &out), 0) << out;
   const auto j = read_json(json);
@@ -77,7 +72,7 @@ TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
 TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
   // Every random stream (calibration picks, programming noise) is seeded by the item's
   // index, never by a thread: the JSON is identical apart from its timing fields.
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   std::string first, out;
   for (int t = 1; t <= 3; ++t) {
     const std::string json = "/tmp/xbarsim_eval_threads" + std::to_string(t) + ".json";
@@ -98,7 +93,7 @@ TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
 TEST(EvalCommand, NonlinearDevicesRunEveryImageTheSameOnAnyThreadCount) {
   // sinh (k = 3) + level-1 devices with pre-distortion: every requested image is evaluated
   // (the batched Newton), the settings are reported, and 1 and 2 threads agree exactly.
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   std::string first, out;
   for (int t = 1; t <= 2; ++t) {
     const std::string json = "/tmp/xbarsim_eval_nonlinear" + std::to_string(t) + ".json";

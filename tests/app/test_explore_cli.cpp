@@ -14,18 +14,11 @@
 #include <string>
 #include <thread>
 
-#include "cli_test_util.h"
+#include "tests/app/cli_test_util.h"
 
 using xbarsim_test::run_xbarsim;
 
 namespace {
-
-bool have_data() {
-  struct stat st;
-  const char* env = std::getenv("XBARSIM_DATA_DIR");
-  return stat(env ? env : "../shared/data", &st) == 0 ||
-         stat((std::string(XBARSIM_SOURCE_DIR) + "/../shared/data").c_str(), &st) == 0;
-}
 
 std::string tmp(const std::string& name) { return ::testing::TempDir() + "xbarsim_explore_" + name; }
 
@@ -35,7 +28,8 @@ std::string write_space(const std::string& name, int images) {
   std::ofstream(path) << "explore:\n  model: lenet_mnist\n  color_by: converters.adc_bits\n"
                          "mapping:\n  max_rows: [64, 128]\nconverters:\n  adc_bits: [4, 8, none]\n"
                          "eval:\n  images: "
-                      << images << "\n  calibration_images: 20\n  calibration_samples: 256\ncalibration:\n  samples: 64\n"
+                      << images
+                      << "\n  calibration_images: 20\n  calibration_samples: 256\ncalibration:\n  samples: 64\n"
                       << "solver:\n  threads: 1\n";
   return path;
 }
@@ -57,7 +51,7 @@ nlohmann::json without_timing(nlohmann::json j) {
 }  // namespace
 
 TEST(ExploreCommand, RowsFrontFailureAndReport) {
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   const std::string space = write_space("rows", 60), out = tmp("rows.jsonl"), json = tmp("rows.json"),
                     csv = tmp("rows.csv"), html = tmp("rows.html");
   std::remove(out.c_str());
@@ -92,7 +86,7 @@ TEST(ExploreCommand, RowsFrontFailureAndReport) {
 }
 
 TEST(ExploreCommand, KilledRunResumesWithOnlyTheMissingPoints) {
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   const std::string space = write_space("kill", 400), out = tmp("kill.jsonl"), json = tmp("kill.json");
   std::remove(out.c_str());
   const pid_t pid = fork();
@@ -130,7 +124,7 @@ TEST(ExploreCommand, KilledRunResumesWithOnlyTheMissingPoints) {
 }
 
 TEST(ExploreCommand, TwoMpiRanksEqualOne) {
-  if (!have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
   if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not found; MPI test skipped";
   const std::string space = write_space("mpi", 100);
   const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 2 --oversubscribe ";
