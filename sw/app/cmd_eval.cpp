@@ -51,6 +51,8 @@ int cmd_eval(int argc, char** argv) {
                      {"images", 7},
                      {"software_%", 10, 2},
                      {"crossbar_%", 10, 2},
+                     {"drop_pts", 9, 2},
+                     {"drop_95%_interval", 18},
                      {"xbars", 8},
                      {"oor", 7},
                      {"img/s", 9, 1}});
@@ -71,8 +73,12 @@ int cmd_eval(int argc, char** argv) {
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
     nlohmann::json j = r.to_json();
     long long oor = j["out_of_range_cells"];
+    const auto ci = r.paired.drop_ci95();
+    char interval[64];
+    std::snprintf(interval, sizeof interval, "%+.2f..%+.2f", 100 * ci.first, 100 * ci.second);
     table.print_row(stdout, {label, static_cast<long long>(r.images), 100 * r.software_accuracy,
-                             100 * r.crossbar_accuracy, r.cost.crossbars, oor, j["images_per_s"].get<double>()});
+                             100 * r.crossbar_accuracy, 100 * r.paired.drop(), std::string(interval),
+                             r.cost.crossbars, oor, j["images_per_s"].get<double>()});
     if (points.size() == 1) print_layers(r);
     if (out->csv().enabled())
       for (size_t l = 0; l < r.layers.size(); ++l) {

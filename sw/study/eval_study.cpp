@@ -2,7 +2,9 @@
 
 #include "sw/analog/error_metrics.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <mutex>
@@ -155,6 +157,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
   }
   r.software_accuracy = static_cast<double>(swc) / r.images;
   r.crossbar_accuracy = static_cast<double>(xbc) / r.images;
+  r.paired = paired_accuracy(t.sw_correct, t.xb_correct);
   const double clock_ns = point.hw.platform.clock_ns();
   for (int l = 0; l < L; ++l) {
     EvalLayer el;
@@ -179,6 +182,27 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
   return r;
 }
 
+PairedAccuracy paired_accuracy(const std::vector<char>& software_correct, const std::vector<char>& crossbar_correct) {
+  if (software_correct.size() != crossbar_correct.size())
+    throw std::logic_error("paired_accuracy: the two lists of images differ in length");
+  PairedAccuracy p;
+  p.images = static_cast<int>(software_correct.size());
+  for (size_t k = 0; k < software_correct.size(); ++k) {
+    p.only_software += software_correct[k] && !crossbar_correct[k];
+    p.only_crossbar += !software_correct[k] && crossbar_correct[k];
+  }
+  return p;
+}
+
+std::pair<double, double> PairedAccuracy::drop_ci95() const {
+  if (images == 0) return {0.0, 0.0};
+  // 0.5 added to each of the four cells: n + 2 images, b + 0.5 and c + 0.5 discordant.
+  const double n = images + 2.0, b = only_software + 0.5, c = only_crossbar + 0.5;
+  const double d = (b - c) / n;
+  const double half = 1.959963984540054 * std::sqrt(std::max(0.0, (b + c) - (b - c) * (b - c) / n)) / n;
+  return {d - half, d + half};
+}
+
 nlohmann::json EvalResult::to_json() const {
   nlohmann::json j;
   auto bits = [](int b) { return b ? nlohmann::json(b) : nlohmann::json("none"); };
@@ -188,6 +212,11 @@ nlohmann::json EvalResult::to_json() const {
   j["images"] = images;
   j["software_accuracy"] = software_accuracy;
   j["crossbar_accuracy"] = crossbar_accuracy;
+  const auto ci = paired.drop_ci95();
+  j["accuracy_drop"] = paired.drop();
+  j["accuracy_drop_ci95"] = {ci.first, ci.second};
+  j["images_only_software_correct"] = paired.only_software;
+  j["images_only_crossbar_correct"] = paired.only_crossbar;
   j["method"] = ac->mitigation.name();
   j["dac_bits"] = bits(ac->converters.dac_bits);
   j["adc_bits"] = bits(ac->converters.adc_bits);

@@ -3,6 +3,7 @@
 /// per-layer error propagation and the design's cost from the shared inventory.
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sw/inference/crossbar_backend.h"
@@ -45,10 +46,27 @@ struct EvalLayer {
   long long out_of_range_cells = 0;
 };
 
+/// Software against crossbars on the same images (a paired comparison): how many images only
+/// one of them classifies correctly. The accuracy drop (software minus crossbar) and its 95 %
+/// interval come from these discordant counts (Agresti & Min 2005: the Wald interval of a
+/// difference of matched proportions with 0.5 added to each cell of the 2x2 table), so a
+/// subset of a test set says how far from software the full set can plausibly be.
+struct PairedAccuracy {
+  int images = 0;
+  int only_software = 0;  ///< images software classifies correctly and the crossbars do not
+  int only_crossbar = 0;  ///< the other way round
+  /// Software minus crossbar accuracy (fraction).
+  double drop() const { return images ? static_cast<double>(only_software - only_crossbar) / images : 0.0; }
+  /// 95 % interval [lo, hi] of the drop (fraction).
+  std::pair<double, double> drop_ci95() const;
+};
+PairedAccuracy paired_accuracy(const std::vector<char>& software_correct, const std::vector<char>& crossbar_correct);
+
 struct EvalResult {
   std::string model, dataset, note;
   int images = 0;
   double software_accuracy = 0, crossbar_accuracy = 0;
+  PairedAccuracy paired;
   double program_time_s = 0, evaluate_time_s = 0;
   std::vector<EvalLayer> layers;
   CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing

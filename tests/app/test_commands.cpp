@@ -63,6 +63,13 @@ TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
   ASSERT_EQ(run("eval --model resnet20_cifar10 --images 50 --json " + json, &out), 0) << out;
   const auto j = read_json(json);
   for (const char* k : {"software_accuracy", "crossbar_accuracy", "images", "layers"}) EXPECT_TRUE(j.contains(k)) << k;
+  // The paired counts explain the accuracy difference exactly, and the interval holds the drop.
+  const int only_sw = j["images_only_software_correct"], only_xb = j["images_only_crossbar_correct"];
+  EXPECT_NEAR(50 * (j["software_accuracy"].get<double>() - j["crossbar_accuracy"].get<double>()), only_sw - only_xb,
+              1e-9);
+  EXPECT_DOUBLE_EQ(j["accuracy_drop"].get<double>(), (only_sw - only_xb) / 50.0);
+  EXPECT_LE(j["accuracy_drop_ci95"][0].get<double>(), j["accuracy_drop"].get<double>() + 1e-12);
+  EXPECT_GE(j["accuracy_drop_ci95"][1].get<double>(), j["accuracy_drop"].get<double>() - 1e-12);
   ASSERT_EQ(j["layers"].size(), 20u);
   for (const auto& l : j["layers"])
     for (const char* k : {"name", "rows", "cols", "mean_relative_error", "worst_relative_error"})
