@@ -71,6 +71,7 @@ int cmd_eval(int argc, char** argv) {
     eval_bar.finish();
     if (!root) continue;
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
+    for (const std::string& w : r.warnings()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
     nlohmann::json j = r.to_json();
     long long oor = j["out_of_range_cells"];
     const auto ci = r.paired.drop_ci95();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <mutex>
@@ -172,6 +173,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& 
     el.signed_inputs = xb.statistics(l).signed_inputs;
     for (const auto& rep : xb.layer(l).reports()) {
       el.out_of_range_cells += rep.out_of_range_cells;
+      el.cells += static_cast<long long>(rep.block.rows) * rep.physical_cols;
       el.min_column_gain = std::min(el.min_column_gain, rep.min_column_gain);
     }
     add_layer_cost(r.cost, point.hw, el.inventory,
@@ -196,11 +198,26 @@ PairedAccuracy paired_accuracy(const std::vector<char>& software_correct, const 
 
 std::pair<double, double> PairedAccuracy::drop_ci95() const {
   if (images == 0) return {0.0, 0.0};
+  // (The interval is clipped to the possible drops, [-1, 1].)
   // 0.5 added to each of the four cells: n + 2 images, b + 0.5 and c + 0.5 discordant.
   const double n = images + 2.0, b = only_software + 0.5, c = only_crossbar + 0.5;
   const double d = (b - c) / n;
   const double half = 1.959963984540054 * std::sqrt(std::max(0.0, (b + c) - (b - c) * (b - c) / n)) / n;
-  return {d - half, d + half};
+  return {std::max(-1.0, d - half), std::min(1.0, d + half)};
+}
+
+std::vector<std::string> EvalResult::warnings() const {
+  std::vector<std::string> w;
+  for (const auto& l : layers) {
+    if (l.cells == 0 || l.out_of_range_cells <= kClippedCellsWarning * l.cells) continue;
+    char pct[32];
+    std::snprintf(pct, sizeof pct, "%.0f", 100.0 * l.out_of_range_cells / l.cells);
+    w.push_back("layer " + l.name + ": the conversion wanted a conductance outside [g_min, g_max] for " +
+                std::to_string(l.out_of_range_cells) + " of its " + std::to_string(l.cells) + " cells (" + pct +
+                " %), which were clipped and are not compensated; fewer mapping.max_rows, more mapping.g_headroom "
+                "or mapping.negative: differential keeps them in range");
+  }
+  return w;
 }
 
 nlohmann::json EvalResult::to_json() const {
@@ -252,6 +269,7 @@ nlohmann::json EvalResult::to_json() const {
                            {"worst_relative_error", l.worst_relative_error}});
   }
   j["out_of_range_cells"] = oor;
+  j["warnings"] = warnings();
   j.update(cost.to_json());
   j["energy_note"] = "closed-form action counts per image; leakage over ideal timing (one clock per iteration)";
   return j;

@@ -44,7 +44,12 @@ struct EvalLayer {
   double input_full_scale = 0, min_column_gain = 1;
   bool signed_inputs = false;
   long long out_of_range_cells = 0;
+  long long cells = 0;  ///< programmed cells of the layer's crossbars (physical columns included)
 };
+
+/// A layer whose conversion clipped more than this fraction of its cells is named in a warning:
+/// the conversion cannot compensate clipped cells, so its error grows with their number.
+constexpr double kClippedCellsWarning = 0.10;
 
 /// Software against crossbars on the same images (a paired comparison): how many images only
 /// one of them classifies correctly. The accuracy drop (software minus crossbar) and its 95 %
@@ -72,6 +77,8 @@ struct EvalResult {
   CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing
   const AnalogConfig* ac = nullptr;
   nlohmann::json to_json() const;
+  /// One sentence per layer with more than kClippedCellsWarning of its cells clipped.
+  std::vector<std::string> warnings() const;
 };
 
 /// The share of the images one process evaluates (MPI ranks): images k with k % count == index.

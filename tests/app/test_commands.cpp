@@ -76,6 +76,37 @@ TEST(EvalCommand, ReportsErrorsPerLayerAndNamesMissingModels) {
       EXPECT_TRUE(l.contains(k)) << k;
 }
 
+TEST(EvalCommand, WarnsWhenTheConversionClipsALayer) {
+  // LeNet with unbounded rows and no headroom: the IR drops of its 500- and 800-row
+  // arrays need conductances beyond g_max for most cells (the paper's observation); each
+  // such layer is named with its count, and the default design (144-row crossbars, 20 %
+  // headroom) draws no warning. (Shift mapping, digital sum(X): physical cells = rows x cols.)
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string json = "/tmp/xbarsim_eval_clipped.json";
+  std::string out;
+  ASSERT_EQ(run("eval --model lenet_mnist --images 10 --set mapping.max_rows=unbounded --set mapping.g_headroom=0 "
+                "--json " +
+                    json,
+                &out),
+            0)
+      << out;
+  auto j = read_json(json);
+  ASSERT_GE(j["warnings"].size(), 2u) << out;
+  int named = 0;
+  for (const auto& l : j["layers"]) {
+    const double clipped = l["out_of_range_cells"].get<double>() / (l["rows"].get<double>() * l["cols"].get<double>());
+    const bool warned = out.find("warning: layer " + l["name"].get<std::string>() + ":") != std::string::npos;
+    EXPECT_EQ(warned, clipped > 0.10) << l["name"] << " clipped fraction " << clipped << "\n" << out;
+    named += warned;
+  }
+  EXPECT_EQ(named, static_cast<int>(j["warnings"].size()));
+  EXPECT_NE(out.find("mapping.negative: differential"), std::string::npos) << out;
+  ASSERT_EQ(run("eval --model lenet_mnist --images 10 --json " + json, &out), 0) << out;
+  j = read_json(json);
+  EXPECT_TRUE(j["warnings"].empty()) << out;
+  EXPECT_EQ(out.find("warning"), std::string::npos) << out;
+}
+
 TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
   // Every random stream (calibration picks, programming noise) is seeded by the item's
   // index, never by a thread: the JSON is identical apart from its timing fields.
