@@ -198,8 +198,8 @@ PairedAccuracy paired_accuracy(const std::vector<char>& software_correct, const 
 
 std::pair<double, double> PairedAccuracy::drop_ci95() const {
   if (images == 0) return {0.0, 0.0};
-  // (The interval is clipped to the possible drops, [-1, 1].)
-  // 0.5 added to each of the four cells: n + 2 images, b + 0.5 and c + 0.5 discordant.
+  // 0.5 added to each of the four cells: n + 2 images, b + 0.5 and c + 0.5 discordant; the
+  // interval is clipped to the possible drops, [-1, 1].
   const double n = images + 2.0, b = only_software + 0.5, c = only_crossbar + 0.5;
   const double d = (b - c) / n;
   const double half = 1.959963984540054 * std::sqrt(std::max(0.0, (b + c) - (b - c) * (b - c) / n)) / n;
