@@ -86,12 +86,13 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     bar.finish();
     const nlohmann::json ev = r.to_json();
     return result_row(ev, pf);
-  } catch (const InputError& e) {
-    return {{"status", "failed"}, {"reason", e.what()}};
-  } catch (const SolverError& e) {
-    return {{"status", "failed"}, {"reason", std::string("solver: ") + e.what()}};
-  } catch (const std::bad_alloc&) {
-    return {{"status", "failed"}, {"reason", "out of memory: the design does not fit in this machine's memory"}};
+  } catch (const std::exception&) {
+    const Failure f = current_failure();
+    if (f.kind == Failure::Kind::Internal) throw;
+    const std::string reason = f.kind == Failure::Kind::OutOfMemory ? std::string(kOutOfMemory)
+                               : f.kind == Failure::Kind::Solver    ? "solver: " + f.message
+                                                                    : f.message;
+    return {{"status", "failed"}, {"reason", reason}};
   }
 }
 

@@ -218,14 +218,11 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
     nlohmann::json out;
     try {
       out = run();
-    } catch (const InputError& e) {
-      out = {{"error", e.what()}, {"kind", "input"}};
-    } catch (const SolverError& e) {
-      out = {{"error", e.what()}, {"kind", "solver"}};
-    } catch (const std::bad_alloc&) {
-      out = {{"error", "out of memory: the design does not fit in this machine's memory"}, {"kind", "input"}};
-    } catch (const std::exception& e) {
-      out = {{"error", e.what()}, {"kind", "internal"}};
+    } catch (const std::exception&) {
+      const Failure f = current_failure();
+      static const char* const kKind[] = {"input", "solver", "input", "internal"};
+      out = {{"error", f.kind == Failure::Kind::OutOfMemory ? std::string(kOutOfMemory) : f.message},
+             {"kind", kKind[static_cast<int>(f.kind)]}};
     }
     std::ofstream(path) << out.dump();
     std::fflush(nullptr);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "sw/common/config.h"
+#include "sw/common/failure.h"
 #include "sw/nn/dataset.h"
 #include "sw/nn/model.h"
 
@@ -30,6 +31,9 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
 
 /// Runs `run` in a forked child process (a fresh SystemC kernel) and returns its JSON; the
 /// child's InputError / SolverError is rethrown here with its message.
+/// How a design that does not fit in memory is reported (a child's error, a failed explore row).
+inline constexpr char kOutOfMemory[] = "out of memory: the design does not fit in this machine's memory";
+
 nlohmann::json run_in_child(const std::function<nlohmann::json()>& run);
 
 }  // namespace xbarsim

@@ -6,6 +6,7 @@
 
 #include "sw/app/app_common.h"
 #include "sw/common/errors.h"
+#include "sw/common/failure.h"
 #include "sw/common/ranks.h"
 
 namespace {
@@ -29,19 +30,24 @@ int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
       throw xbarsim::InputError(c.name + " does not share its work among MPI ranks (explore, eval and xbar-study do): "
                                 "run it without mpirun, or with one rank");
     return c.run(argc - 2, argv + 2);
-  } catch (const xbarsim::InputError& e) {
-    std::cerr << who << ": error: " << e.what() << "\n";
-    return 2;
-  } catch (const xbarsim::SolverError& e) {
-    std::cerr << who << ": solver error: " << e.what() << "\n";
-    return 3;
-  } catch (const std::bad_alloc&) {
-    std::cerr << who
-              << ": error: out of memory: the requested problem does not fit in this machine's memory "
-                 "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << who << ": internal error: " << e.what() << "\n";
+  } catch (const std::exception&) {
+    const xbarsim::Failure f = xbarsim::current_failure();
+    switch (f.kind) {
+      case xbarsim::Failure::Kind::Input:
+        std::cerr << who << ": error: " << f.message << "\n";
+        return 2;
+      case xbarsim::Failure::Kind::Solver:
+        std::cerr << who << ": solver error: " << f.message << "\n";
+        return 3;
+      case xbarsim::Failure::Kind::OutOfMemory:
+        std::cerr << who
+                  << ": error: out of memory: the requested problem does not fit in this machine's memory "
+                     "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
+        return 2;
+      case xbarsim::Failure::Kind::Internal:
+        break;
+    }
+    std::cerr << who << ": internal error: " << f.message << "\n";
     return 4;
   }
 }
