@@ -34,6 +34,9 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
   row["status"] = "ok";
   row["accuracy"] = ev["crossbar_accuracy"];
   row["software_accuracy"] = ev["software_accuracy"];
+  for (const char* k : {"accuracy_drop", "accuracy_drop_ci95", "images_only_software_correct",
+                        "images_only_crossbar_correct", "warnings"})
+    row[k] = ev[k];
   nlohmann::json layers = nlohmann::json::array();
   const auto& el = ev["layers"];
   const auto& pl = pf["layers"];
@@ -106,6 +109,13 @@ std::string quoted(const std::string& s) {
 double num(const nlohmann::json& row, const char* k) {
   const auto it = row.find(k);
   return it != row.end() && it->is_number() ? it->get<double>() : std::nan("");
+}
+
+/// The drop's 95 % interval in points, as eval prints it.
+std::string interval(const nlohmann::json& row) {
+  const auto it = row.find("accuracy_drop_ci95");
+  if (it == row.end() || !it->is_array() || it->size() != 2) return "-";
+  return drop_interval_text((*it)[0].get<double>(), (*it)[1].get<double>());
 }
 
 int cmd_explore(int argc, char** argv) {
@@ -205,6 +215,8 @@ int cmd_explore(int argc, char** argv) {
   const Table table({{"point", -44},
                      {"status", -7},
                      {"acc_%", 7, 2},
+                     {"drop_pts", 9, 2},
+                     {"drop_95%_interval", 18},
                      {"energy_uJ", 10, 3},
                      {"area_mm2", 9, 4},
                      {"latency_us", 11, 2},
@@ -218,10 +230,13 @@ int cmd_explore(int argc, char** argv) {
     table.print_row(
         stdout,
         {row["label"].get<std::string>(), row["status"].get<std::string>(),
-         ok ? Table::Cell(100 * num(row, "accuracy")) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
+         ok ? Table::Cell(100 * num(row, "accuracy")) : dash, ok ? Table::Cell(100 * num(row, "accuracy_drop")) : dash,
+         ok ? Table::Cell(interval(row)) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
          ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
          std::string(row["front"].get<bool>() ? "*" : "")});
     if (!ok) std::printf("    reason: %s\n", row["reason"].get<std::string>().c_str());
+    for (const auto& w : row.value("warnings", nlohmann::json::array()))
+      std::printf("    warning: %s\n", w.get<std::string>().c_str());
   }
   std::string objectives;
   for (Objective o : spec.objectives) objectives += (objectives.empty() ? "" : ", ") + to_string(o);
@@ -231,7 +246,8 @@ int cmd_explore(int argc, char** argv) {
   if (args.has("--csv")) {
     SweepCsv csv(args.get("--csv"), space.front().values,
                  "status,accuracy,software_accuracy,mean_relative_error,worst_relative_error,energy_uj_per_image,"
-                 "area_mm2,latency_us,throughput_images_per_s,avg_power_mw,front,reason");
+                 "area_mm2,latency_us,throughput_images_per_s,avg_power_mw,accuracy_drop,accuracy_drop_ci95_low,"
+                 "accuracy_drop_ci95_high,front,reason,warnings");
     for (size_t k = 0; k < rows.size(); ++k) {
       const auto& r = rows[k];
       auto& os = csv.row(static_cast<int>(k), space[k].values);
@@ -242,7 +258,17 @@ int cmd_explore(int argc, char** argv) {
         os << ",";
         if (r.contains(f)) os << r[f];
       }
-      os << "," << (r["front"].get<bool>() ? 1 : 0) << "," << quoted(r.value("reason", "")) << "\n";
+      os << ",";
+      if (r.contains("accuracy_drop")) os << r["accuracy_drop"];
+      for (int e = 0; e < 2; ++e) {
+        os << ",";
+        if (r.contains("accuracy_drop_ci95")) os << r["accuracy_drop_ci95"][e];
+      }
+      std::string warnings;
+      for (const auto& w : r.value("warnings", nlohmann::json::array()))
+        warnings += (warnings.empty() ? "" : "; ") + w.get<std::string>();
+      os << "," << (r["front"].get<bool>() ? 1 : 0) << "," << quoted(r.value("reason", "")) << "," << quoted(warnings)
+         << "\n";
     }
     csv.commit();
   }

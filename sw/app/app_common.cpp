@@ -106,6 +106,12 @@ bool network_errors(const nlohmann::json& layers, double& mean, double& worst) {
   return errors;
 }
 
+std::string drop_interval_text(double low, double high) {
+  char s[64];
+  std::snprintf(s, sizeof s, "%+.2f..%+.2f", 100 * low, 100 * high);
+  return s;
+}
+
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point) {
   nlohmann::json row;
   row["label"] = sweep_label(point);
@@ -113,7 +119,8 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
   if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
   for (const char* k : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
                         "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "time_ns_per_image",
-                        "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits"})
+                        "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits", "accuracy_drop",
+                        "accuracy_drop_ci95", "warnings"})
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];
   if (j.contains("layers") && j["layers"].is_array()) {
     row["layers"] = nlohmann::json::array();

@@ -50,6 +50,8 @@ nlohmann::json point_json(const std::vector<std::pair<std::string, std::string>>
 /// The network's error from per-layer JSON (eval's "layers"): the mean of the layers' mean
 /// relative errors and the largest worst error. False when no layer carries errors.
 bool network_errors(const nlohmann::json& layers, double& mean, double& worst);
+/// An accuracy drop's 95 % interval (fractions) in points, as the tables print it: "-0.60..+3.90".
+std::string drop_interval_text(double low, double high);
 
 /// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
 /// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.

@@ -75,10 +75,8 @@ int cmd_eval(int argc, char** argv) {
     nlohmann::json j = r.to_json();
     long long oor = j["out_of_range_cells"];
     const auto ci = r.paired.drop_ci95();
-    char interval[64];
-    std::snprintf(interval, sizeof interval, "%+.2f..%+.2f", 100 * ci.first, 100 * ci.second);
     table.print_row(stdout, {label, static_cast<long long>(r.images), 100 * r.software_accuracy,
-                             100 * r.crossbar_accuracy, 100 * r.paired.drop(), std::string(interval),
+                             100 * r.crossbar_accuracy, 100 * r.paired.drop(), drop_interval_text(ci.first, ci.second),
                              r.cost.crossbars, oor, j["images_per_s"].get<double>()});
     if (points.size() == 1) print_layers(r);
     if (out->csv().enabled())

@@ -331,14 +331,40 @@ std::string timing_plot(const std::vector<const json*>& sel) {
   return p.str();
 }
 
+/// "1.7 [-0.6, 3.9]": the accuracy drop and its 95 % interval in points ("" without a drop).
+std::string drop_text(const json& r) {
+  const double d = num(r, "accuracy_drop");
+  if (std::isnan(d)) return "";
+  std::string s = fmt_num(100 * d);
+  const auto it = r.find("accuracy_drop_ci95");
+  if (it != r.end() && it->is_array() && it->size() == 2 && (*it)[0].is_number() && (*it)[1].is_number())
+    s += " [" + fmt_num(100 * (*it)[0].get<double>()) + ", " + fmt_num(100 * (*it)[1].get<double>()) + "]";
+  return s;
+}
+
+/// The rows' warnings (eval: layers whose conversion clipped many cells), one item each.
+std::string warnings_list(const json& rows) {
+  std::string s;
+  for (const auto& r : rows) {
+    if (!r.is_object()) continue;
+    const auto it = r.find("warnings");
+    if (it == r.end() || !it->is_array()) continue;
+    for (const auto& w : *it)
+      if (w.is_string()) s += "<li>" + html_escape(text(r, "label")) + ": " + html_escape(w.get<std::string>()) + "</li>\n";
+  }
+  return s.empty() ? "" : "<h2>Warnings</h2>\n<ul>\n" + s + "</ul>\n";
+}
+
 std::string rows_table(const json& rows) {
   std::string s =
-      "<table><tr><th>point</th><th>status</th><th>accuracy %</th><th>mean error %</th><th>worst error %</th>"
+      "<table><tr><th>point</th><th>status</th><th>accuracy %</th><th>drop, points [95 % interval]</th>"
+      "<th>mean error %</th><th>worst error %</th>"
       "<th>energy uJ/image</th><th>area mm2</th><th>latency us</th><th>power mW</th><th>front</th></tr>\n";
   auto cell = [](double v, double scale = 1) { return "<td>" + (std::isnan(v) ? std::string("") : fmt_num(v * scale)) + "</td>"; };
   for (const auto& r : rows) {
     s += "<tr><td>" + html_escape(text(r, "label")) + "</td><td>" +
          html_escape(ok(r) ? std::string("ok") : "failed: " + text(r, "reason")) + "</td>" + cell(num(r, "accuracy"), 100) +
+         "<td>" + html_escape(drop_text(r)) + "</td>" +
          cell(num(r, "mean_relative_error"), 100) + cell(num(r, "worst_relative_error"), 100) +
          cell(num(r, "energy_uj_per_image")) + cell(num(r, "area_mm2")) + cell(num(r, "latency_us")) +
          cell(num(r, "avg_power_mw")) + "<td>" + (on_front(r) ? "&#9733;" : "") + "</td></tr>\n";
@@ -385,7 +411,7 @@ std::string render_html_report(const ReportInput& in) {
   h += "<h2>Power by component</h2>\n" + breakdown_plot(sel, true);
   h += "<h2>Area by component</h2>\n" + breakdown_plot(sel, false);
   h += "<h2>Per-layer latency, busy and stall (platform)</h2>\n" + timing_plot(sel);
-  h += "<h2>All points</h2>\n" + rows_table(rows);
+  h += "<h2>All points</h2>\n" + rows_table(rows) + warnings_list(rows);
   h += "<h2>Configuration</h2>\n<pre>" + html_escape(in.config_yaml) + "</pre>\n";
   // Where each plot lies on the page (read by the browser test; harmless elsewhere).
   h += "<pre id=\"layout\" hidden></pre>\n<script>window.addEventListener('load',function(){var o='';"

@@ -18,7 +18,8 @@ struct ReportInput {
   std::string color_key;                ///< key colouring the scatter ("" = the first swept key)
   std::vector<std::string> objectives;  ///< Pareto objectives (names), shown in the summary
   /// One object per design point / run. Fields (all optional but "label"): label, point
-  /// {key: value}, status ok|failed, reason, accuracy, software_accuracy (fractions),
+  /// {key: value}, status ok|failed, reason, accuracy, software_accuracy, accuracy_drop
+  /// (fractions), accuracy_drop_ci95 [low, high], warnings [text],
   /// mean_relative_error, worst_relative_error, energy_uj_per_image, area_mm2, latency_us,
   /// avg_power_mw, time_ns_per_image, energy_breakdown_uj {component: uJ}, area_breakdown_mm2,
   /// adc_bits, dac_bits (number or "none"), layers [{name, mean_relative_error,

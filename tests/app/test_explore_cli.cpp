@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -71,6 +72,15 @@ TEST(ExploreCommand, RowsFrontFailureAndReport) {
       EXPECT_FALSE(p["front"].get<bool>());
     } else {
       EXPECT_GT(p["accuracy"].get<double>(), 0.9) << p["label"];
+      // The paired drop: its counts explain the accuracy difference; its interval holds it.
+      const int n = j["images"];
+      const double drop = p["accuracy_drop"];
+      EXPECT_NEAR(drop, p["software_accuracy"].get<double>() - p["accuracy"].get<double>(), 1e-12);
+      EXPECT_EQ(p["images_only_software_correct"].get<int>() - p["images_only_crossbar_correct"].get<int>(),
+                static_cast<int>(std::lround(drop * n)));
+      EXPECT_LE(p["accuracy_drop_ci95"][0].get<double>(), drop);
+      EXPECT_GE(p["accuracy_drop_ci95"][1].get<double>(), drop);
+      EXPECT_TRUE(p["warnings"].is_array());
       EXPECT_GT(p["energy_uj_per_image"].get<double>(), 0) << p["label"];
       EXPECT_EQ(p["layers"].size(), 4u);
       front += p["front"].get<bool>();
@@ -79,6 +89,12 @@ TEST(ExploreCommand, RowsFrontFailureAndReport) {
   EXPECT_EQ(failed, 6);
   EXPECT_GE(front, 1);
   EXPECT_EQ(lines(csv), 13);
+  std::ifstream c(csv);
+  std::string header;
+  std::getline(c, header);
+  EXPECT_NE(header.find(",accuracy_drop,accuracy_drop_ci95_low,accuracy_drop_ci95_high,front,reason,warnings"),
+            std::string::npos)
+      << header;
   std::ifstream h(html);
   const std::string page((std::istreambuf_iterator<char>(h)), {});
   for (const char* id : {"plot-pareto", "plot-bits", "plot-layers", "plot-power", "plot-area", "plot-timing"})

@@ -64,6 +64,9 @@ ReportInput sample() {
     r["front"] = std::get<5>(p);
     in.rows.push_back(r);
   }
+  in.rows[1]["accuracy_drop"] = 0.017;
+  in.rows[1]["accuracy_drop_ci95"] = {-0.006, 0.039};
+  in.rows[1]["warnings"] = {"layer <conv2>: 66 % of cells clipped"};
   in.rows.push_back({{"label", "max_rows=64 adc_bits=6"}, {"status", "failed"}, {"reason", "cannot <program> it"}});
   return in;
 }
@@ -98,6 +101,11 @@ TEST(HtmlReport, EveryPlotWithItsMarks) {
   EXPECT_NE(plot(h, "plot-bits").find(">none</text>"), std::string::npos);
   EXPECT_EQ(count(plot(h, "plot-timing"), "<rect x"), 4u + 3u + 2u + 1u);  // busy + nonzero stalls + legend + frame
   EXPECT_NE(h.find("failed: cannot &lt;program&gt; it"), std::string::npos);
+  // The drop with its interval in points, and the warnings under the table, escaped.
+  EXPECT_NE(h.find("<td>1.7 [-0.6, 3.9]</td>"), std::string::npos);
+  EXPECT_EQ(count(h, "<td>1.7 ["), 1u);
+  EXPECT_NE(h.find("<h2>Warnings</h2>"), std::string::npos);
+  EXPECT_NE(h.find("<li>max_rows=64 adc_bits=8: layer &lt;conv2&gt;: 66 % of cells clipped</li>"), std::string::npos);
   EXPECT_EQ(h, render_html_report(sample()));  // deterministic
 }
 
@@ -123,6 +131,7 @@ TEST(HtmlReport, MissingDataAreSaid) {
   EXPECT_NE(h.find("No per-layer timing"), std::string::npos);
   EXPECT_NE(h.find("No power breakdown"), std::string::npos);
   EXPECT_NE(h.find("id=\"plot-area\""), std::string::npos);
+  EXPECT_EQ(h.find("<h2>Warnings</h2>"), std::string::npos);  // none given, no section
 }
 
 // ---- the browser ------------------------------------------------------------------------
