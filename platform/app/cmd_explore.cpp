@@ -1,6 +1,7 @@
 // xbarsim explore: a design space run point by point — accuracy and per-layer error from the
 // evaluation, cost and timing from the SystemC platform — with the Pareto front over the
 // chosen objectives. Resumable (a journal of finished points) and sharded over MPI ranks.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -70,22 +71,23 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
                          const std::string& progress_label) {
   try {
     const EvalPoint design = parse_eval_point(p.cfg);
-    // The platform first (it rejects an unschedulable design at once): on seeded random images
-    // (timing and counted actions do not depend on the pixel values), calibrated on the
-    // evaluation's calibration images.
+    // The crossbars are programmed once, on the evaluation's calibration images, for both the
+    // platform (in a child process, which inherits them) and the evaluation.
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + progress_label);
+    const CrossbarBackend xb =
+        program_crossbars(model, design, spec, data.calib, [&](int d, int) { prog.update(d); });
+    prog.finish();
+    const double program_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The platform (it rejects an unschedulable design before the long evaluation) runs on
+    // seeded random images: timing and counted actions do not depend on the pixel values.
     SimulationData sim;
     sim.test = random_dataset(model.input, design.hw.platform.images,
                               derive_seed(static_cast<uint64_t>(p.cfg.get_int("data.synthetic_seed")), {1}));
     sim.calib = data.calib;
-    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false); });
-    ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + progress_label);
+    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false, &xb); });
     ProgressBar bar(data.test.count(), "evaluating  " + progress_label);
-    const EvalResult r = run_eval(model, design, spec, data.test, data.calib,
-                                  {[&](int d, int) { prog.update(d); },
-                                   [&](int d, int) {
-                                     prog.finish();
-                                     bar.update(d);
-                                   }});
+    const EvalResult r = run_eval(model, design, data.test, xb, program_s, [&](int d, int) { bar.update(d); });
     bar.finish();
     const nlohmann::json ev = r.to_json();
     return result_row(ev, pf);

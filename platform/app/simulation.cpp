@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <memory>
 #include <cstdio>
 #include <fstream>
 #include <numeric>
@@ -147,7 +148,7 @@ SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg
 }
 
 nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
-                              const std::string& vcd, bool print) {
+                              const std::string& vcd, bool print, const CrossbarBackend* given) {
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
   const PlatformConfig& pc = hw.platform;
@@ -155,11 +156,13 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
     std::fprintf(stderr,
                  "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
                  "(batched Newton, about 0.6 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
-  CrossbarBackend programmed(model, ac);
-  {
+  std::unique_ptr<CrossbarBackend> own;
+  if (!given) {
+    own = std::make_unique<CrossbarBackend>(model, ac);
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
-    programmed.program(data.calib, cfg.get_int32("eval.calibration_samples"), [&](int d, int) { bar.update(d); });
+    own->program(data.calib, cfg.get_int32("eval.calibration_samples"), [&](int d, int) { bar.update(d); });
   }
+  const CrossbarBackend& programmed = given ? *given : *own;
   const std::vector<int> replication = resolve_replication(model, programmed, pc);
   // Sparse (Toeplitz) layers: one iteration per image on their own crossbars and converters.
   std::vector<double> sparse_ns;

@@ -13,6 +13,8 @@
 
 namespace xbarsim {
 
+class CrossbarBackend;
+
 /// The images of a simulation: the dataset's (labelled, so accuracy is reported) or seeded
 /// random ones.
 struct SimulationData {
@@ -25,9 +27,11 @@ SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg
 
 /// Programs `model` for `cfg` and simulates the accelerator on data.test (SystemC
 /// elaborates once per process: call it once, or in run_in_child). `vcd`: trace file or "".
-/// `print`: the per-layer table on stdout.
+/// `print`: the per-layer table on stdout. `programmed`: the crossbars already programmed for
+/// `cfg` on data.calib with eval.calibration_samples (explore's evaluation shares them), or
+/// null to program them here.
 nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
-                              const std::string& vcd, bool print);
+                              const std::string& vcd, bool print, const CrossbarBackend* programmed = nullptr);
 
 /// Runs `run` in a forked child process (a fresh SystemC kernel) and returns its JSON; the
 /// child's InputError / SolverError is rethrown here with its message.

@@ -131,25 +131,37 @@ void gather_tallies(ImageTallies& t, int images, int L, const ImageShard& shard)
 
 }  // namespace
 
+CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, const EvalSpec& spec,
+                                  const Dataset& calib, const std::function<void(int, int)>& progress) {
+  if (spec.calibration_samples < point.ac.calibration.samples)
+    throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
+  CrossbarBackend xb(model, point.ac);
+  xb.program(calib, spec.calibration_samples, progress);
+  return xb;
+}
+
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
                     const Dataset& calib, const EvalProgress& progress, const ImageShard& shard) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const CrossbarBackend xb = program_crossbars(model, point, spec, calib, progress.programming);
+  const double program_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return run_eval(model, point, test, xb, program_s, progress.evaluating, shard);
+}
+
+EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& test, const CrossbarBackend& xb,
+                    double program_time_s, const std::function<void(int, int)>& evaluating, const ImageShard& shard) {
   const AnalogConfig& ac = point.ac;
-  if (spec.calibration_samples < ac.calibration.samples)
-    throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
   EvalResult r;
   r.ac = &point.ac;
   r.model = model.path;
   r.dataset = test.name;
-  const auto t0 = std::chrono::steady_clock::now();
-  CrossbarBackend xb(model, ac);
-  xb.program(calib, spec.calibration_samples, progress.programming);
   const auto t1 = std::chrono::steady_clock::now();
   r.images = test.count();
   const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), r.images));
-  ImageTallies t = evaluate_images(model, xb, test, r.images, threads, shard, progress.evaluating);
+  ImageTallies t = evaluate_images(model, xb, test, r.images, threads, shard, evaluating);
   const int L = static_cast<int>(model.linear.size());
   if (shard.count > 1) gather_tallies(t, r.images, L, shard);
-  r.program_time_s = std::chrono::duration<double>(t1 - t0).count();
+  r.program_time_s = program_time_s;
   r.evaluate_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   int swc = 0, xbc = 0;
   for (int k = 0; k < r.images; ++k) {

@@ -94,8 +94,17 @@ struct EvalProgress {
   std::function<void(int, int)> programming, evaluating;
 };
 
+/// Programs the crossbars of `point` on `calib` (run_eval's first step; explore shares them
+/// with its platform simulation).
+CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, const EvalSpec& spec,
+                                  const Dataset& calib, const std::function<void(int, int)>& progress = nullptr);
+
 /// Evaluates `test` (this process's share of it); the result is complete on share 0 only.
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
                     const Dataset& calib, const EvalProgress& progress = {}, const ImageShard& shard = {});
+/// The same on crossbars program_crossbars made for `point`; `program_time_s` is reported.
+EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& test, const CrossbarBackend& xb,
+                    double program_time_s,
+                    const std::function<void(int, int)>& evaluating = nullptr, const ImageShard& shard = {});
 
 }  // namespace xbarsim
