@@ -6,7 +6,8 @@
 #   pd  + DAC pre-distortion,
 #   df  + pre-distortion and differential mapping (mapping.negative: differential).
 # One eval per cell, each writing DIR/<cfg>-k<k>.{json,csv,txt}; a cell whose JSON exists is
-# skipped, so a killed run resumes. At ~0.8 images/s on 2 cores a full-test-set cell takes
+# skipped, and a cell cut short resumes from its journal (DIR/<cfg>-k<k>.jsonl, every finished
+# image), so a killed run loses about a second. At ~0.8 images/s on 2 cores a full-test-set cell takes
 # ~3.5 h (differential ~7 h): use a cluster, e.g. MPIRUN="mpirun -n 64" with
 # XBARSIM_SET="--set solver.threads=1", or a subset of images (the table's 95 % interval of
 # the drop says what a subset can tell).
@@ -30,7 +31,7 @@ for cfg in $CFGS; do
     # shellcheck disable=SC2086  # word splitting of the option lists is intended
     ${MPIRUN:-} "$X" eval --model resnet20_cifar10 --images "$IMAGES" --set crossbar.memristor.model=sinh \
       --set crossbar.transistor.model=level1 --set crossbar.memristor.k="$k" ${EXTRA[$cfg]} ${XBARSIM_SET:-} \
-      --json "$base.json.part" --csv "$base.csv" >"$base.txt"
+      --journal "$base.jsonl" --json "$base.json.part" --csv "$base.csv" >"$base.txt"
     mv "$base.json.part" "$base.json"
   done
 done

@@ -83,6 +83,11 @@ class ProgressBar {
   ProgressBar(int total, std::string label);
   ~ProgressBar();
   void update(int done);
+  /// The same with a new total (e.g. fewer images to evaluate than announced).
+  void update(int done, int total) {
+    total_ = total;
+    update(done);
+  }
   void finish();
 
  private:

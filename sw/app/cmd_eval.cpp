@@ -1,12 +1,14 @@
 // xbarsim eval: argument parsing and rendering of a whole-network evaluation
 // (sw/study/eval_study.h).
 #include <cstdio>
+#include <memory>
 
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
 #include "sw/common/ranks.h"
 #include "sw/study/eval_study.h"
+#include "sw/study/explore.h"
 #include "sw/study/sweep.h"
 
 namespace xbarsim {
@@ -23,8 +25,8 @@ void print_layers(const EvalResult& r) {
 }
 
 int cmd_eval(int argc, char** argv) {
-  const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset", "--report"});
-  check_outputs(args, {"--json", "--csv", "--report"});
+  const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset", "--report", "--journal"});
+  check_outputs(args, {"--json", "--csv", "--report", "--journal"});
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
@@ -37,6 +39,26 @@ int cmd_eval(int argc, char** argv) {
   apply_preprocessing_overrides(base, model.pre, model.input.c);
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
   if (!data.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
+
+  // --journal: finished images are recorded as they finish; those already there are reused.
+  std::unique_ptr<ResultJournal> journal_file;
+  std::vector<EvalJournal> journals(points.size());
+  if (args.has("--journal")) {
+    journal_file = std::make_unique<ResultJournal>(args.get("--journal"));
+    if (Ranks::root()) journal_file->repair();
+    Ranks::barrier();
+    int skipped = 0;
+    const std::vector<nlohmann::json> rows = journal_file->read(&skipped);
+    Ranks::barrier();  // everyone has read the journal before anyone appends to it
+    if (skipped && Ranks::root())
+      std::fprintf(stderr, "xbarsim eval: %d unreadable lines of %s ignored\n", skipped, journal_file->path().c_str());
+    for (size_t run = 0; run < points.size(); ++run) {
+      journals[run] = {journal_file.get(), eval_run_key(sweep_config(base, points[run]), model.path, data.test.name),
+                       spec.offset, {}};
+      for (const auto& row : rows)
+        if (row["key"] == journals[run].key) journals[run].rows.push_back(row);
+    }
+  }
 
   // Under MPI every rank evaluates its share of the images; rank 0 reduces, prints and writes.
   const bool root = Ranks::root();
@@ -63,13 +85,16 @@ int cmd_eval(int argc, char** argv) {
     ProgressBar eval_bar((data.test.count() - shard.index + shard.count - 1) / shard.count, "evaluating  " + label);
     const EvalResult r = run_eval(model, designs[run], spec, data.test, data.calib,
                                   {[&](int d, int) { prog.update(d); },
-                                   [&](int d, int) {
+                                   [&](int d, int n) {
                                      prog.finish();
-                                     eval_bar.update(d);
+                                     eval_bar.update(d, n);
                                    }},
-                                  shard);
+                                  shard, journal_file ? &journals[run] : nullptr);
     eval_bar.finish();
     if (!root) continue;
+    if (r.images_from_journal)
+      std::fprintf(stderr, "xbarsim eval: %s: %d of %d images from %s\n", label.c_str(), r.images_from_journal, r.images,
+                   journal_file->path().c_str());
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
     for (const std::string& w : r.warnings()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
     nlohmann::json j = r.to_json();
@@ -99,9 +124,10 @@ namespace {
 const CommandRegistrar kRegister{
     "eval", cmd_eval,
     "eval --model M.onnx [--dataset cifar10|mnist] [--images N] [--offset K] [--config F] [--set k=v]...\n"
-    "     [--json F] [--csv F] [--report F.html]\n"
+    "     [--json F] [--csv F] [--report F.html] [--journal F.jsonl]\n"
     "      accuracy on crossbars vs software, per-layer error propagation; list values sweep;\n"
-    "      under mpirun the images are shared among the ranks",
+    "      under mpirun the images are shared among the ranks; --journal records every finished\n"
+    "      image, and a rerun with it evaluates only the images not there yet (same result)",
     true};
 }  // namespace
 

@@ -1,12 +1,15 @@
 #include "sw/study/eval_study.h"
 
 #include "sw/analog/error_metrics.h"
+#include "sw/common/errors.h"
+#include "sw/study/explore.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <stdexcept>
 #include <mutex>
 
@@ -73,34 +76,101 @@ struct ImageTallies {
   std::vector<char> sw_correct, xb_correct;
 };
 
+/// Fills `t` with the journal's images of this run; returns which images it had.
+std::vector<char> read_journal(const EvalJournal& j, ImageTallies& t, int images, int L) {
+  std::vector<char> have(images, 0);
+  for (const auto& row : j.rows) {
+    if (row.value("key", std::string()) != j.key) continue;
+    const auto bad = [&] {
+      return InputError("eval journal '" + (j.file ? j.file->path() : std::string()) + "': a line of this run (key " +
+                        j.key + ") is malformed: " + row.dump().substr(0, 120) + "; delete it");
+    };
+    if (!row.contains("image") || !row["image"].is_number_integer() || !row.contains("layers") ||
+        !row["layers"].is_array() || static_cast<int>(row["layers"].size()) != L || !row.contains("sw") ||
+        !row.contains("xb") || !row["sw"].is_number_integer() || !row["xb"].is_number_integer())
+      throw bad();
+    const long long k = row["image"].get<long long>() - j.offset;
+    if (k < 0 || k >= images) continue;  // outside this run's range of images
+    t.sw_correct[k] = row["sw"].get<int>() != 0;
+    t.xb_correct[k] = row["xb"].get<int>() != 0;
+    for (int l = 0; l < L; ++l) {
+      const auto& e = row["layers"][l];
+      if (!e.is_array() || e.size() != 3 || !e[0].is_number() || !e[1].is_number() || !e[2].is_number_integer())
+        throw bad();
+      ErrorTally& et = t.layer[static_cast<size_t>(k) * L + l];
+      et.sum = e[0].get<double>();
+      et.worst = e[1].get<double>();
+      et.count = e[2].get<long long>();
+    }
+    have[k] = 1;
+  }
+  return have;
+}
+
+/// The journal line of image `k` (its tallies exactly: JSON numbers round-trip doubles).
+std::string journal_line(const EvalJournal& j, const ImageTallies& t, int k, int L) {
+  nlohmann::json layers = nlohmann::json::array();
+  for (int l = 0; l < L; ++l) {
+    const ErrorTally& et = t.layer[static_cast<size_t>(k) * L + l];
+    layers.push_back({et.sum, et.worst, et.count});
+  }
+  return nlohmann::json{{"key", j.key}, {"image", j.offset + k}, {"sw", static_cast<int>(t.sw_correct[k])},
+                        {"xb", static_cast<int>(t.xb_correct[k])}, {"layers", layers}}
+             .dump() +
+         "\n";
+}
+
 ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, const Dataset& test, int images,
-                             int threads, const ImageShard& shard, const std::function<void(int, int)>& progress) {
+                             int threads, const ImageShard& shard, const std::function<void(int, int)>& progress,
+                             const EvalJournal* journal, int& from_journal) {
   const int L = static_cast<int>(model.linear.size());
   ImageTallies t{std::vector<ErrorTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
                  std::vector<char>(images, 0)};
+  const std::vector<char> have = journal ? read_journal(*journal, t, images, L) : std::vector<char>(images, 0);
+  from_journal = static_cast<int>(std::count(have.begin(), have.end(), 1));
   std::mutex mu;
-  int done = 0;
-  const int mine = (images - shard.index + shard.count - 1) / shard.count;  // images of this share
+  int done = 0, mine = 0;  // images of this share still to evaluate
+  for (int k = shard.index; k < images; k += shard.count) mine += !have[k];
+  // Finished images' journal lines, written about once a second (and at the end).
+  std::string pending;
+  auto last_write = std::chrono::steady_clock::now();
+  const ResultJournal* file = journal ? journal->file : nullptr;
   // Images in parallel; inside an image, linear layers run serially.
-  parallel_for(threads, threads, [&](int th) {
-    SoftwareBackend sw(model);
-    LayerTrace sw_trace, xb_trace;
-    sw_trace.record_inputs = xb_trace.record_inputs = false;
-    std::vector<float> x(model.input.size());
-    for (int k = shard.index + th * shard.count; k < images; k += threads * shard.count) {
-      test.preprocess(k, model.pre, x.data());
-      Eigen::Index a, b;
-      run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
-      run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
-      t.sw_correct[k] = a == test.labels[k];
-      t.xb_correct[k] = b == test.labels[k];
-      for (int l = 0; l < L; ++l)
-        t.layer[static_cast<size_t>(k) * L + l] =
-            layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
-      std::lock_guard<std::mutex> lock(mu);
-      if (progress) progress(++done, mine);
-    }
-  });
+  try {
+    parallel_for(threads, threads, [&](int th) {
+      SoftwareBackend sw(model);
+      LayerTrace sw_trace, xb_trace;
+      sw_trace.record_inputs = xb_trace.record_inputs = false;
+      std::vector<float> x(model.input.size());
+      for (int k = shard.index + th * shard.count; k < images; k += threads * shard.count) {
+        if (have[k]) continue;
+        test.preprocess(k, model.pre, x.data());
+        Eigen::Index a, b;
+        run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
+        run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
+        t.sw_correct[k] = a == test.labels[k];
+        t.xb_correct[k] = b == test.labels[k];
+        for (int l = 0; l < L; ++l)
+          t.layer[static_cast<size_t>(k) * L + l] =
+              layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
+        std::lock_guard<std::mutex> lock(mu);
+        if (file) {
+          pending += journal_line(*journal, t, k, L);
+          const auto now = std::chrono::steady_clock::now();
+          if (now - last_write >= std::chrono::seconds(1)) {
+            file->append_lines(pending);
+            pending.clear();
+            last_write = now;
+          }
+        }
+        if (progress) progress(++done, mine);
+      }
+    });
+  } catch (...) {
+    if (file) file->append_lines(pending);  // keep what finished before the error
+    throw;
+  }
+  if (file) file->append_lines(pending);
   return t;
 }
 
@@ -140,16 +210,24 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
   return xb;
 }
 
+std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset) {
+  std::error_code ec;
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(model, ec);
+  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " " + (ec ? model : canonical.string()) + " " + dataset;
+}
+
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
-                    const Dataset& calib, const EvalProgress& progress, const ImageShard& shard) {
+                    const Dataset& calib, const EvalProgress& progress, const ImageShard& shard,
+                    const EvalJournal* journal) {
   const auto t0 = std::chrono::steady_clock::now();
   const CrossbarBackend xb = program_crossbars(model, point, spec, calib, progress.programming);
   const double program_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return run_eval(model, point, test, xb, program_s, progress.evaluating, shard);
+  return run_eval(model, point, test, xb, program_s, progress.evaluating, shard, journal);
 }
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& test, const CrossbarBackend& xb,
-                    double program_time_s, const std::function<void(int, int)>& evaluating, const ImageShard& shard) {
+                    double program_time_s, const std::function<void(int, int)>& evaluating, const ImageShard& shard,
+                    const EvalJournal* journal) {
   const AnalogConfig& ac = point.ac;
   EvalResult r;
   r.ac = &point.ac;
@@ -158,7 +236,8 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
   const auto t1 = std::chrono::steady_clock::now();
   r.images = test.count();
   const int threads = std::max(1, std::min(resolve_threads(ac.solver.threads), r.images));
-  ImageTallies t = evaluate_images(model, xb, test, r.images, threads, shard, evaluating);
+  ImageTallies t =
+      evaluate_images(model, xb, test, r.images, threads, shard, evaluating, journal, r.images_from_journal);
   const int L = static_cast<int>(model.linear.size());
   if (shard.count > 1) gather_tallies(t, r.images, L, shard);
   r.program_time_s = program_time_s;
@@ -259,7 +338,8 @@ nlohmann::json EvalResult::to_json() const {
   if (!note.empty()) j["note"] = note;
   j["program_time_s"] = program_time_s;
   j["evaluate_time_s"] = evaluate_time_s;
-  j["images_per_s"] = images / std::max(1e-9, evaluate_time_s);
+  j["images_from_journal"] = images_from_journal;
+  j["images_per_s"] = (images - images_from_journal) / std::max(1e-9, evaluate_time_s);
   j["layers"] = nlohmann::json::array();
   long long oor = 0;
   for (const auto& l : layers) {

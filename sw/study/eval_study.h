@@ -70,6 +70,7 @@ PairedAccuracy paired_accuracy(const std::vector<char>& software_correct, const 
 struct EvalResult {
   std::string model, dataset, note;
   int images = 0;
+  int images_from_journal = 0;  ///< of `images`, read from the journal instead of evaluated
   double software_accuracy = 0, crossbar_accuracy = 0;
   PairedAccuracy paired;
   double program_time_s = 0, evaluate_time_s = 0;
@@ -89,6 +90,22 @@ struct ImageShard {
   std::function<std::vector<std::string>(const std::string&)> gather;
 };
 
+class ResultJournal;  // sw/study/explore.h
+
+/// A resumable evaluation (eval --journal): every finished image is one line of the journal
+/// under the run's key (appended about once a second); an image whose line is there already is
+/// not evaluated again, and the result equals an uninterrupted run's, bit for bit.
+struct EvalJournal {
+  const ResultJournal* file = nullptr;  ///< where finished images are appended (null: nowhere)
+  std::string key;                      ///< eval_run_key of the run
+  int offset = 0;                       ///< dataset index of test image 0 (eval.offset)
+  std::vector<nlohmann::json> rows;     ///< the journal's lines, read before the run (any key)
+};
+/// A run's identity in a journal: its whole effective configuration except the image range
+/// (eval.images, eval.offset: an image is identified by its dataset index) and what
+/// point_key ignores, with the model file and the dataset.
+std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset);
+
 /// Progress callbacks: (done, total) for programming (layers) and evaluation (images).
 struct EvalProgress {
   std::function<void(int, int)> programming, evaluating;
@@ -101,10 +118,12 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
 
 /// Evaluates `test` (this process's share of it); the result is complete on share 0 only.
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
-                    const Dataset& calib, const EvalProgress& progress = {}, const ImageShard& shard = {});
+                    const Dataset& calib, const EvalProgress& progress = {}, const ImageShard& shard = {},
+                    const EvalJournal* journal = nullptr);
 /// The same on crossbars program_crossbars made for `point`; `program_time_s` is reported.
 EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& test, const CrossbarBackend& xb,
                     double program_time_s,
-                    const std::function<void(int, int)>& evaluating = nullptr, const ImageShard& shard = {});
+                    const std::function<void(int, int)>& evaluating = nullptr, const ImageShard& shard = {},
+                    const EvalJournal* journal = nullptr);
 
 }  // namespace xbarsim

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -119,12 +120,13 @@ std::vector<SweepPoint> explore_points(const ConfigTree& cfg, ExploreSpec::Combi
   return out;
 }
 
-std::string point_key(const ConfigTree& cfg) {
+std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
   // FNV-1a, 64 bit, over "key=value\n" of every effective key that can change a result.
   uint64_t h = 1469598103934665603ULL;
   for (const auto& key : cfg.leaf_keys()) {
     if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
-        key == "explore.combine" || starts_with(key, "limits."))
+        key == "explore.combine" || starts_with(key, "limits.") ||
+        std::find(also_ignored.begin(), also_ignored.end(), key) != also_ignored.end())
       continue;
     for (unsigned char c : key + "=" + cfg.get_string(key) + "\n") {
       h ^= c;
@@ -194,7 +196,7 @@ void ResultJournal::repair() const {
   const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
   if (truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
     throw InputError("cannot repair the results file '" + path_ + "': " + std::strerror(errno));
-  std::fprintf(stderr, "xbarsim explore: dropped an incomplete last line of %s (a point cut short)\n", path_.c_str());
+  std::fprintf(stderr, "xbarsim: dropped an incomplete last line of %s (cut short by a kill)\n", path_.c_str());
 }
 
 std::vector<nlohmann::json> ResultJournal::read(int* skipped) const {
@@ -215,8 +217,8 @@ std::vector<nlohmann::json> ResultJournal::read(int* skipped) const {
   return rows;
 }
 
-void ResultJournal::append(const nlohmann::json& row) const {
-  const std::string line = row.dump() + "\n";
+void ResultJournal::append_lines(const std::string& line) const {
+  if (line.empty()) return;
   const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
   if (fd < 0) throw InputError("cannot open the results file '" + path_ + "': " + std::strerror(errno));
   struct flock lock {};

@@ -31,9 +31,9 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg);
 std::vector<SweepPoint> explore_points(const ConfigTree& cfg, ExploreSpec::Combine combine);
 
 /// A point's identity: a hash of its whole effective configuration except what does not change
-/// its results (solver.threads, explore.objectives / color_by / combine, limits.*). A journal
-/// row counts as done for a point only when its key matches.
-std::string point_key(const ConfigTree& point_cfg);
+/// its results (solver.threads, explore.objectives / color_by / combine, limits.*, and the keys
+/// `also_ignored`). A journal row counts as done for a point only when its key matches.
+std::string point_key(const ConfigTree& point_cfg, const std::vector<std::string>& also_ignored = {});
 
 /// The value of `o` for a result row, as a cost to minimise (accuracy negated); NaN when the
 /// row lacks it (a failed point).
@@ -56,7 +56,9 @@ class ResultJournal {
   /// `skipped`.
   std::vector<nlohmann::json> read(int* skipped = nullptr) const;
   /// Appends one row as one line; throws InputError when the file cannot be written.
-  void append(const nlohmann::json& row) const;
+  void append(const nlohmann::json& row) const { append_lines(row.dump() + "\n"); }
+  /// Appends whole lines ("...\n" each) in one write under the lock.
+  void append_lines(const std::string& lines) const;
   const std::string& path() const { return path_; }
 
  private:

@@ -128,6 +128,61 @@ TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
   }
 }
 
+TEST(EvalCommand, JournalResumesWithTheSameResultAsOneRun) {
+  // eval --journal: a run over more images evaluates only those not in the journal, a last
+  // line cut short by a kill is dropped, another configuration does not reuse the lines, and
+  // the result equals one uninterrupted run's, bit for bit.
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string journal = "/tmp/xbarsim_eval_journal.jsonl", base = "eval --model lenet_mnist --set solver.threads=2 ";
+  std::remove(journal.c_str());
+  auto lines = [&] {
+    std::ifstream in(journal);
+    int n = 0;
+    for (std::string l; std::getline(in, l);) n += !l.empty();
+    return n;
+  };
+  auto result = [](const std::string& path) {
+    auto j = read_json(path);
+    for (const char* k : {"program_time_s", "evaluate_time_s", "images_per_s", "images_from_journal"}) j.erase(k);
+    return j.dump();
+  };
+  std::string out;
+  ASSERT_EQ(run(base + "--images 40 --journal " + journal + " --json /tmp/xbarsim_journal_a.json", &out), 0) << out;
+  EXPECT_EQ(lines(), 40);
+  std::ofstream(journal, std::ios::app) << "{\"key\": \"cut short";  // a kill during a write
+  ASSERT_EQ(run(base + "--images 100 --journal " + journal + " --json /tmp/xbarsim_journal_b.json", &out), 0) << out;
+  EXPECT_NE(out.find("dropped an incomplete last line"), std::string::npos) << out;
+  EXPECT_NE(out.find("40 of 100 images from"), std::string::npos) << out;
+  EXPECT_EQ(read_json("/tmp/xbarsim_journal_b.json")["images_from_journal"], 40);
+  EXPECT_EQ(lines(), 100);
+  ASSERT_EQ(run(base + "--images 100 --json /tmp/xbarsim_journal_c.json", &out), 0) << out;
+  EXPECT_EQ(result("/tmp/xbarsim_journal_b.json"), result("/tmp/xbarsim_journal_c.json"));
+  // Images 60..99 from the journal (its image index is the dataset's), 100..119 evaluated.
+  ASSERT_EQ(run(base + "--offset 60 --images 60 --journal " + journal + " --json /tmp/xbarsim_journal_d.json", &out), 0)
+      << out;
+  EXPECT_EQ(read_json("/tmp/xbarsim_journal_d.json")["images_from_journal"], 40);
+  ASSERT_EQ(run(base + "--offset 60 --images 60 --json /tmp/xbarsim_journal_e.json", &out), 0) << out;
+  EXPECT_EQ(result("/tmp/xbarsim_journal_d.json"), result("/tmp/xbarsim_journal_e.json"));
+  // Another design: nothing reused.
+  ASSERT_EQ(run(base + "--images 20 --set converters.adc_bits=6 --journal " + journal + " --json /tmp/xbarsim_journal_f.json",
+                &out),
+            0)
+      << out;
+  EXPECT_EQ(read_json("/tmp/xbarsim_journal_f.json")["images_from_journal"], 0);
+  // A line of this run that is not an image record is an error naming the journal.
+  std::string key;
+  {
+    std::ifstream in(journal);
+    std::string l;
+    std::getline(in, l);
+    key = nlohmann::json::parse(l)["key"];
+  }
+  std::ofstream(journal, std::ios::app) << nlohmann::json{{"key", key}, {"image", 3}, {"layers", 5}}.dump() << "\n";
+  EXPECT_EQ(run(base + "--images 10 --journal " + journal, &out), 2) << out;
+  EXPECT_NE(out.find("eval journal '" + journal + "'"), std::string::npos) << out;
+  EXPECT_NE(out.find("malformed"), std::string::npos) << out;
+}
+
 TEST(EvalCommand, NonlinearDevicesRunEveryImageTheSameOnAnyThreadCount) {
   // sinh (k = 3) + level-1 devices with pre-distortion: every requested image is evaluated
   // (the batched Newton), the settings are reported, and 1 and 2 threads agree exactly.
