@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <mutex>
 
@@ -211,9 +211,18 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
 }
 
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset) {
-  std::error_code ec;
-  const std::filesystem::path canonical = std::filesystem::weakly_canonical(model, ec);
-  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " " + (ec ? model : canonical.string()) + " " + dataset;
+  // The model by its content (FNV-1a of the file): a moved copy matches, a re-exported one not.
+  std::ifstream in(model, std::ios::binary);
+  uint64_t h = 1469598103934665603ULL;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0)
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buf[i]);
+      h *= 1099511628211ULL;
+    }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " model " + hex + " " + dataset;
 }
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,

@@ -103,7 +103,7 @@ struct EvalJournal {
 };
 /// A run's identity in a journal: its whole effective configuration except the image range
 /// (eval.images, eval.offset: an image is identified by its dataset index) and what
-/// point_key ignores, with the model file and the dataset.
+/// point_key ignores, with the model file's content and the dataset.
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset);
 
 /// Progress callbacks: (done, total) for programming (layers) and evaluation (images).

@@ -8,6 +8,7 @@
 #include <map>
 
 #include "sw/common/errors.h"
+#include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
 
 using namespace xbarsim;
@@ -65,6 +66,23 @@ TEST(ExplorePoints, KeyIgnoresThreadsButNotDesign) {
   EXPECT_EQ(a, point_key(cfg_with({"converters.adc_bits=6", "explore.objectives=accuracy,area"})));
   EXPECT_NE(a, point_key(cfg_with({"converters.adc_bits=7"})));
   EXPECT_NE(a, point_key(cfg_with({"converters.adc_bits=6", "eval.images=10"})));
+}
+
+TEST(EvalJournal, RunKeyIgnoresTheImageRangeAndKnowsTheModelByItsContent) {
+  const std::string a = ::testing::TempDir() + "xbarsim_key_a.onnx", b = ::testing::TempDir() + "xbarsim_key_b.onnx",
+                    c = ::testing::TempDir() + "xbarsim_key_c.onnx";
+  std::ofstream(a) << "model bytes";
+  std::ofstream(b) << "model bytes";  // a copy elsewhere
+  std::ofstream(c) << "model bytez";  // re-exported
+  const ConfigTree cfg = cfg_with({"converters.adc_bits=6"});
+  const std::string k = eval_run_key(cfg, a, "cifar10");
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.images=10", "eval.offset=5"}), a, "cifar10"));
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "solver.threads=2"}), a, "cifar10"));
+  EXPECT_EQ(k, eval_run_key(cfg, b, "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg, c, "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg, a, "mnist"));
+  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=7"}), a, "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.calibration_images=100"}), a, "cifar10"));
 }
 
 TEST(ExploreSpec, ChecksNameTheKey) {
