@@ -11,7 +11,9 @@
 # ~3.5 h (differential ~7 h): use a cluster, e.g. MPIRUN="mpirun -n 64" with
 # XBARSIM_SET="--set solver.threads=1", or a subset of images (the table's 95 % interval of
 # the drop says what a subset can tell).
-# Usage: scripts/nonlinear_table.sh [images|all] [out-dir]   (env: KS, CFGS, MPIRUN, XBARSIM_SET)
+# `table` instead of a number prints the table of what DIR holds without running anything; a
+# cell still running or cut short is shown from its journal, marked "(partial)".
+# Usage: scripts/nonlinear_table.sh [images|all|table] [out-dir]   (env: KS, CFGS, MPIRUN, XBARSIM_SET)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 IMAGES=${1:-all}
@@ -26,7 +28,7 @@ declare -A NAME=([cc]="conv+cal" [pd]="+ pre-distortion" [df]="+ pre-distortion,
 for cfg in $CFGS; do
   for k in $KS; do
     base="$DIR/$cfg-k$k"
-    [ -s "$base.json" ] && continue
+    [ "$IMAGES" = table ] || [ -s "$base.json" ] && continue
     echo "nonlinear table: $cfg k=$k ($IMAGES images)" >&2
     # shellcheck disable=SC2086  # word splitting of the option lists is intended
     ${MPIRUN:-} "$X" eval --model resnet20_cifar10 --images "$IMAGES" --set crossbar.memristor.model=sinh \
@@ -40,6 +42,18 @@ printf '|---|---|---|---|---|---|---|---|\n'
 for cfg in $CFGS; do
   for k in $KS; do
     base="$DIR/$cfg-k$k"
+    if [ ! -s "$base.json" ] && [ -s "$base.jsonl" ]; then
+      # From the journal: one line per finished image ("sw"/"xb": correct or not), the interval
+      # as eval computes it (Agresti-Min: 0.5 added to each cell of the paired table).
+      awk '{ if (!match($0, /"image":[0-9]+/)) next; im = substr($0, RSTART + 8, RLENGTH - 8); if (im in seen) next
+             seen[im] = 1; n++; s = ($0 ~ /"sw":1/); x = ($0 ~ /"xb":1/); sw += s; xb += x; b += s && !x; c += x && !s }
+           END { if (!n) exit; N = n + 2; bb = b + 0.5; cc = c + 0.5; d = (bb - cc) / N
+                 v = (bb + cc) - (bb - cc) ^ 2 / N; h = 1.959963984540054 * sqrt(v > 0 ? v : 0) / N
+                 lo = d - h < -1 ? -1 : d - h; hi = d + h > 1 ? 1 : d + h
+                 printf "| %s | %s | %d (partial) | %.2f | %.2f | %.2f | %+.2f..%+.2f | - |\n", name, k, n, 100 * sw / n,
+                   100 * xb / n, 100 * (b - c) / n, 100 * lo, 100 * hi }' name="${NAME[$cfg]}" k="$k" "$base.jsonl"
+      continue
+    fi
     [ -s "$base.json" ] || continue
     # The run's row of eval's table: run images software_% crossbar_% drop_pts interval ...
     read -r _ n sw xb drop ci _ < <(grep -m1 '^default' "$base.txt")
