@@ -256,12 +256,10 @@ int cmd_explore(int argc, char** argv) {
       os << "," << r["status"].get<std::string>();
       for (const char* f :
            {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error", "energy_uj_per_image",
-            "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw"}) {
+            "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw", "accuracy_drop"}) {
         os << ",";
         if (r.contains(f)) os << r[f];
       }
-      os << ",";
-      if (r.contains("accuracy_drop")) os << r["accuracy_drop"];
       for (int e = 0; e < 2; ++e) {
         os << ",";
         if (r.contains("accuracy_drop_ci95")) os << r["accuracy_drop_ci95"][e];
