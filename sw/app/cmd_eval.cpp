@@ -43,21 +43,20 @@ int cmd_eval(int argc, char** argv) {
   // --journal: finished images are recorded as they finish; those already there are reused.
   std::unique_ptr<ResultJournal> journal_file;
   std::vector<EvalJournal> journals(points.size());
+  std::vector<nlohmann::json> journal_rows;
   if (args.has("--journal")) {
     journal_file = std::make_unique<ResultJournal>(args.get("--journal"));
     if (Ranks::root()) journal_file->repair();
     Ranks::barrier();
     int skipped = 0;
-    const std::vector<nlohmann::json> rows = journal_file->read(&skipped);
+    journal_rows = journal_file->read(&skipped);
     Ranks::barrier();  // everyone has read the journal before anyone appends to it
     if (skipped && Ranks::root())
       std::fprintf(stderr, "xbarsim eval: %d unreadable lines of %s ignored\n", skipped, journal_file->path().c_str());
-    for (size_t run = 0; run < points.size(); ++run) {
-      journals[run] = {journal_file.get(), eval_run_key(sweep_config(base, points[run]), model.path, data.test.name),
-                       spec.offset, {}};
-      for (const auto& row : rows)
-        if (row["key"] == journals[run].key) journals[run].rows.push_back(row);
-    }
+    const std::string model_id = file_id(model.path);
+    for (size_t run = 0; run < points.size(); ++run)
+      journals[run] = {journal_file.get(), eval_run_key(sweep_config(base, points[run]), model_id, data.test.name),
+                       spec.offset, &journal_rows};
   }
 
   // Under MPI every rank evaluates its share of the images; rank 0 reduces, prints and writes.

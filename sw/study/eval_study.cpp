@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <stdexcept>
 #include <mutex>
 
@@ -79,7 +78,8 @@ struct ImageTallies {
 /// Fills `t` with the journal's images of this run; returns which images it had.
 std::vector<char> read_journal(const EvalJournal& j, ImageTallies& t, int images, int L) {
   std::vector<char> have(images, 0);
-  for (const auto& row : j.rows) {
+  if (!j.rows) return have;
+  for (const auto& row : *j.rows) {
     if (row.value("key", std::string()) != j.key) continue;
     const auto bad = [&] {
       return InputError("eval journal '" + (j.file ? j.file->path() : std::string()) + "': a line of this run (key " +
@@ -210,19 +210,8 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
   return xb;
 }
 
-std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset) {
-  // The model by its content (FNV-1a of the file): a moved copy matches, a re-exported one not.
-  std::ifstream in(model, std::ios::binary);
-  uint64_t h = 1469598103934665603ULL;
-  char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0)
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buf[i]);
-      h *= 1099511628211ULL;
-    }
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
-  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " model " + hex + " " + dataset;
+std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset) {
+  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " model " + model_id + " " + dataset;
 }
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,

@@ -99,12 +99,14 @@ struct EvalJournal {
   const ResultJournal* file = nullptr;  ///< where finished images are appended (null: nowhere)
   std::string key;                      ///< eval_run_key of the run
   int offset = 0;                       ///< dataset index of test image 0 (eval.offset)
-  std::vector<nlohmann::json> rows;     ///< the journal's lines, read before the run (any key)
+  const std::vector<nlohmann::json>* rows = nullptr;  ///< the journal's lines, read before the run
+                                                      ///< (any key; not owned)
 };
 /// A run's identity in a journal: its whole effective configuration except the image range
 /// (eval.images, eval.offset: an image is identified by its dataset index) and what
-/// point_key ignores, with the model file's content and the dataset.
-std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model, const std::string& dataset);
+/// point_key ignores, with the model (file_id of its file: a moved copy matches, a re-exported
+/// one not) and the dataset.
+std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset);
 
 /// Progress callbacks: (done, total) for programming (layers) and evaluation (images).
 struct EvalProgress {

@@ -120,22 +120,31 @@ std::vector<SweepPoint> explore_points(const ConfigTree& cfg, ExploreSpec::Combi
   return out;
 }
 
+std::string Fnv1a::hex() const {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h_));
+  return buf;
+}
+
+std::string file_id(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  Fnv1a h;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) h.add(buf, static_cast<size_t>(in.gcount()));
+  return h.hex();
+}
+
 std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
-  // FNV-1a, 64 bit, over "key=value\n" of every effective key that can change a result.
-  uint64_t h = 1469598103934665603ULL;
+  // Over "key=value\n" of every effective key that can change a result.
+  Fnv1a h;
   for (const auto& key : cfg.leaf_keys()) {
     if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
         key == "explore.combine" || starts_with(key, "limits.") ||
         std::find(also_ignored.begin(), also_ignored.end(), key) != also_ignored.end())
       continue;
-    for (unsigned char c : key + "=" + cfg.get_string(key) + "\n") {
-      h ^= c;
-      h *= 1099511628211ULL;
-    }
+    h.add(key + "=" + cfg.get_string(key) + "\n");
   }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
+  return h.hex();
 }
 
 double objective_cost(const nlohmann::json& row, Objective o) {

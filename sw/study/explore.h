@@ -3,6 +3,8 @@
 /// the identity of a point (for resuming), the resumable result journal and the Pareto front.
 /// The runner that evaluates a point and simulates its platform is platform/app/cmd_explore.cpp.
 #include <nlohmann/json.hpp>
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,27 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg);
 /// The points of the space: the cartesian product of every list (sweep_points), or with
 /// combine = zip point k takes the k-th value of every list (all lists equally long).
 std::vector<SweepPoint> explore_points(const ConfigTree& cfg, ExploreSpec::Combine combine);
+
+/// FNV-1a, 64 bit: the hash behind the journals' keys (point_key, file_id).
+class Fnv1a {
+ public:
+  void add(const char* bytes, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      h_ ^= static_cast<unsigned char>(bytes[i]);
+      h_ *= 1099511628211ULL;
+    }
+  }
+  void add(const std::string& s) { add(s.data(), s.size()); }
+  /// 16 lowercase hex digits.
+  std::string hex() const;
+
+ private:
+  uint64_t h_ = 1469598103934665603ULL;
+};
+
+/// A file's identity by its content (Fnv1a::hex of its bytes); the hash of no bytes when it
+/// cannot be read.
+std::string file_id(const std::string& path);
 
 /// A point's identity: a hash of its whole effective configuration except what does not change
 /// its results (solver.threads, explore.objectives / color_by / combine, limits.*, and the keys

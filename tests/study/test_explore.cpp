@@ -75,14 +75,14 @@ TEST(EvalJournal, RunKeyIgnoresTheImageRangeAndKnowsTheModelByItsContent) {
   std::ofstream(b) << "model bytes";  // a copy elsewhere
   std::ofstream(c) << "model bytez";  // re-exported
   const ConfigTree cfg = cfg_with({"converters.adc_bits=6"});
-  const std::string k = eval_run_key(cfg, a, "cifar10");
-  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.images=10", "eval.offset=5"}), a, "cifar10"));
-  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "solver.threads=2"}), a, "cifar10"));
-  EXPECT_EQ(k, eval_run_key(cfg, b, "cifar10"));
-  EXPECT_NE(k, eval_run_key(cfg, c, "cifar10"));
-  EXPECT_NE(k, eval_run_key(cfg, a, "mnist"));
-  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=7"}), a, "cifar10"));
-  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.calibration_images=100"}), a, "cifar10"));
+  const std::string k = eval_run_key(cfg, file_id(a), "cifar10");
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.images=10", "eval.offset=5"}), file_id(a), "cifar10"));
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "solver.threads=2"}), file_id(a), "cifar10"));
+  EXPECT_EQ(k, eval_run_key(cfg, file_id(b), "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg, file_id(c), "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg, file_id(a), "mnist"));
+  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=7"}), file_id(a), "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.calibration_images=100"}), file_id(a), "cifar10"));
 }
 
 TEST(ExploreSpec, ChecksNameTheKey) {
