@@ -131,6 +131,10 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
   col_solve(s.q_inv.data(), r, z);
   double rz = line_dot(r, z, mn);
   if (rz == 0) return 0;
+  auto not_finite = [] {
+    return SolverError("line solver (CG): the system or its right-hand side is not finite (overflow)");
+  };
+  if (!std::isfinite(rz)) throw not_finite();
   std::copy(z, z + mn, p);
   const double target2 = tol * tol * rz;
   for (int it = 1; it <= options_.max_iterations; ++it) {
@@ -147,12 +151,13 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
     col_solve(s.q_inv.data(), r, z);
     const double rz_new = line_dot(r, z, mn);
     if (rz_new <= target2) return it;
+    if (!std::isfinite(rz_new)) throw not_finite();
     const double beta = rz_new / rz;
     rz = rz_new;
     for (int k = 0; k < mn; ++k) p[k] = z[k] + beta * p[k];
   }
   std::ostringstream os;
-  os << "line solver (CG) did not reach relative residual " << options_.tolerance << " in " << options_.max_iterations
+  os << "line solver (CG) did not reach relative residual " << tol << " in " << options_.max_iterations
      << " iterations (solver.max_iterations)";
   throw SolverError(os.str());
 }
@@ -167,6 +172,8 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   col_solve(s.q_inv.data(), rhs, r);
   const double b_norm = std::sqrt(line_dot(r, r, mn));
   if (b_norm == 0) return 0;
+  if (!std::isfinite(b_norm))
+    throw SolverError("line solver (GMRES): the system or its right-hand side is not finite (overflow)");
   const double target = options_.tolerance * b_norm;
   double h[kGmresRestart + 1][kGmresRestart];
   double cs[kGmresRestart], sn[kGmresRestart], g[kGmresRestart + 1], y[kGmresRestart];
@@ -175,7 +182,7 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   while (total < options_.max_iterations) {
     const double beta = std::sqrt(line_dot(r, r, mn));
     if (beta <= target) return total;
-    if (prev_beta > 0 && beta > 0.99 * prev_beta) break;  // stagnation
+    if (!std::isfinite(beta) || (prev_beta > 0 && beta > 0.99 * prev_beta)) break;  // overflow, stagnation
     prev_beta = beta;
     double* v0 = w.v.data();
     for (int k = 0; k < mn; ++k) v0[k] = r[k] / beta;

@@ -106,7 +106,10 @@ Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
     BatchState st(mn, g.data(), ratio.data());
     Workspace w(mn, false);
     for (int k = tid; k < count; k += threads) {
-      if (batch_solve(v.row(k).data(), st, w, out.row(k).data())) continue;
+      try {
+        if (batch_solve(v.row(k).data(), st, w, out.row(k).data())) continue;
+      } catch (const SolverError&) {  // an inner solve failed: as for non-convergence
+      }
       try {  // the reference per-vector Newton
         out.row(k) = solve(v.row(k).transpose()).column_current.transpose();
       } catch (const SolverError& e) {
@@ -278,6 +281,7 @@ bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, d
       scale *= 0.5;
       batch_residual(v_in, st, w, new_norm, f_max);
     }
+    if (!std::isfinite(new_norm)) return false;  // the devices overflowed: the per-vector Newton limits its steps
     f_norm = new_norm;
     // Error of the column currents: the last change times the observed contraction
     // theta / (1 - theta) (Newton's error estimate); without two full steps to measure
