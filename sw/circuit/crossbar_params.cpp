@@ -22,6 +22,19 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   p.memristor.model = mem == "sinh" ? MemristorModel::Sinh : MemristorModel::Linear;
   p.memristor.k_per_v = cfg.get_double("crossbar.memristor.k");
   p.memristor.v_read_v = cfg.get_double("crossbar.memristor.v_read");
+  if (p.memristor.model == MemristorModel::Sinh) {
+    // sinh overflows near 710: I = G v_read sinh(kV) / sinh(k v_read) would be 0 or NaN.
+    auto check = [&](const char* key, double v) {
+      if (p.memristor.k_per_v * v <= kMaxSinhArgument) return;
+      std::ostringstream os;
+      os << "crossbar.memristor.k (" << p.memristor.k_per_v << " 1/V) times " << key << " (" << v << " V) is "
+         << p.memristor.k_per_v * v << "; the sinh memristor model needs at most " << kMaxSinhArgument
+         << " (sinh overflows near 710)";
+      throw InputError(os.str());
+    };
+    check("crossbar.memristor.v_read", p.memristor.v_read_v);
+    check("crossbar.v_in_max", p.v_in_max_v);
+  }
   const std::string tr = require_one_of(cfg, "crossbar.transistor.model", {"none", "linear", "level1"});
   p.transistor.model = tr == "none"     ? TransistorModel::None
                        : tr == "linear" ? TransistorModel::Linear

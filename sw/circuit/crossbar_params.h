@@ -11,6 +11,10 @@ enum class TransistorModel { None, Linear, Level1 };
 
 /// Memristor I-V. linear: I = G*V. sinh: I = G*v_read*sinh(k*V)/sinh(k*v_read), so that the
 /// nominal conductance G is the chord conductance at the read voltage.
+/// Largest k*V the sinh model accepts (at the read voltage, the input range and every input):
+/// sinh overflows near 710.
+constexpr double kMaxSinhArgument = 600;
+
 struct MemristorParams {
   MemristorModel model = MemristorModel::Linear;
   double k_per_v = 5.0;

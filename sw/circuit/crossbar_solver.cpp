@@ -68,7 +68,7 @@ void CrossbarSolver::check_input(const Eigen::VectorXd& v_in) const {
     if (!std::isfinite(v_in(i)) || std::abs(v_in(i)) > kMaxInputVoltage)
       throw InputError("input voltage " + std::to_string(i + 1) + " is " + std::to_string(v_in(i)) +
                        " V; inputs must be finite and within +-" + std::to_string(kMaxInputVoltage) + " V");
-    if (k * std::abs(v_in(i)) > 600)  // sinh overflows near 710
+    if (k * std::abs(v_in(i)) > kMaxSinhArgument)
       throw InputError("input voltage " + std::to_string(i + 1) + " (" + std::to_string(v_in(i)) +
                        " V) times the sinh nonlinearity crossbar.memristor.k overflows the device model");
   }

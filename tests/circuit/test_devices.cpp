@@ -1,8 +1,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
+#include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/device_models.h"
+#include "sw/common/config.h"
+#include "sw/common/errors.h"
 
 using namespace xbarsim;
 
@@ -59,4 +64,30 @@ TEST(Devices, Level1DerivativesMatchFiniteDifferences) {
       t.eval(va, vb - h, im, d1, d2);
       EXPECT_NEAR(db, (ip - im) / (2 * h), 1e-8) << va << " " << vb;
     }
+}
+
+namespace {
+/// The InputError message of parsing the crossbar keys with `sets`, or "" when it is accepted.
+std::string crossbar_error(std::vector<std::string> sets) {
+  try {
+    parse_crossbar_params(ConfigTree::load("", sets));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(CrossbarConfig, SettingsTheDeviceModelsCannotEvaluateAreErrorsNamingTheKeys) {
+  const std::string sinh = "crossbar.memristor.model=sinh";
+  // k v_read past sinh's range made the model's scale 0: every current 0 A, without a word.
+  std::string msg = crossbar_error({sinh, "crossbar.memristor.k=100", "crossbar.memristor.v_read=7.2"});
+  EXPECT_NE(msg.find("crossbar.memristor.k (100"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("crossbar.memristor.v_read (7.2"), std::string::npos) << msg;
+  msg = crossbar_error({sinh, "crossbar.memristor.k=100", "crossbar.v_in_max=7"});
+  EXPECT_NE(msg.find("crossbar.v_in_max (7"), std::string::npos) << msg;
+  EXPECT_EQ(crossbar_error({sinh, "crossbar.memristor.k=100", "crossbar.v_in_max=6"}), "");
+  EXPECT_EQ(crossbar_error({"crossbar.memristor.k=100", "crossbar.memristor.v_read=7.2"}), "") << "linear: k unused";
+  msg = crossbar_error({"crossbar.transistor.model=level1", "crossbar.v_in_max=3"});
+  EXPECT_NE(msg.find("crossbar.v_in_max (3"), std::string::npos) << msg;
 }
