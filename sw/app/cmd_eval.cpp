@@ -1,5 +1,6 @@
 // xbarsim eval: argument parsing and rendering of a whole-network evaluation
 // (sw/study/eval_study.h).
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -57,6 +58,16 @@ int cmd_eval(int argc, char** argv) {
     for (size_t run = 0; run < points.size(); ++run)
       journals[run] = {journal_file.get(), eval_run_key(sweep_config(base, points[run]), model_id, data.test.name),
                        spec.offset, &journal_rows};
+    // Lines of another model, dataset or setting stay in the journal; say so, or a changed key
+    // (a different value of any key) would silently evaluate everything again.
+    const auto foreign = std::count_if(journal_rows.begin(), journal_rows.end(), [&](const nlohmann::json& row) {
+      const std::string key = row.value("key", std::string());
+      return std::none_of(journals.begin(), journals.end(), [&](const EvalJournal& j) { return j.key == key; });
+    });
+    if (foreign && Ranks::root())
+      std::fprintf(stderr,
+                   "xbarsim eval: %ld lines of %s are of another model, dataset or configuration; kept, not reused\n",
+                   static_cast<long>(foreign), journal_file->path().c_str());
   }
 
   // Under MPI every rank evaluates its share of the images; rank 0 reduces, prints and writes.
@@ -92,16 +103,18 @@ int cmd_eval(int argc, char** argv) {
     eval_bar.finish();
     if (!root) continue;
     if (r.images_from_journal)
-      std::fprintf(stderr, "xbarsim eval: %s: %d of %d images from %s\n", label.c_str(), r.images_from_journal, r.images,
-                   journal_file->path().c_str());
+      std::fprintf(stderr, "xbarsim eval: %s: %d of %d images from %s\n", label.c_str(), r.images_from_journal,
+                   r.images, journal_file->path().c_str());
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
     for (const std::string& w : r.warnings()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
     nlohmann::json j = r.to_json();
     long long oor = j["out_of_range_cells"];
     const auto ci = r.paired.drop_ci95();
-    table.print_row(stdout, {label, static_cast<long long>(r.images), 100 * r.software_accuracy,
-                             100 * r.crossbar_accuracy, 100 * r.paired.drop(), drop_interval_text(ci.first, ci.second),
-                             r.cost.crossbars, oor, j["images_per_s"].get<double>()});
+    table.print_row(stdout,
+                    {label, static_cast<long long>(r.images), 100 * r.software_accuracy, 100 * r.crossbar_accuracy,
+                     100 * r.paired.drop(), drop_interval_text(ci.first, ci.second), r.cost.crossbars, oor,
+                     r.images_from_journal == r.images ? Table::Cell("-")  // nothing evaluated
+                                                       : Table::Cell(j["images_per_s"].get<double>())});
     if (points.size() == 1) print_layers(r);
     if (out->csv().enabled())
       for (size_t l = 0; l < r.layers.size(); ++l) {

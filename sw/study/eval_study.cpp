@@ -87,7 +87,8 @@ std::vector<char> read_journal(const EvalJournal& j, ImageTallies& t, int images
     };
     if (!row.contains("image") || !row["image"].is_number_integer() || !row.contains("layers") ||
         !row["layers"].is_array() || static_cast<int>(row["layers"].size()) != L || !row.contains("sw") ||
-        !row.contains("xb") || !row["sw"].is_number_integer() || !row["xb"].is_number_integer())
+        !row.contains("xb") || !row["sw"].is_number_integer() || !row["xb"].is_number_integer() ||
+        (row["sw"] != 0 && row["sw"] != 1) || (row["xb"] != 0 && row["xb"] != 1))
       throw bad();
     const long long k = row["image"].get<long long>() - j.offset;
     if (k < 0 || k >= images) continue;  // outside this run's range of images
@@ -95,7 +96,8 @@ std::vector<char> read_journal(const EvalJournal& j, ImageTallies& t, int images
     t.xb_correct[k] = row["xb"].get<int>() != 0;
     for (int l = 0; l < L; ++l) {
       const auto& e = row["layers"][l];
-      if (!e.is_array() || e.size() != 3 || !e[0].is_number() || !e[1].is_number() || !e[2].is_number_integer())
+      if (!e.is_array() || e.size() != 3 || !e[0].is_number() || !e[1].is_number() || !e[2].is_number_integer() ||
+          !(e[0].get<double>() >= 0) || !(e[1].get<double>() >= 0) || e[2].get<long long>() < 0)
         throw bad();
       ErrorTally& et = t.layer[static_cast<size_t>(k) * L + l];
       et.sum = e[0].get<double>();
@@ -114,8 +116,11 @@ std::string journal_line(const EvalJournal& j, const ImageTallies& t, int k, int
     const ErrorTally& et = t.layer[static_cast<size_t>(k) * L + l];
     layers.push_back({et.sum, et.worst, et.count});
   }
-  return nlohmann::json{{"key", j.key}, {"image", j.offset + k}, {"sw", static_cast<int>(t.sw_correct[k])},
-                        {"xb", static_cast<int>(t.xb_correct[k])}, {"layers", layers}}
+  return nlohmann::json{{"key", j.key},
+                        {"image", j.offset + k},
+                        {"sw", static_cast<int>(t.sw_correct[k])},
+                        {"xb", static_cast<int>(t.xb_correct[k])},
+                        {"layers", layers}}
              .dump() +
          "\n";
 }
@@ -211,7 +216,10 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
 }
 
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset) {
-  return point_key(run_cfg, {"eval.images", "eval.offset"}) + " model " + model_id + " " + dataset;
+  // The image range, and the sections that cannot change an image's outcome: the platform's
+  // timing, xbar-study's synthetic crossbar, explore's space.
+  return point_key(run_cfg, {"eval.images", "eval.offset", "platform.", "study.", "explore."}) + " model " + model_id +
+         " " + dataset;
 }
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -134,15 +135,34 @@ std::string file_id(const std::string& path) {
   return h.hex();
 }
 
+std::string canonical_value(const std::string& text) {
+  // A finite decimal number (not hex) as the shortest text that reads back as the same double.
+  if (text.empty() || text.find_first_of("xX") != std::string::npos) return text;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || !std::isfinite(v)) return text;
+  char buf[32];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v == 0 ? 0.0 : v);  // -0 is 0
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
 std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
-  // Over "key=value\n" of every effective key that can change a result.
+  // Over "key=value\n" of every effective key that can change a result, numbers canonical (3,
+  // 3.0 and 3e0 are one value). An entry of also_ignored ending in '.' ignores that section.
   Fnv1a h;
+  const auto ignored = [&](const std::string& key) {
+    for (const std::string& a : also_ignored)
+      if (a.back() == '.' ? starts_with(key, a.c_str()) : key == a) return true;
+    return false;
+  };
   for (const auto& key : cfg.leaf_keys()) {
     if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
-        key == "explore.combine" || starts_with(key, "limits.") ||
-        std::find(also_ignored.begin(), also_ignored.end(), key) != also_ignored.end())
+        key == "explore.combine" || starts_with(key, "limits.") || ignored(key))
       continue;
-    h.add(key + "=" + cfg.get_string(key) + "\n");
+    h.add(key + "=" + canonical_value(cfg.get_string(key)) + "\n");
   }
   return h.hex();
 }

@@ -133,7 +133,8 @@ TEST(EvalCommand, JournalResumesWithTheSameResultAsOneRun) {
   // line cut short by a kill is dropped, another configuration does not reuse the lines, and
   // the result equals one uninterrupted run's, bit for bit.
   if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
-  const std::string journal = "/tmp/xbarsim_eval_journal.jsonl", base = "eval --model lenet_mnist --set solver.threads=2 ";
+  const std::string journal = "/tmp/xbarsim_eval_journal.jsonl",
+                    base = "eval --model lenet_mnist --set solver.threads=2 ";
   std::remove(journal.c_str());
   auto lines = [&] {
     std::ifstream in(journal);
@@ -164,11 +165,23 @@ TEST(EvalCommand, JournalResumesWithTheSameResultAsOneRun) {
   ASSERT_EQ(run(base + "--offset 60 --images 60 --json /tmp/xbarsim_journal_e.json", &out), 0) << out;
   EXPECT_EQ(result("/tmp/xbarsim_journal_d.json"), result("/tmp/xbarsim_journal_e.json"));
   // Another design: nothing reused.
-  ASSERT_EQ(run(base + "--images 20 --set converters.adc_bits=6 --journal " + journal + " --json /tmp/xbarsim_journal_f.json",
+  ASSERT_EQ(
+      run(base + "--images 20 --set converters.adc_bits=6 --journal " + journal + " --json /tmp/xbarsim_journal_f.json",
+          &out),
+      0)
+      << out;
+  EXPECT_EQ(read_json("/tmp/xbarsim_journal_f.json")["images_from_journal"], 0);
+  EXPECT_NE(out.find("120 lines of " + journal + " are of another model, dataset or configuration"), std::string::npos)
+      << out;
+  // The same design written differently reuses everything (and evaluates nothing).
+  ASSERT_EQ(run(base +
+                    "--images 20 --set converters.adc_bits=6 --set converters.adc_margin=0.050 --set "
+                    "crossbar.r_wire=1e0 --journal " +
+                    journal,
                 &out),
             0)
       << out;
-  EXPECT_EQ(read_json("/tmp/xbarsim_journal_f.json")["images_from_journal"], 0);
+  EXPECT_NE(out.find("20 of 20 images from"), std::string::npos) << out;
   // A line of this run that is not an image record is an error naming the journal.
   std::string key;
   {

@@ -76,13 +76,38 @@ TEST(EvalJournal, RunKeyIgnoresTheImageRangeAndKnowsTheModelByItsContent) {
   std::ofstream(c) << "model bytez";  // re-exported
   const ConfigTree cfg = cfg_with({"converters.adc_bits=6"});
   const std::string k = eval_run_key(cfg, file_id(a), "cifar10");
-  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.images=10", "eval.offset=5"}), file_id(a), "cifar10"));
+  EXPECT_EQ(
+      k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.images=10", "eval.offset=5"}), file_id(a), "cifar10"));
   EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "solver.threads=2"}), file_id(a), "cifar10"));
   EXPECT_EQ(k, eval_run_key(cfg, file_id(b), "cifar10"));
   EXPECT_NE(k, eval_run_key(cfg, file_id(c), "cifar10"));
   EXPECT_NE(k, eval_run_key(cfg, file_id(a), "mnist"));
   EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=7"}), file_id(a), "cifar10"));
   EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=6", "eval.calibration_images=100"}), file_id(a), "cifar10"));
+  // A number is its value however it is written (a rerun with k=3.0 must not start over)...
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6.0"}), file_id(a), "cifar10"));
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "crossbar.r_wire=1e0", "crossbar.v_in_max=0.40"}),
+                            file_id(a), "cifar10"));
+  EXPECT_NE(k, eval_run_key(cfg_with({"converters.adc_bits=6", "crossbar.v_in_max=0.4000001"}), file_id(a), "cifar10"));
+  // ... and sections that cannot change an image's outcome do not count.
+  EXPECT_EQ(k, eval_run_key(cfg_with({"converters.adc_bits=6", "platform.clock_mhz=200", "study.rows=16",
+                                      "explore.objectives=accuracy,area"}),
+                            file_id(a), "cifar10"));
+}
+
+TEST(PointKey, NumbersAreCanonicalOtherTextIsKept) {
+  EXPECT_EQ(canonical_value("3.0"), "3");
+  EXPECT_EQ(canonical_value("3e0"), "3");
+  EXPECT_EQ(canonical_value("0.40"), "0.4");
+  EXPECT_EQ(canonical_value("-0"), "0");
+  EXPECT_EQ(canonical_value("1e-300"), "1e-300");
+  EXPECT_EQ(canonical_value("0.1"), "0.1");
+  EXPECT_EQ(std::stod(canonical_value("3.3333333333333333e-6")), 3.3333333333333333e-6);  // round-trips
+  for (const char* kept : {"", "all", "0x10", "1e400", "nan", "1,2", "3 ", "sinh"})
+    EXPECT_EQ(canonical_value(kept), kept);
+  // explore's point key too: a space written 1.0 finds the points it journaled as 1
+  EXPECT_EQ(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=1"})));
+  EXPECT_NE(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=2"})));
 }
 
 TEST(ExploreSpec, ChecksNameTheKey) {
