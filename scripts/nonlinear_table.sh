@@ -12,12 +12,23 @@
 # XBARSIM_SET="--set solver.threads=1", or a subset of images (the table's 95 % interval of
 # the drop says what a subset can tell).
 # `table` instead of a number prints the table of what DIR holds without running anything; a
-# cell still running or cut short is shown from its journal, marked "(partial)".
+# cell still running or cut short is shown from its journal, marked "(partial)"; only the lines
+# of the journal's last run count (its key: the configuration, model and dataset).
 # Usage: scripts/nonlinear_table.sh [images|all|table] [out-dir]   (env: KS, CFGS, MPIRUN, XBARSIM_SET)
 set -euo pipefail
+usage() { sed -n '2,/^# Usage/s/^# \{0,1\}//p' "$0"; }
+case "${1:-all}" in
+  -h | --help | help) usage; exit 0 ;;
+  all | table) ;;
+  *[!0-9]* | 0*) echo "nonlinear_table.sh: '$1' is not a number of images, all or table" >&2; usage >&2; exit 2 ;;
+esac
 cd "$(dirname "$0")/.."
 IMAGES=${1:-all}
 DIR=${2:-out/nonlinear}
+if [ "$IMAGES" = table ] && [ ! -d "$DIR" ]; then
+  echo "nonlinear_table.sh: no directory $DIR to make a table of" >&2
+  exit 2
+fi
 KS=${KS:-"1 2 3 5"}
 CFGS=${CFGS:-"cc pd df"}
 X=${XBARSIM:-build/sw/xbarsim}
@@ -45,13 +56,15 @@ for cfg in $CFGS; do
     if [ ! -s "$base.json" ] && [ -s "$base.jsonl" ]; then
       # From the journal: one line per finished image ("sw"/"xb": correct or not), the interval
       # as eval computes it (Agresti-Min: 0.5 added to each cell of the paired table).
-      awk '{ if (!match($0, /"image":[0-9]+/)) next; im = substr($0, RSTART + 8, RLENGTH - 8); if (im in seen) next
+      key=$(tail -n 1 "$base.jsonl" | grep -o '"key":"[^"]*"' || true)
+      awk '{ if (!index($0, key)) { other++; next } if (!match($0, /"image":[0-9]+/)) next; im = substr($0, RSTART + 8, RLENGTH - 8); if (im in seen) next
              seen[im] = 1; n++; s = ($0 ~ /"sw":1/); x = ($0 ~ /"xb":1/); sw += s; xb += x; b += s && !x; c += x && !s }
-           END { if (!n) exit; N = n + 2; bb = b + 0.5; cc = c + 0.5; d = (bb - cc) / N
+           END { if (other) printf "%s k=%s: %d journal lines of other runs left out\n", name, k, other > "/dev/stderr"
+                 if (!n) exit; N = n + 2; bb = b + 0.5; cc = c + 0.5; d = (bb - cc) / N
                  v = (bb + cc) - (bb - cc) ^ 2 / N; h = 1.959963984540054 * sqrt(v > 0 ? v : 0) / N
                  lo = d - h < -1 ? -1 : d - h; hi = d + h > 1 ? 1 : d + h
                  printf "| %s | %s | %d (partial) | %.2f | %.2f | %.2f | %+.2f..%+.2f | - |\n", name, k, n, 100 * sw / n,
-                   100 * xb / n, 100 * (b - c) / n, 100 * lo, 100 * hi }' name="${NAME[$cfg]}" k="$k" "$base.jsonl"
+                   100 * xb / n, 100 * (b - c) / n, 100 * lo, 100 * hi }' name="${NAME[$cfg]}" k="$k" key="$key" "$base.jsonl"
       continue
     fi
     [ -s "$base.json" ] || continue
