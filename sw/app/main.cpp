@@ -11,12 +11,22 @@
 
 namespace {
 
-void usage(std::ostream& os) {
-  os << "usage: xbarsim <command> [options]\n\ncommands:\n";
-  for (const auto& c : xbarsim::command_registry()) os << "  " << c.usage << "\n";
+bool is_help(const char* arg) { return !std::strcmp(arg, "--help") || !std::strcmp(arg, "-h"); }
+
+/// The whole usage, or one command's (`only`).
+void usage(std::ostream& os, const xbarsim::CommandInfo* only = nullptr) {
+  os << "usage: xbarsim " << (only ? only->name : "<command>") << " [options]\n\n" << (only ? "" : "commands:\n");
+  for (const auto& c : xbarsim::command_registry())
+    if (!only || &c == only) os << "  " << c.usage << "\n";
   os << "\nCommon options: --config FILE (YAML; every key is documented in configs/default.yaml),\n"
         "--set dotted.key=value (repeatable), --json FILE, --csv FILE.\n"
         "Under mpirun (when built with MPI), explore, eval and xbar-study share the work among the ranks.\n";
+}
+
+const xbarsim::CommandInfo* find_command(const char* name) {
+  for (const auto& c : xbarsim::command_registry())
+    if (c.name == name) return &c;
+  return nullptr;
 }
 
 /// Runs one subcommand; its errors become a message and an exit code (2 input, 3 solver, 4 internal).
@@ -27,7 +37,8 @@ int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
                           (xbarsim::Ranks::size() > 1 ? " [rank " + std::to_string(xbarsim::Ranks::rank()) + "]" : "");
   try {
     if (xbarsim::Ranks::size() > 1 && !c.shards)
-      throw xbarsim::InputError(c.name + " does not share its work among MPI ranks (explore, eval and xbar-study do): "
+      throw xbarsim::InputError(c.name +
+                                " does not share its work among MPI ranks (explore, eval and xbar-study do): "
                                 "run it without mpirun, or with one rank");
     return c.run(argc - 2, argv + 2);
   } catch (const std::exception&) {
@@ -55,19 +66,26 @@ int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") || !std::strcmp(argv[1], "help")) {
-    usage(argc < 2 ? std::cerr : std::cout);
+  if (argc < 2 || is_help(argv[1]) || !std::strcmp(argv[1], "help")) {
+    // xbarsim help CMD: that command's usage.
+    const xbarsim::CommandInfo* c = argc > 2 ? find_command(argv[2]) : nullptr;
+    usage(argc < 2 ? std::cerr : std::cout, c);
     return argc < 2 ? 2 : 0;
   }
+  if (const xbarsim::CommandInfo* c = find_command(argv[1]))
+    for (int i = 2; i < argc; ++i)
+      if (is_help(argv[i])) {  // xbarsim CMD [...] --help
+        usage(std::cout, c);
+        return 0;
+      }
   try {
     xbarsim::Ranks::init(&argc, &argv);
   } catch (const xbarsim::InputError& e) {
     std::cerr << "xbarsim: error: " << e.what() << "\n";
     return 2;
   }
-  for (const auto& c : xbarsim::command_registry()) {
-    if (c.name != argv[1]) continue;
-    const int code = run_command(c, argc, argv);
+  if (const xbarsim::CommandInfo* c = find_command(argv[1])) {
+    const int code = run_command(*c, argc, argv);
     // One rank's error ends the whole MPI job, so the other ranks never wait for it.
     if (code != 0 && xbarsim::Ranks::size() > 1) xbarsim::Ranks::abort(code);
     xbarsim::Ranks::finalize();

@@ -61,6 +61,22 @@ TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
   }
 }
 
+TEST(Cli, HelpForOneCommand) {
+  // xbarsim CMD --help (or -h, anywhere among its options) and xbarsim help CMD: that command's
+  // synopsis, exit 0, nothing run.
+  for (const char* args : {"eval --help", "eval --model lenet_mnist -h", "help eval"}) {
+    const auto r = run(args);
+    EXPECT_EQ(r.code, 0) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("usage: xbarsim eval"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("--journal"), std::string::npos) << args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("solve --conductances"), std::string::npos) << args << ": only eval's\n" << r.out;
+  }
+  const auto all = run("help");
+  EXPECT_EQ(all.code, 0);
+  EXPECT_NE(all.out.find("solve --conductances"), std::string::npos) << all.out;
+  EXPECT_NE(all.out.find("eval --model"), std::string::npos) << all.out;
+}
+
 TEST(Cli, NetlistWritesSpice) {
   const auto g = file("gn.csv", "5e-5,6e-5\n4e-5,3e-5\n");
   const auto v = file("vn.csv", "0.1,0.2\n");
