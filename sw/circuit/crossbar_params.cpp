@@ -43,6 +43,14 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   p.transistor.vg_v = cfg.get_double("crossbar.transistor.vg");
   p.transistor.vth_v = cfg.get_double("crossbar.transistor.vth");
   p.transistor.kp_a_per_v2 = cfg.get_double("crossbar.transistor.kp");
+  if (!p.is_linear() && p.r_wire_ohm < kMinNonlinearWireOhm) {
+    std::ostringstream os;
+    os << "crossbar.r_wire (" << p.r_wire_ohm << " ohm) must be at least " << kMinNonlinearWireOhm
+       << " ohm with nonlinear devices: against wires that much stiffer than the cells the Newton solve cannot "
+          "resolve the cells in double precision (and the wires are ideal for every purpose at "
+       << kMinNonlinearWireOhm << " ohm)";
+    throw InputError(os.str());
+  }
   if (p.transistor.model == TransistorModel::Level1 && !(p.transistor.vg_v - p.transistor.vth_v > p.v_in_max_v)) {
     std::ostringstream os;
     os << "crossbar.transistor: vg - vth (" << p.transistor.vg_v - p.transistor.vth_v

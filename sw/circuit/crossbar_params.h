@@ -15,6 +15,10 @@ enum class TransistorModel { None, Linear, Level1 };
 /// sinh overflows near 710.
 constexpr double kMaxSinhArgument = 600;
 
+/// Smallest crossbar.r_wire with nonlinear devices (ohm): below it the per-vector Newton's
+/// updates stall at the rounding level of the wires' currents (1e-8 failed on an 8x4 array).
+constexpr double kMinNonlinearWireOhm = 1e-6;
+
 struct MemristorParams {
   MemristorModel model = MemristorModel::Linear;
   double k_per_v = 5.0;

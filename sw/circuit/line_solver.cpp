@@ -485,6 +485,9 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
   os << "Newton-Raphson (line solver) did not converge in " << options_.newton_max_iterations
      << " iterations (solver.newton_max_iterations): last update " << last_step << " V, KCL residual "
      << st.max_residual() << " A (needs <= " << options_.newton_tolerance * v_scale << " V and <= " << kcl_tol << " A)";
+  if (options_.max_step_v * options_.newton_max_iterations < 2 * v_scale)
+    os << "; every step moves a node by at most solver.max_step = " << options_.max_step_v
+       << " V, too little for inputs up to " << v_scale << " V in that many iterations";
   throw SolverError(os.str());
 }
 

@@ -88,6 +88,12 @@ TEST(CrossbarConfig, SettingsTheDeviceModelsCannotEvaluateAreErrorsNamingTheKeys
   EXPECT_NE(msg.find("crossbar.v_in_max (7"), std::string::npos) << msg;
   EXPECT_EQ(crossbar_error({sinh, "crossbar.memristor.k=100", "crossbar.v_in_max=6"}), "");
   EXPECT_EQ(crossbar_error({"crossbar.memristor.k=100", "crossbar.memristor.v_read=7.2"}), "") << "linear: k unused";
+  // Wires 1e8x stiffer than the cells: the Newton reference stalled at the rounding level.
+  msg = crossbar_error({sinh, "crossbar.r_wire=1e-8"});
+  EXPECT_NE(msg.find("crossbar.r_wire (1e-08"), std::string::npos) << msg;
+  EXPECT_NE(crossbar_error({"crossbar.transistor.model=level1", "crossbar.r_wire=1e-7"}), "");
+  EXPECT_EQ(crossbar_error({sinh, "crossbar.r_wire=1e-6"}), "");
+  EXPECT_EQ(crossbar_error({"crossbar.r_wire=1e-9"}), "") << "linear devices: ideal wires are fine";
   msg = crossbar_error({"crossbar.transistor.model=level1", "crossbar.v_in_max=3"});
   EXPECT_NE(msg.find("crossbar.v_in_max (3"), std::string::npos) << msg;
 }
