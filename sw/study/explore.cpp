@@ -1,6 +1,7 @@
 #include "sw/study/explore.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -215,6 +216,12 @@ std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs) {
     front[i] = !dominated;
   }
   return front;
+}
+
+ResultJournal::ResultJournal(std::string path) : path_(std::move(path)) {
+  struct stat st;
+  if (stat(path_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+    throw InputError("the journal '" + path_ + "' is not a regular file; a journal is read back and appended to");
 }
 
 void ResultJournal::repair() const {

@@ -77,7 +77,9 @@ std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs);
 /// the points in flight and several MPI ranks can append to one file.
 class ResultJournal {
  public:
-  explicit ResultJournal(std::string path) : path_(std::move(path)) {}
+  /// Throws InputError when `path` exists and is not a regular file (a journal is read back
+  /// and appended to: /dev/null would lose it, /dev/zero never ends).
+  explicit ResultJournal(std::string path);
   /// Drops a last line cut short by a kill (call on one process, before anyone appends).
   void repair() const;
   /// Every complete line that parses as a JSON object with a "key"; others are counted in

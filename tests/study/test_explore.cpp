@@ -149,3 +149,17 @@ TEST(ResultJournal, AppendsRepairsAndSkipsBadLines) {
   EXPECT_EQ(j.read().size(), 3u);
   std::remove(path.c_str());
 }
+
+TEST(ResultJournalFile, MustBeARegularFile) {
+  // Read back and appended to: /dev/zero never ends (it was reported as out of memory),
+  // /dev/null loses every line.
+  for (const char* special : {"/dev/null", "/dev/zero"}) {
+    try {
+      ResultJournal j(special);
+      FAIL() << special << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(ResultJournal(::testing::TempDir() + "xbarsim_no_such_journal.jsonl"));
+}
