@@ -177,6 +177,8 @@ std::string resolve_models_dir(const ConfigTree& cfg) {
 std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
   if (exists(given)) return given;
   std::vector<std::string> tried{given};
+  // A list (sweep) in these keys is an error of its own, not a model that was not found.
+  for (const char* key : {"data.dir", "data.models_dir"}) cfg.get_string(key);
   try {
     const std::string dir = resolve_models_dir(cfg);
     for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {

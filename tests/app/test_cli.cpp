@@ -52,6 +52,7 @@ TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"solve --inputs " + v2, "--conductances"},
       {"solve --conductances " + g + " --inputs " + v2 + " --bogus 1", "unknown option"},
       {"frobnicate", "unknown command"},
+      {"eval --model lenet_mnist --set data.dir=[a,b]", "'data.dir' holds a list"},  // was: model not found
   };
   for (const auto& c : cases) {
     const auto r = run(c.args);
