@@ -222,6 +222,10 @@ ResultJournal::ResultJournal(std::string path) : path_(std::move(path)) {
   struct stat st;
   if (stat(path_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
     throw InputError("the journal '" + path_ + "' is not a regular file; a journal is read back and appended to");
+  // Created now, so that a place that refuses files (e.g. /sys) fails before the work, not after.
+  const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  if (fd < 0) throw InputError("cannot write the journal '" + path_ + "': " + std::strerror(errno));
+  close(fd);
 }
 
 void ResultJournal::repair() const {

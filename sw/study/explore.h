@@ -77,8 +77,9 @@ std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs);
 /// the points in flight and several MPI ranks can append to one file.
 class ResultJournal {
  public:
-  /// Throws InputError when `path` exists and is not a regular file (a journal is read back
-  /// and appended to: /dev/null would lose it, /dev/zero never ends).
+  /// Creates the file when it does not exist. Throws InputError when `path` is not a regular
+  /// file (a journal is read back and appended to: /dev/null would lose it, /dev/zero never
+  /// ends) or cannot be created.
   explicit ResultJournal(std::string path);
   /// Drops a last line cut short by a kill (call on one process, before anyone appends).
   void repair() const;

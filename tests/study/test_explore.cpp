@@ -161,5 +161,15 @@ TEST(ResultJournalFile, MustBeARegularFile) {
       EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
     }
   }
-  EXPECT_NO_THROW(ResultJournal(::testing::TempDir() + "xbarsim_no_such_journal.jsonl"));
+  // A new journal is created at once: a place that refuses files fails before the work.
+  const std::string fresh = ::testing::TempDir() + "xbarsim_fresh_journal.jsonl";
+  std::remove(fresh.c_str());
+  EXPECT_NO_THROW(ResultJournal{fresh});
+  EXPECT_TRUE(std::ifstream(fresh).good());
+  try {
+    ResultJournal j("/proc/xbarsim_journal.jsonl");
+    FAIL() << "/proc accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot write the journal"), std::string::npos) << e.what();
+  }
 }
