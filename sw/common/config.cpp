@@ -150,8 +150,13 @@ std::map<std::string, NumericRange> parse_documented_ranges(const std::string& t
   return out;
 }
 
-const NumericRange& documented_range(const std::string& key) {
+const std::map<std::string, NumericRange>& documented_ranges() {
   static const std::map<std::string, NumericRange> ranges = parse_documented_ranges(default_config_yaml());
+  return ranges;
+}
+
+const NumericRange& documented_range(const std::string& key) {
+  const auto& ranges = documented_ranges();
   const auto it = ranges.find(key);
   // Every numeric key documents its range; a key read as a number without one is a bug here.
   if (it == ranges.end()) throw std::logic_error("configs/default.yaml documents no range for '" + key + "'");
@@ -368,6 +373,8 @@ std::string ConfigTree::get_string(const std::string& key) const {
   impl_->read->insert(key);
   return scalar_at(impl_->root, key).Scalar();
 }
+
+bool ConfigTree::is_numeric(const std::string& key) { return documented_ranges().count(key) > 0; }
 
 bool ConfigTree::is_list(const std::string& key) const {
   const YAML::Node n = find(impl_->root, key);

@@ -45,6 +45,9 @@ class ConfigTree {
   int get_int32(const std::string& key) const;
   bool get_bool(const std::string& key) const;
   std::string get_string(const std::string& key) const;
+  /// True if `key` is a number (it documents its range in configs/default.yaml), though it may
+  /// also take a word (e.g. converters.dac_bits: none).
+  static bool is_numeric(const std::string& key);
   /// True if the value at `key` is a YAML sequence (a sweep over values).
   bool is_list(const std::string& key) const;
   /// Elements of a sequence value as YAML scalar texts (for sweeps).

@@ -151,8 +151,9 @@ std::string canonical_value(const std::string& text) {
 }
 
 std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
-  // Over "key=value\n" of every effective key that can change a result, numbers canonical (3,
-  // 3.0 and 3e0 are one value). An entry of also_ignored ending in '.' ignores that section.
+  // Over "key=value\n" of every effective key that can change a result, the numeric keys'
+  // values canonical (3, 3.0 and 3e0 are one value; a path such as data.dir stays as written). An entry of also_ignored
+  // ending in '.' ignores that section.
   Fnv1a h;
   const auto ignored = [&](const std::string& key) {
     for (const std::string& a : also_ignored)
@@ -163,7 +164,8 @@ std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& als
     if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
         key == "explore.combine" || starts_with(key, "limits.") || ignored(key))
       continue;
-    h.add(key + "=" + canonical_value(cfg.get_string(key)) + "\n");
+    const std::string value = cfg.get_string(key);
+    h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value) : value) + "\n");
   }
   return h.hex();
 }

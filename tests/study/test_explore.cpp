@@ -108,6 +108,11 @@ TEST(PointKey, NumbersAreCanonicalOtherTextIsKept) {
   // explore's point key too: a space written 1.0 finds the points it journaled as 1
   EXPECT_EQ(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=1"})));
   EXPECT_NE(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=2"})));
+  // Only numeric keys: a path that reads as a number is another path.
+  EXPECT_NE(point_key(cfg_with({"data.dir=1e3"})), point_key(cfg_with({"data.dir=1000"})));
+  EXPECT_TRUE(ConfigTree::is_numeric("crossbar.r_wire"));
+  EXPECT_TRUE(ConfigTree::is_numeric("converters.dac_bits"));
+  EXPECT_FALSE(ConfigTree::is_numeric("data.dir"));
 }
 
 TEST(ExploreSpec, ChecksNameTheKey) {
