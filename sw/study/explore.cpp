@@ -140,6 +140,10 @@ std::string canonical_value(const std::string& text) {
   // A finite decimal number (not hex) as the shortest text that reads back as the same double.
   if (text.empty() || text.find_first_of("xX") != std::string::npos) return text;
   char* end = nullptr;
+  // An integer exactly, whatever its size: seeds up to 9e18 are not all doubles (2^53).
+  errno = 0;
+  const long long n = std::strtoll(text.c_str(), &end, 10);
+  if (end == text.c_str() + text.size() && errno == 0) return std::to_string(n);
   const double v = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size() || !std::isfinite(v)) return text;
   char buf[32];

@@ -102,6 +102,12 @@ TEST(PointKey, NumbersAreCanonicalOtherTextIsKept) {
   EXPECT_EQ(canonical_value("-0"), "0");
   EXPECT_EQ(canonical_value("1e-300"), "1e-300");
   EXPECT_EQ(canonical_value("0.1"), "0.1");
+  EXPECT_EQ(canonical_value("08"), "8");
+  EXPECT_EQ(canonical_value("+3"), "3");
+  // Integers beyond 2^53 stay exact: two seeds must not share a key.
+  EXPECT_EQ(canonical_value("1000000000000000001"), "1000000000000000001");
+  EXPECT_NE(point_key(cfg_with({"calibration.seed=1000000000000000000"})),
+            point_key(cfg_with({"calibration.seed=1000000000000000001"})));
   EXPECT_EQ(std::stod(canonical_value("3.3333333333333333e-6")), 3.3333333333333333e-6);  // round-trips
   for (const char* kept : {"", "all", "0x10", "1e400", "nan", "1,2", "3 ", "sinh"})
     EXPECT_EQ(canonical_value(kept), kept);
@@ -171,6 +177,7 @@ TEST(ResultJournalFile, MustBeARegularFile) {
   std::remove(fresh.c_str());
   EXPECT_NO_THROW(ResultJournal{fresh});
   EXPECT_TRUE(std::ifstream(fresh).good());
+  std::remove(fresh.c_str());
   try {
     ResultJournal j("/proc/xbarsim_journal.jsonl");
     FAIL() << "/proc accepted";
