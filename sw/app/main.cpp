@@ -69,12 +69,18 @@ int main(int argc, char** argv) {
   if (argc < 2 || is_help(argv[1]) || !std::strcmp(argv[1], "help")) {
     // xbarsim help CMD: that command's usage.
     const xbarsim::CommandInfo* c = argc > 2 ? find_command(argv[2]) : nullptr;
+    if (argc > 2 && !c) {
+      std::cerr << "xbarsim: unknown command '" << argv[2] << "'\n\n";
+      usage(std::cerr);
+      return 2;
+    }
     usage(argc < 2 ? std::cerr : std::cout, c);
     return argc < 2 ? 2 : 0;
   }
+  // xbarsim CMD [...] --help: as an option, not as the value of one (--json -h writes to "-h").
   if (const xbarsim::CommandInfo* c = find_command(argv[1]))
     for (int i = 2; i < argc; ++i)
-      if (is_help(argv[i])) {  // xbarsim CMD [...] --help
+      if (is_help(argv[i]) && (i == 2 || std::strncmp(argv[i - 1], "--", 2) != 0)) {
         usage(std::cout, c);
         return 0;
       }

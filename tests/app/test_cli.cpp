@@ -72,6 +72,11 @@ TEST(Cli, HelpForOneCommand) {
     EXPECT_NE(r.out.find("--journal"), std::string::npos) << args << "\n" << r.out;
     EXPECT_EQ(r.out.find("solve --conductances"), std::string::npos) << args << ": only eval's\n" << r.out;
   }
+  // The value of an option is not a request for help, and help for no such command is an error.
+  const auto value = run("solve --conductances /nonexistent.csv --inputs -h");
+  EXPECT_NE(value.code, 0) << value.out;
+  EXPECT_EQ(value.out.find("usage:"), std::string::npos) << value.out;
+  EXPECT_EQ(run("help frobnicate").code, 2);
   const auto all = run("help");
   EXPECT_EQ(all.code, 0);
   EXPECT_NE(all.out.find("solve --conductances"), std::string::npos) << all.out;
