@@ -56,7 +56,12 @@ for cfg in $CFGS; do
     if [ ! -s "$base.json" ] && [ -s "$base.jsonl" ]; then
       # From the journal: one line per finished image ("sw"/"xb": correct or not), the interval
       # as eval computes it (Agresti-Min: 0.5 added to each cell of the paired table).
-      key=$(tail -n 1 "$base.jsonl" | grep -o '"key":"[^"]*"' || true)
+      # The last run's key (from the last line that has one: a kill can cut the very last).
+      key=$(grep -o '"key":"[^"]*"' "$base.jsonl" | tail -n 1 || true)
+      if [ -z "$key" ]; then
+        echo "${NAME[$cfg]} k=$k: $base.jsonl has no journal line; left out" >&2
+        continue
+      fi
       awk '{ if (!index($0, key)) { other++; next } if (!match($0, /"image":[0-9]+/)) next; im = substr($0, RSTART + 8, RLENGTH - 8); if (im in seen) next
              seen[im] = 1; n++; s = ($0 ~ /"sw":1/); x = ($0 ~ /"xb":1/); sw += s; xb += x; b += s && !x; c += x && !s }
            END { if (other) printf "%s k=%s: %d journal lines of other runs left out\n", name, k, other > "/dev/stderr"
