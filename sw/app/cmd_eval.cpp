@@ -101,6 +101,12 @@ int cmd_eval(int argc, char** argv) {
                                    }},
                                   shard, journal_file ? &journals[run] : nullptr);
     eval_bar.finish();
+    // A later point may share this one's key (it differs only where an image's outcome cannot,
+    // e.g. platform.clock_mhz): it reuses the lines just written.
+    if (journal_file && run + 1 < points.size()) {
+      Ranks::barrier();  // every rank has appended its images
+      journal_rows = journal_file->read();
+    }
     if (!root) continue;
     if (r.images_from_journal)
       std::fprintf(stderr, "xbarsim eval: %s: %d of %d images from %s\n", label.c_str(), r.images_from_journal,

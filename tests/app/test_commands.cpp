@@ -196,6 +196,27 @@ TEST(EvalCommand, JournalResumesWithTheSameResultAsOneRun) {
   EXPECT_NE(out.find("malformed"), std::string::npos) << out;
 }
 
+TEST(EvalCommand, JournalSweepPointsThatShareAKeyEvaluateOnce) {
+  // The clock changes a point's cost, not an image's outcome: the second point reuses the
+  // first one's lines instead of evaluating (and journaling) every image again.
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string journal = "/tmp/xbarsim_eval_journal_shared.jsonl";
+  std::remove(journal.c_str());
+  std::string out;
+  ASSERT_EQ(run("eval --model lenet_mnist --images 20 --set solver.threads=2 --set platform.clock_mhz=[100,200] "
+                "--journal " +
+                    journal,
+                &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("clock_mhz=200: 20 of 20 images from"), std::string::npos) << out;
+  std::ifstream in(journal);
+  int lines = 0;
+  for (std::string l; std::getline(in, l);) lines += !l.empty();
+  EXPECT_EQ(lines, 20);
+  std::remove(journal.c_str());
+}
+
 TEST(EvalCommand, NonlinearDevicesRunEveryImageTheSameOnAnyThreadCount) {
   // sinh (k = 3) + level-1 devices with pre-distortion: every requested image is evaluated
   // (the batched Newton), the settings are reported, and 1 and 2 threads agree exactly.
