@@ -9,8 +9,6 @@ namespace xbarsim {
 enum class MemristorModel { Linear, Sinh };
 enum class TransistorModel { None, Linear, Level1 };
 
-/// Memristor I-V. linear: I = G*V. sinh: I = G*v_read*sinh(k*V)/sinh(k*v_read), so that the
-/// nominal conductance G is the chord conductance at the read voltage.
 /// Largest k*V the sinh model accepts (at the read voltage, the input range and every input):
 /// sinh overflows near 710.
 constexpr double kMaxSinhArgument = 600;
@@ -19,6 +17,8 @@ constexpr double kMaxSinhArgument = 600;
 /// updates stall at the rounding level of the wires' currents (1e-8 failed on an 8x4 array).
 constexpr double kMinNonlinearWireOhm = 1e-6;
 
+/// Memristor I-V. linear: I = G*V. sinh: I = G*v_read*sinh(k*V)/sinh(k*v_read), so that the
+/// nominal conductance G is the chord conductance at the read voltage.
 struct MemristorParams {
   MemristorModel model = MemristorModel::Linear;
   double k_per_v = 5.0;

@@ -239,7 +239,7 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   }
   std::ostringstream os;
   os << "line solver (GMRES) did not reach relative residual " << options_.tolerance << " within "
-     << options_.max_iterations << " iterations (solver.max_iterations) or stagnated";
+     << options_.max_iterations << " iterations (solver.max_iterations), stagnated or overflowed";
   throw SolverError(os.str());
 }
 

@@ -103,9 +103,9 @@ struct EvalJournal {
                                                       ///< (any key; not owned)
 };
 /// A run's identity in a journal: its whole effective configuration except the image range
-/// (eval.images, eval.offset: an image is identified by its dataset index) and what
-/// point_key ignores, with the model (file_id of its file: a moved copy matches, a re-exported
-/// one not) and the dataset.
+/// (eval.images, eval.offset: an image is identified by its dataset index), the sections that
+/// cannot change an image's outcome (platform, study, explore) and what point_key ignores, with
+/// the model (file_id of its file: a moved copy matches, a re-exported one not) and the dataset.
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset);
 
 /// Progress callbacks: (done, total) for programming (layers) and evaluation (images).
