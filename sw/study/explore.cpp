@@ -156,18 +156,19 @@ std::string canonical_value(const std::string& text) {
 
 std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
   // Over "key=value\n" of every effective key that can change a result, the numeric keys'
-  // values canonical (3, 3.0 and 3e0 are one value; a path such as data.dir stays as written). An entry of also_ignored
-  // ending in '.' ignores that section.
-  Fnv1a h;
+  // values canonical (3, 3.0 and 3e0 are one value; a path such as data.dir stays as written).
+  // An ignored entry ending in '.' is a whole section.
+  static const std::vector<std::string> never = {"solver.threads", "explore.objectives", "explore.color_by",
+                                                 "explore.combine", "limits."};
   const auto ignored = [&](const std::string& key) {
-    for (const std::string& a : also_ignored)
-      if (a.back() == '.' ? starts_with(key, a.c_str()) : key == a) return true;
+    for (const auto* list : {&never, &also_ignored})
+      for (const std::string& a : *list)
+        if (a.back() == '.' ? starts_with(key, a.c_str()) : key == a) return true;
     return false;
   };
+  Fnv1a h;
   for (const auto& key : cfg.leaf_keys()) {
-    if (key == "solver.threads" || key == "explore.objectives" || key == "explore.color_by" ||
-        key == "explore.combine" || starts_with(key, "limits.") || ignored(key))
-      continue;
+    if (ignored(key)) continue;
     const std::string value = cfg.get_string(key);
     h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value) : value) + "\n");
   }

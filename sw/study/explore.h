@@ -56,7 +56,8 @@ std::string file_id(const std::string& path);
 /// A point's identity: a hash of its whole effective configuration except what does not change
 /// its results (solver.threads, explore.objectives / color_by / combine, limits.*, and the keys
 /// `also_ignored`; an entry ending in '.' is a whole section), with the values of numeric keys
-/// (ConfigTree::is_numeric) in canonical_value form. A journal row counts as done for a point only when its key matches.
+/// (ConfigTree::is_numeric) in canonical_value form. A journal row counts as done for a point
+/// only when its key matches.
 std::string point_key(const ConfigTree& point_cfg, const std::vector<std::string>& also_ignored = {});
 
 /// A decimal number as the shortest text that reads back as the same double ("3.0", "3e0" and
