@@ -101,9 +101,10 @@ int cmd_eval(int argc, char** argv) {
                                    }},
                                   shard, journal_file ? &journals[run] : nullptr);
     eval_bar.finish();
-    // A later point may share this one's key (it differs only where an image's outcome cannot,
-    // e.g. platform.clock_mhz): it reuses the lines just written.
-    if (journal_file && run + 1 < points.size()) {
+    // A later point that shares this one's key (it differs only where an image's outcome cannot,
+    // e.g. platform.clock_mhz) reuses the lines just written.
+    if (journal_file && std::any_of(journals.begin() + run + 1, journals.end(),
+                                    [&](const EvalJournal& j) { return j.key == journals[run].key; })) {
       Ranks::barrier();  // every rank has appended its images
       journal_rows = journal_file->read();
     }
