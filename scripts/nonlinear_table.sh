@@ -7,8 +7,8 @@
 #   df  + pre-distortion and differential mapping (mapping.negative: differential).
 # One eval per cell, each writing DIR/<cfg>-k<k>.{json,csv,txt}; a cell whose JSON exists is
 # skipped, and a cell cut short resumes from its journal (DIR/<cfg>-k<k>.jsonl, every finished
-# image), so a killed run loses about a second. At ~0.8 images/s on 2 cores a full-test-set cell takes
-# ~3.5 h (differential ~7 h): use a cluster, e.g. MPIRUN="mpirun -n 64" with
+# image), so a killed run loses about a second. At ~0.85 images/s on 2 cores (differential 0.44) a
+# full-test-set cell takes ~3.3 h (differential ~6.3 h, as measured): use a cluster, e.g. MPIRUN="mpirun -n 64" with
 # XBARSIM_SET="--set solver.threads=1", or a subset of images (the table's 95 % interval of
 # the drop says what a subset can tell).
 # `table` instead of a number prints the table of what DIR holds without running anything; a
