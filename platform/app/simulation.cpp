@@ -151,7 +151,9 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
                               const std::string& vcd, bool print, const CrossbarBackend* given) {
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
-  const PlatformConfig& pc = hw.platform;
+  // The images the data holds (a dataset may have fewer than platform.images; its note says so).
+  PlatformConfig pc = hw.platform;
+  pc.images = data.test.count();
   if (!ac.xbar.is_linear())
     std::fprintf(stderr,
                  "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
@@ -223,9 +225,7 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
       out = run();
     } catch (const std::exception&) {
       const Failure f = current_failure();
-      static const char* const kKind[] = {"input", "solver", "input", "internal"};
-      out = {{"error", f.kind == Failure::Kind::OutOfMemory ? std::string(kOutOfMemory) : f.message},
-             {"kind", kKind[static_cast<int>(f.kind)]}};
+      out = {{"error", f.message}, {"kind", f.kind_name()}};
     }
     std::ofstream(path) << out.dump();
     std::fflush(nullptr);
@@ -242,12 +242,7 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
                                                        std::to_string(WTERMSIG(status))
                                                  : std::string("the simulation process wrote no result"));
   nlohmann::json j = nlohmann::json::parse(text);
-  if (j.contains("error")) {
-    const std::string kind = j["kind"], msg = j["error"];
-    if (kind == "input") throw InputError(msg);
-    if (kind == "solver") throw SolverError(msg);
-    throw std::runtime_error(msg);
-  }
+  if (j.contains("error")) Failure::from_kind_name(j["kind"], j["error"]).rethrow();
   return j;
 }
 

@@ -34,10 +34,7 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
                               const std::string& vcd, bool print, const CrossbarBackend* programmed = nullptr);
 
 /// Runs `run` in a forked child process (a fresh SystemC kernel) and returns its JSON; the
-/// child's InputError / SolverError is rethrown here with its message.
-/// How a design that does not fit in memory is reported (a child's error, a failed explore row).
-inline constexpr char kOutOfMemory[] = "out of memory: the design does not fit in this machine's memory";
-
+/// child's failure is rethrown here with its kind and message (Failure::rethrow).
 nlohmann::json run_in_child(const std::function<nlohmann::json()>& run);
 
 }  // namespace xbarsim

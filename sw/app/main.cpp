@@ -1,8 +1,10 @@
 /// xbarsim: circuit-accurate simulator for resistive-crossbar CNN accelerators.
+#include <chrono>
 #include <cstring>
 #include <iostream>
 #include <new>
 #include <string>
+#include <thread>
 
 #include "sw/app/app_common.h"
 #include "sw/common/errors.h"
@@ -29,12 +31,8 @@ const xbarsim::CommandInfo* find_command(const char* name) {
   return nullptr;
 }
 
-/// Runs one subcommand; its errors become a message and an exit code (2 input, 3 solver, 4 internal).
+/// Runs one subcommand; its errors become one message and an exit code (Failure).
 int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
-  // Under MPI every rank would print the same message: the first rank's is enough, but any
-  // rank may be the one that fails, so each prints with its rank.
-  const std::string who = "xbarsim " + c.name +
-                          (xbarsim::Ranks::size() > 1 ? " [rank " + std::to_string(xbarsim::Ranks::rank()) + "]" : "");
   try {
     if (xbarsim::Ranks::size() > 1 && !c.shards)
       throw xbarsim::InputError(c.name +
@@ -43,23 +41,16 @@ int run_command(const xbarsim::CommandInfo& c, int argc, char** argv) {
     return c.run(argc - 2, argv + 2);
   } catch (const std::exception&) {
     const xbarsim::Failure f = xbarsim::current_failure();
-    switch (f.kind) {
-      case xbarsim::Failure::Kind::Input:
-        std::cerr << who << ": error: " << f.message << "\n";
-        return 2;
-      case xbarsim::Failure::Kind::Solver:
-        std::cerr << who << ": solver error: " << f.message << "\n";
-        return 3;
-      case xbarsim::Failure::Kind::OutOfMemory:
-        std::cerr << who
-                  << ": error: out of memory: the requested problem does not fit in this machine's memory "
-                     "(use smaller crossbars, fewer vectors or images, or fewer sweep points)\n";
-        return 2;
-      case xbarsim::Failure::Kind::Internal:
-        break;
+    if (xbarsim::Ranks::size() > 1 && !xbarsim::Ranks::root()) {
+      // Most errors (configuration, files) happen on every rank alike: rank 0 reports them and
+      // ends the job, so the other ranks wait a moment before they speak, and print only an
+      // error of their own (one that rank 0 did not have), with their rank.
+      std::this_thread::sleep_for(std::chrono::seconds(3));
+      std::cerr << "xbarsim " << c.name << " [rank " << xbarsim::Ranks::rank() << "]: " << f.text() << std::endl;
+    } else {
+      std::cerr << "xbarsim " << c.name << ": " << f.text() << std::endl;
     }
-    std::cerr << who << ": internal error: " << f.message << "\n";
-    return 4;
+    return f.exit_code();
   }
 }
 
