@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -9,6 +10,7 @@
 #include <fstream>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/common/ranks.h"
 #include "sw/report/html_report.h"
 
@@ -18,19 +20,24 @@ ConfigTree load_config(const CliArgs& args) { return ConfigTree::load(args.get("
 
 void write_json(const std::string& path, const nlohmann::json& j) { write_text_file(path, j.dump(2) + "\n"); }
 
-void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags) {
-  std::vector<std::string> inputs, outputs;
-  for (const auto& kv : args.values()) {
-    bool is_output = false;
-    for (const auto& f : output_flags) is_output = is_output || kv.first == f;
-    (is_output ? outputs : inputs).push_back(kv.second);
-  }
-  for (const auto& f : output_flags) {
-    if (!args.has(f)) continue;
-    check_output_path(args.get(f), f, inputs);
-    int same = 0;
-    for (const auto& o : outputs) same += o == args.get(f);
-    if (same > 1) throw InputError(f + " '" + args.get(f) + "' is also named by another output option");
+void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags,
+                   const std::vector<std::pair<std::string, std::string>>& more) {
+  std::vector<std::string> inputs;
+  std::vector<std::pair<std::string, std::string>> outputs;  // (flag, path)
+  const auto is_output = [&](const std::string& flag) {
+    return std::find(output_flags.begin(), output_flags.end(), flag) != output_flags.end() ||
+           std::any_of(more.begin(), more.end(), [&](const auto& o) { return o.first == flag; });
+  };
+  for (const auto& kv : args.values())
+    if (!is_output(kv.first)) inputs.push_back(kv.second);
+  for (const auto& f : output_flags)
+    if (args.has(f)) outputs.emplace_back(f, args.get(f));
+  outputs.insert(outputs.end(), more.begin(), more.end());
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    check_output_path(outputs[i].second, outputs[i].first, inputs);
+    for (size_t k = 0; k < i; ++k)
+      if (outputs[k].second == outputs[i].second || same_file(outputs[k].second, outputs[i].second))
+        throw InputError(outputs[i].first + " '" + outputs[i].second + "' is also the file of " + outputs[k].first);
   }
 }
 

@@ -21,10 +21,13 @@ ConfigTree load_config(const CliArgs& args);
 /// Writes a JSON report (pretty-printed) to `path` (atomically, checked); throws InputError.
 void write_json(const std::string& path, const nlohmann::json& j);
 
-/// Checks, before any work, every output flag of `output_flags` that was given: writable,
-/// not a directory, distinct from each other and from every input (the values of all other
-/// flags that name existing files). Throws InputError naming the flag and the path.
-void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags);
+/// Checks, before any work and once the files the run reads are registered (its inputs have
+/// been loaded or located, sw/common/input_file.h), every output flag of `output_flags` that
+/// was given and the outputs `more` ((flag, path): e.g. a sweep's trace files): writable, not a
+/// directory, distinct from each other, from every file the run reads and from the values of
+/// all other flags that name existing files. Throws InputError naming the flag and the path.
+void check_outputs(const CliArgs& args, const std::vector<std::string>& output_flags,
+                   const std::vector<std::pair<std::string, std::string>>& more = {});
 
 /// A CSV file whose rows start with the run index and the run's sweep values.
 class SweepCsv {

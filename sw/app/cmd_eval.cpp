@@ -10,6 +10,7 @@
 #include "sw/common/ranks.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
+#include "sw/study/journal.h"
 #include "sw/study/sweep.h"
 
 namespace xbarsim {
@@ -27,7 +28,6 @@ void print_layers(const EvalResult& r) {
 
 int cmd_eval(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--offset", "--report", "--journal"});
-  check_outputs(args, {"--json", "--csv", "--report", "--journal"});
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("eval.images=" + args.get("--images"));
   if (args.has("--offset")) sets.push_back("eval.offset=" + args.get("--offset"));
@@ -39,14 +39,15 @@ int cmd_eval(int argc, char** argv) {
   Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
-  if (!data.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
+  if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
+  check_outputs(args, {"--json", "--csv", "--report", "--journal"});  // every file it reads is known now
 
   // --journal: finished images are recorded as they finish; those already there are reused.
   std::unique_ptr<ResultJournal> journal_file;
   std::vector<EvalJournal> journals(points.size());
-  std::vector<nlohmann::json> journal_rows;
+  std::vector<JournalLine> journal_rows;
   if (args.has("--journal")) {
-    journal_file = std::make_unique<ResultJournal>(args.get("--journal"));
+    journal_file = std::make_unique<ResultJournal>(args.get("--journal"), eval_journal_kind());
     if (Ranks::root()) journal_file->repair();
     Ranks::barrier();
     int skipped = 0;
@@ -60,8 +61,8 @@ int cmd_eval(int argc, char** argv) {
                        spec.offset, &journal_rows};
     // Lines of another model, dataset or setting stay in the journal; say so, or a changed key
     // (a different value of any key) would silently evaluate everything again.
-    const auto foreign = std::count_if(journal_rows.begin(), journal_rows.end(), [&](const nlohmann::json& row) {
-      const std::string key = row.value("key", std::string());
+    const auto foreign = std::count_if(journal_rows.begin(), journal_rows.end(), [&](const JournalLine& line) {
+      const std::string key = line.row.value("key", std::string());
       return std::none_of(journals.begin(), journals.end(), [&](const EvalJournal& j) { return j.key == key; });
     });
     if (foreign && Ranks::root())

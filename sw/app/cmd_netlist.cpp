@@ -13,11 +13,11 @@ int cmd_netlist(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
   if (args.has("--json") || args.has("--csv"))
     throw InputError("netlist writes a SPICE netlist (--out); --json and --csv do not apply");
-  check_outputs(args, {"--out"});
   const ConfigTree cfg = load_config(args);
   const CrossbarParams params = parse_crossbar_params(cfg);
-  const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"));
-  const Eigen::MatrixXd v = read_csv_matrix(args.require("--inputs"));
+  const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"), "the conductances (--conductances)");
+  const Eigen::MatrixXd v = read_csv_matrix(args.require("--inputs"), "the input vectors (--inputs)");
+  check_outputs(args, {"--out"});
   if (v.cols() != g.rows())
     throw InputError("input vectors have " + std::to_string(v.cols()) + " voltages but the crossbar has " +
                      std::to_string(g.rows()) + " rows");

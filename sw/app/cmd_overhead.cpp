@@ -70,12 +70,12 @@ void write_csv(std::ostream& os, const OverheadReport& rep) {
 
 int cmd_overhead(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--preset", "--input-size"});
-  check_outputs(args, {"--json", "--csv"});
   const ConfigTree cfg = load_config(args);
   const auto t0 = std::chrono::steady_clock::now();
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
   const Model m = model_from_args(args, cfg);
+  check_outputs(args, {"--json", "--csv"});
   const OverheadReport rep = overhead_study(m, hw);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s: %zu linear layers, crossbars at most %s x %s, ADC %d bit, DAC %d bit, %d columns per ADC (%s)\n",

@@ -24,12 +24,12 @@ void warn_ranges(const CrossbarParams& p, const Eigen::MatrixXd& g, const Eigen:
 namespace {
 int cmd_solve(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--conductances", "--inputs", "--out"});
-  check_outputs(args, {"--out", "--json", "--csv"});
   const ConfigTree cfg = load_config(args);
   const CrossbarParams params = parse_crossbar_params(cfg);
   const SolverOptions opts = parse_solver_options(cfg);
-  const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"));
-  const Eigen::MatrixXd v = read_csv_matrix(args.require("--inputs"));
+  const Eigen::MatrixXd g = read_csv_matrix(args.require("--conductances"), "the conductances (--conductances)");
+  const Eigen::MatrixXd v = read_csv_matrix(args.require("--inputs"), "the input vectors (--inputs)");
+  check_outputs(args, {"--out", "--json", "--csv"});
   if (v.cols() != g.rows())
     throw InputError("'" + args.require("--inputs") + "' has " + std::to_string(v.cols()) +
                      " voltages per line, but the conductance matrix has " + std::to_string(g.rows()) +

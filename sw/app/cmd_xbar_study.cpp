@@ -20,7 +20,6 @@ struct PointSpec {
 
 int cmd_xbar_study(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--report"});
-  check_outputs(args, {"--json", "--csv", "--report"});
   const ConfigTree base = load_config(args);
   const auto points = sweep_points(base);
   const std::vector<PointSpec> specs = check_sweep<PointSpec>(base, points, [](const ConfigTree& cfg) {
@@ -28,6 +27,7 @@ int cmd_xbar_study(int argc, char** argv) {
     p.hw = make_hardware_context(cfg, p.study.ac);
     return p;
   });
+  check_outputs(args, {"--json", "--csv", "--report"});  // the configuration and component library are read
   const Table table({{"run", -40},
                      {"xbars", 8},
                      {"oor_cells", 9},

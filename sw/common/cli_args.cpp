@@ -25,11 +25,11 @@ CliArgs::CliArgs(int argc, char** argv, int first, const std::set<std::string>& 
       }
       if (a == "--set")
         sets_.push_back(value);
-      else
-        values_[a] = value;
+      else if (!values_.emplace(a, value).second)
+        throw InputError("option " + a + " is given twice ('" + values_[a] + "' and '" + value + "'): give it once");
     } else if (switches.count(a)) {
       if (has_inline) throw InputError("option " + a + " takes no value");
-      values_[a] = "1";
+      if (!values_.emplace(a, "1").second) throw InputError("option " + a + " is given twice: give it once");
     } else {
       std::string known = "--set --config --json --csv";
       for (const auto& f : value_flags) known += " " + f;

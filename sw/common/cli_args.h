@@ -11,7 +11,8 @@ namespace xbarsim {
 class CliArgs {
  public:
   /// Parses argv[first..argc). `value_flags` take one value; `switches` take none.
-  /// `--set`, `--config`, `--json`, `--csv` are always accepted. Unknown flags throw InputError.
+  /// `--set`, `--config`, `--json`, `--csv` are always accepted. Unknown flags, and a flag given
+  /// twice (which of the two would count?), throw InputError; `--set` repeats.
   CliArgs(int argc, char** argv, int first, const std::set<std::string>& value_flags,
           const std::set<std::string>& switches = {});
 

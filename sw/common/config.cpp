@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "sw/common/input_file.h"
 #include "sw/common/parse.h"
 
 namespace xbarsim {
@@ -164,7 +165,7 @@ const NumericRange& documented_range(const std::string& key) {
 }
 
 std::string out_of_range_message(const std::string& key, const NumericRange& r, const std::string& value) {
-  return "configuration key '" + key + "' must be in " + r.text + ", got '" + value + "'";
+  return "configuration key '" + key + "' must be in " + r.text + ", got '" + excerpt(value) + "'";
 }
 
 std::string known_children(const YAML::Node& map) {
@@ -272,11 +273,7 @@ ConfigTree& ConfigTree::operator=(const ConfigTree& o) {
 ConfigTree ConfigTree::load(const std::string& path, const std::vector<std::string>& overrides) {
   ConfigTree cfg;
   if (!path.empty()) {
-    std::ifstream in(path);
-    if (!in) throw InputError("cannot open configuration file '" + path + "'");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    cfg.merge_yaml_text(ss.str(), path);
+    cfg.merge_yaml_text(read_input_file(path, "the configuration file", kMaxYamlBytes), path);
   }
   for (const auto& o : overrides) cfg.apply_override(o);
   return cfg;
@@ -295,15 +292,23 @@ void ConfigTree::apply_override(const std::string& assignment) {
 }
 
 void ConfigTree::set(const std::string& key, const std::string& yaml_value) {
-  const auto parts = split_key(key);
-  // Build a nested document {a: {b: {c: value}}} and merge it, so the same checks apply.
   YAML::Node value;
   try {
     value = load_checked(yaml_value, "--set " + key);
   } catch (const InputError&) {
-    throw InputError("--set " + key + ": cannot parse value '" + yaml_value + "'");
+    throw InputError("--set " + key + ": cannot parse value '" + excerpt(yaml_value) + "'");
   }
   if (!value || value.IsNull()) value = YAML::Node(yaml_value);
+  set_node(key, value, "--set " + key);
+}
+
+void ConfigTree::set_scalar(const std::string& key, const std::string& value) {
+  set_node(key, YAML::Node(value), "configuration key '" + key + "'");
+}
+
+void ConfigTree::set_node(const std::string& key, const YAML::Node& value, const std::string& origin) {
+  const auto parts = split_key(key);
+  // Build a nested document {a: {b: {c: value}}} and merge it, so the same checks apply.
   YAML::Node doc(YAML::NodeType::Map);
   YAML::Node cur = doc;
   for (size_t i = 0; i + 1 < parts.size(); ++i) {
@@ -311,7 +316,7 @@ void ConfigTree::set(const std::string& key, const std::string& yaml_value) {
     cur.reset(cur[parts[i]]);
   }
   cur[parts.back()] = value;
-  merge_node(impl_->root, impl_->defaults, doc, "", "--set " + key);
+  merge_node(impl_->root, impl_->defaults, doc, "", origin);
 }
 
 bool ConfigTree::has(const std::string& key) const { return static_cast<bool>(find(impl_->root, key)); }
@@ -333,7 +338,7 @@ double ConfigTree::get_double(const std::string& key) const {
   const std::string s = scalar_at(impl_->root, key).Scalar();
   double v = 0;
   if (!parse_finite_double(s, v))
-    throw InputError("configuration key '" + key + "': expected a finite number, got '" + s + "'");
+    throw InputError("configuration key '" + key + "': expected a finite number, got '" + excerpt(s) + "'");
   const NumericRange& r = documented_range(key);
   if (!r.contains(v)) throw InputError(out_of_range_message(key, r, s));
   return v;
@@ -345,10 +350,16 @@ long long ConfigTree::get_int(const std::string& key) const {
   long long v = 0;
   const NumericRange& r = documented_range(key);
   if (!parse_int64(s, v)) {
+    // A whole number written as a decimal (8.0, 8e0, 1e6) is that integer, as the journals'
+    // keys count it (canonical_value), while every integer is exact in a double (below 2^53).
     double d = 0;
-    if (parse_finite_double(s, d) && d == std::floor(d) && !r.contains(d))
-      throw InputError(out_of_range_message(key, r, s));
-    throw InputError("configuration key '" + key + "': expected an integer, got '" + s + "'");
+    if (!parse_finite_double(s, d) || d != std::floor(d))
+      throw InputError("configuration key '" + key + "': expected an integer, got '" + excerpt(s) + "'");
+    if (!r.contains(d)) throw InputError(out_of_range_message(key, r, s));
+    if (std::fabs(d) >= kExactIntegerLimit)
+      throw InputError("configuration key '" + key + "': '" + s +
+                       "' is beyond 2^53, where a decimal number is not exact: write the integer's digits");
+    v = static_cast<long long>(d);
   }
   if (!r.contains(static_cast<double>(v))) throw InputError(out_of_range_message(key, r, s));
   return v;
@@ -366,7 +377,7 @@ bool ConfigTree::get_bool(const std::string& key) const {
   const std::string s = scalar_at(impl_->root, key).Scalar();
   if (s == "true" || s == "yes" || s == "on" || s == "1") return true;
   if (s == "false" || s == "no" || s == "off" || s == "0") return false;
-  throw InputError("configuration key '" + key + "': expected true or false, got '" + s + "'");
+  throw InputError("configuration key '" + key + "': expected true or false, got '" + excerpt(s) + "'");
 }
 
 std::string ConfigTree::get_string(const std::string& key) const {
@@ -440,7 +451,7 @@ std::string require_one_of(const ConfigTree& cfg, const std::string& key, const 
     if (v == a) return v;
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-  throw InputError("configuration key '" + key + "': '" + v + "' is not one of: " + list);
+  throw InputError("configuration key '" + key + "': '" + excerpt(v) + "' is not one of: " + list);
 }
 
 int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key) {

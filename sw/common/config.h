@@ -10,7 +10,14 @@
 
 #include "sw/common/errors.h"
 
+namespace YAML {
+class Node;
+}
+
 namespace xbarsim {
+
+/// 2^53: every integer below it is exact in a double (get_int, canonical_value).
+constexpr double kExactIntegerLimit = 9007199254740992.0;
 
 /// Text of configs/default.yaml (generated at build time).
 const char* default_config_yaml();
@@ -32,14 +39,18 @@ class ConfigTree {
   void merge_yaml_text(const std::string& text, const std::string& origin);
   /// Apply one "dotted.key=value" override (value parsed as a YAML scalar or list).
   void apply_override(const std::string& assignment);
-  /// Set one key to a YAML scalar text (used by sweeps).
+  /// Set one key to a YAML text (a scalar or a list), as --set does.
   void set(const std::string& key, const std::string& yaml_value);
+  /// Set one key to the scalar `value` as it is, not parsed as YAML again (a sweep point's
+  /// value: a list item such as '"a' is that text, not a broken quote).
+  void set_scalar(const std::string& key, const std::string& value);
 
   bool has(const std::string& key) const;
   double get_double(const std::string& key) const;
   /// Numbers are checked against the key's range documented in configs/default.yaml
   /// (InputError naming the key, the range and the value); a numeric key without a
-  /// documented range is a programming error (std::logic_error).
+  /// documented range is a programming error (std::logic_error). A whole number written as a
+  /// decimal (8.0, 8e0, 1e6) is accepted below kExactIntegerLimit.
   long long get_int(const std::string& key) const;
   /// get_int for keys whose documented range fits in int.
   int get_int32(const std::string& key) const;
@@ -69,6 +80,7 @@ class ConfigTree {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  void set_node(const std::string& key, const YAML::Node& value, const std::string& origin);
 };
 
 /// Rejects a YAML text with several documents, duplicate keys or complex keys, naming
@@ -87,7 +99,7 @@ E require_enum(const ConfigTree& cfg, const std::string& key, const std::vector<
     if (v == n.first) return n.second;
     list += (list.empty() ? "" : ", ") + n.first;
   }
-  throw InputError("configuration key '" + key + "': '" + v + "' is not one of: " + list);
+  throw InputError("configuration key '" + key + "': '" + excerpt(v) + "' is not one of: " + list);
 }
 /// A size that may be the word `unbounded` (returned as 0); otherwise an integer >= 1.
 int require_size_or_unbounded(const ConfigTree& cfg, const std::string& key);

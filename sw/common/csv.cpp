@@ -7,19 +7,45 @@
 #include <iomanip>
 #include <vector>
 
+#include <sys/stat.h>
+
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/common/parse.h"
 #include "sw/common/output_file.h"
 
 namespace xbarsim {
 
-Eigen::MatrixXd read_csv_matrix(const std::string& path) {
-  std::ifstream in(path);
+namespace {
+
+/// The next line of `in` (without '\n') into `line`, refusing one longer than `max_bytes`: a
+/// device such as /dev/zero has no line end, and a getline would grow without bound.
+bool next_line(std::istream& in, std::string& line, size_t max_bytes, const std::string& path, size_t lineno) {
+  line.clear();
+  std::streambuf* sb = in.rdbuf();
+  for (;;) {
+    const int c = sb->sbumpc();
+    if (c == std::char_traits<char>::eof()) return !line.empty();
+    if (c == '\n') return true;
+    line.push_back(static_cast<char>(c));
+    if (line.size() > max_bytes)
+      throw InputError(path + ":" + std::to_string(lineno) + ": a line longer than " +
+                       std::to_string(max_bytes >> 20) + " MiB; not a CSV file of numbers");
+  }
+}
+
+}  // namespace
+
+Eigen::MatrixXd read_csv_matrix(const std::string& path, const std::string& role) {
+  struct stat st;
+  if (stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) throw InputError(role + " '" + path + "' is a directory");
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open '" + path + "'");
+  register_input(path, role);
   std::vector<std::vector<double>> rows;
   std::string line;
   size_t lineno = 0;
-  while (std::getline(in, line)) {
+  while (next_line(in, line, kMaxCsvLineBytes, path, lineno + 1)) {
     ++lineno;
     if (lineno == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 byte order mark
     if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -37,8 +63,8 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path) {
       cell = (b == std::string::npos) ? "" : cell.substr(b, e - b + 1);
       double v = 0;
       if (!parse_finite_double(cell, v))
-        throw InputError(path + ":" + std::to_string(lineno) + ": column " + std::to_string(col) + ": '" + cell +
-                         "' is not a finite number");
+        throw InputError(path + ":" + std::to_string(lineno) + ": column " + std::to_string(col) + ": '" +
+                         excerpt(cell) + "' is not a finite number");
       row.push_back(v);
       if (comma == std::string::npos) break;
       pos = comma + 1;

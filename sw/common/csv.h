@@ -6,9 +6,13 @@
 
 namespace xbarsim {
 
-/// Reads a rectangular numeric table. Throws InputError on missing file, non-numeric
-/// cell, ragged rows or an empty file.
-Eigen::MatrixXd read_csv_matrix(const std::string& path);
+/// The longest line read (about 700 000 numbers).
+constexpr size_t kMaxCsvLineBytes = size_t{16} << 20;
+
+/// Reads a rectangular numeric table from a file this run reads as `role` (register_input).
+/// Throws InputError on a missing file or a directory, a non-numeric cell (quoted in part),
+/// ragged rows, a line longer than kMaxCsvLineBytes, or an empty file.
+Eigen::MatrixXd read_csv_matrix(const std::string& path, const std::string& role = "the CSV input");
 
 /// Writes one row per matrix row with full double precision.
 void write_csv_matrix(const std::string& path, const Eigen::MatrixXd& m);

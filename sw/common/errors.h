@@ -16,4 +16,24 @@ class SolverError : public std::runtime_error {
   explicit SolverError(const std::string& what) : std::runtime_error(what) {}
 };
 
+/// `text` for a message: at most `max_chars` characters, the rest replaced by "... (N
+/// characters)" (a 100 MB value is not echoed whole).
+inline std::string excerpt(const std::string& text, size_t max_chars = 60) {
+  if (text.size() <= max_chars) return text;
+  return text.substr(0, max_chars) + "... (" + std::to_string(text.size()) + " characters)";
+}
+
+/// Rethrows the InputError or SolverError in flight with `context` before its message ("layer
+/// conv1: crossbar 2 of 4 ...: input vector 1: ..."), keeping its kind; any other exception
+/// unchanged. Call it only inside a catch block.
+[[noreturn]] inline void rethrow_with_context(const std::string& context) {
+  try {
+    throw;
+  } catch (const SolverError& e) {
+    throw SolverError(context + ": " + e.what());
+  } catch (const InputError& e) {
+    throw InputError(context + ": " + e.what());
+  }
+}
+
 }  // namespace xbarsim

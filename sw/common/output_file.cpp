@@ -1,13 +1,17 @@
 #include "sw/common/output_file.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 
 namespace xbarsim {
 
@@ -21,7 +25,30 @@ std::string folder_of(const std::string& path) {
 
 bool is_special(const struct stat& st) { return !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode); }
 
+/// A temporary file's name in `path`'s folder, short whatever the target's length (a name
+/// at the file system's limit still gets its temporary file).
+std::string temporary_name(const std::string& path) {
+  static std::atomic<int> counter{0};
+  return folder_of(path) + "/.xbarsim-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".tmp";
+}
+
+/// Creates and removes `path` (which did not exist): whether a file of that name can be made.
+/// (Another process, e.g. another MPI rank probing the same name, may have just made it.)
+void probe_create(const std::string& path, const std::string& what, const std::string& shown) {
+  const int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+  if (fd < 0 && errno == EEXIST) return;
+  if (fd < 0) throw InputError(what + " '" + shown + "': cannot create it: " + std::strerror(errno));
+  close(fd);
+  unlink(path.c_str());
+}
+
 }  // namespace
+
+void refuse_input(const std::string& path, const std::string& what, const std::string& verb) {
+  if (const auto in = registered_input(path))
+    throw InputError(what + " '" + path + "' is " + in->role + " this run reads" +
+                     (in->path == path ? std::string() : " ('" + in->path + "')") + "; refusing to " + verb + " it");
+}
 
 void check_output_path(const std::string& path, const std::string& what, const std::vector<std::string>& inputs) {
   if (path.empty()) throw InputError(what + " needs a file name");
@@ -29,17 +56,15 @@ void check_output_path(const std::string& path, const std::string& what, const s
   const bool exists = stat(path.c_str(), &st) == 0;
   if (exists && S_ISDIR(st.st_mode)) throw InputError(what + " '" + path + "' is a directory; give a file name");
   if (!exists && path.back() == '/') throw InputError(what + " '" + path + "' names a directory; give a file name");
-  if (exists) {
-    for (const auto& in : inputs) {
-      struct stat si;
-      if (!in.empty() && stat(in.c_str(), &si) == 0 && si.st_dev == st.st_dev && si.st_ino == st.st_ino &&
-          !is_special(st))
+  if (exists && !is_special(st)) {
+    refuse_input(path, what);  // first: it names the input's role
+    for (const auto& in : inputs)
+      if (!in.empty() && same_file(in, path))
         throw InputError(what + " '" + path + "' is the input file '" + in + "'; refusing to overwrite it");
-    }
-    if (is_special(st)) {
-      if (access(path.c_str(), W_OK) != 0) throw InputError(what + " '" + path + "' is not writable");
-      return;
-    }
+  }
+  if (exists && is_special(st)) {
+    if (access(path.c_str(), W_OK) != 0) throw InputError(what + " '" + path + "' is not writable");
+    return;
   }
   const std::string dir = folder_of(path);
   struct stat sd;
@@ -48,12 +73,26 @@ void check_output_path(const std::string& path, const std::string& what, const s
   if (access(dir.c_str(), W_OK) != 0)
     throw InputError(what + " '" + path + "': the folder '" + dir + "' is not writable");
   if (exists && access(path.c_str(), W_OK) != 0) throw InputError(what + " '" + path + "' is not writable");
+  // What access() cannot tell (a name too long, a folder that refuses new files such as /proc):
+  // create the files the output will need, now rather than after the work.
+  if (!exists) probe_create(path, what, path);
+  probe_create(temporary_name(path), what, path);
 }
 
-OutputFile::OutputFile(std::string path) : path_(std::move(path)) {
+OutputFile::OutputFile(std::string path) : path_(std::move(path)), target_(path_) {
   struct stat st;
-  const bool special = stat(path_.c_str(), &st) == 0 && is_special(st);
-  tmp_ = special ? std::string() : path_ + ".tmp" + std::to_string(getpid());
+  const bool exists = stat(path_.c_str(), &st) == 0, special = exists && is_special(st);
+  if (!special) refuse_input(path_, "the output");
+  // An existing name may be a symbolic link (results.json -> runs/a.json, /dev/stdout ->
+  // a redirected file): the file it leads to is replaced, not the link.
+  if (exists && !special) {
+    char* real = realpath(path_.c_str(), nullptr);
+    if (real) {
+      target_ = real;
+      std::free(real);
+    }
+  }
+  tmp_ = special ? std::string() : temporary_name(target_);
   out_.open(special ? path_ : tmp_, std::ios::binary | std::ios::trunc);
   if (!out_) throw InputError("cannot write '" + path_ + "': " + std::strerror(errno));
 }
@@ -72,8 +111,11 @@ void OutputFile::commit() {
   if (!flushed || out_.fail())
     throw InputError("error while writing '" + path_ + "'" + (err ? std::string(": ") + std::strerror(err) : "") +
                      " (disk full?)");
-  if (!tmp_.empty() && std::rename(tmp_.c_str(), path_.c_str()) != 0)
-    throw InputError("cannot replace '" + path_ + "': " + std::strerror(errno));
+  if (!tmp_.empty()) {
+    refuse_input(target_, "the output");  // an input registered since the file was opened
+    if (std::rename(tmp_.c_str(), target_.c_str()) != 0)
+      throw InputError("cannot replace '" + path_ + "': " + std::strerror(errno));
+  }
   committed_ = true;
 }
 

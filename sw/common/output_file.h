@@ -1,10 +1,13 @@
 #pragma once
 /// Output files named on the command line, handled in one place:
 ///  - check_output_path() validates a path before any work is done (not empty, not a
-///    directory, its folder exists and is writable, not one of the command's input files);
+///    directory, its folder exists and a file can be created there under that name, and it is
+///    not a file the run reads: one of `inputs`, or any file registered by a reader,
+///    sw/common/input_file.h);
 ///  - OutputFile writes to a temporary file beside the target and renames it over the target
 ///    on commit(), so a reader never sees half a file and a failed run leaves the old file;
-///    special files (a terminal, /dev/null, /dev/full, a pipe) are written in place;
+///    special files (a terminal, /dev/null, /dev/full, a pipe) are written in place; it, too,
+///    refuses a file the run reads (registered by then), at opening and again at commit;
 ///  - every write, flush and close is checked: a full disk is an InputError naming the file.
 #include <fstream>
 #include <string>
@@ -13,13 +16,19 @@
 namespace xbarsim {
 
 /// Throws InputError naming `what` (e.g. "--json") and the path when `path` cannot be
-/// written, is a directory, or is the same file as one of `inputs` (paths that do not exist
-/// are ignored there).
-void check_output_path(const std::string& path, const std::string& what, const std::vector<std::string>& inputs);
+/// written or created, is a directory, or is the same file as one of `inputs` (paths that do
+/// not exist are ignored there) or as a file the run reads (register_input), naming its role.
+void check_output_path(const std::string& path, const std::string& what, const std::vector<std::string>& inputs = {});
+
+/// Throws InputError when `path` is a file this run reads (register_input): `what` (e.g.
+/// "--json", "the journal") names the output, the message the input's role and that it will
+/// not `verb` ("overwrite", "append to") it.
+void refuse_input(const std::string& path, const std::string& what, const std::string& verb = "overwrite");
 
 class OutputFile {
  public:
-  /// Opens the temporary file (or the special file itself); throws InputError when it cannot.
+  /// Opens the temporary file (or the special file itself); throws InputError when it cannot,
+  /// or when `path` is a file the run reads.
   explicit OutputFile(std::string path);
   /// Without commit() the temporary file is removed and the target left as it was.
   ~OutputFile();
@@ -32,7 +41,7 @@ class OutputFile {
   const std::string& path() const { return path_; }
 
  private:
-  std::string path_, tmp_;
+  std::string path_, target_, tmp_;  ///< as given; the file it names (links resolved); the temporary file
   std::ofstream out_;
   bool committed_ = false;
 };

@@ -1,5 +1,7 @@
 #include "sw/hw/component_library.h"
 
+#include "sw/common/input_file.h"
+
 #include "sw/common/parse.h"
 
 #include <yaml-cpp/yaml.h>
@@ -150,11 +152,8 @@ ComponentLibrary load_component_library(const ConfigTree& cfg) {
   const std::string path = cfg.get_string("components.library");
   if (path.empty())
     return parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
-  std::ifstream in(path);
-  if (!in) throw InputError("cannot open component library '" + path + "' (components.library)");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_component_library(ss.str(), path);
+  return parse_component_library(read_input_file(path, "the component library (components.library)", kMaxYamlBytes),
+                                 path);
 }
 
 }  // namespace xbarsim

@@ -2,12 +2,17 @@
 
 #include <zlib.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <random>
+#include <stdexcept>
 #include <fstream>
 #include <sys/stat.h>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 
 namespace xbarsim {
 
@@ -18,9 +23,16 @@ bool exists(const std::string& p) {
   return stat(p.c_str(), &st) == 0;
 }
 
+bool is_directory(const std::string& p) {
+  struct stat st;
+  return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
 std::vector<uint8_t> read_gz_or_plain(const std::string& path) {
+  if (is_directory(path)) throw InputError("the dataset file '" + path + "' is a directory");
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw InputError("cannot open '" + path + "'");
+  register_input(path, "the dataset file");
   std::vector<uint8_t> out;
   uint8_t buf[1 << 16];
   int n;
@@ -52,6 +64,8 @@ void clamp_range(int total, int& offset, int& count, const std::string& what) {
 }  // namespace
 
 void Dataset::preprocess(int index, const Preprocessing& p, float* out) const {
+  if (index < 0 || index >= count())
+    throw std::out_of_range("image " + std::to_string(index) + " of a dataset of " + std::to_string(count()));
   const int hw = shape.h * shape.w, n = shape.size();
   const uint8_t* px = pixels.data() + static_cast<size_t>(index) * n;
   for (int c = 0; c < shape.c; ++c) {
@@ -73,8 +87,10 @@ Dataset random_dataset(const Shape& s, int count, uint64_t seed) {
 }
 
 Dataset load_cifar10(const std::string& file, int offset, int count) {
+  if (is_directory(file)) throw InputError("the dataset file '" + file + "' is a directory");
   std::ifstream in(file, std::ios::binary | std::ios::ate);
   if (!in) throw InputError("cannot open CIFAR-10 file '" + file + "'");
+  register_input(file, "the dataset file");
   const long long size = in.tellg();
   constexpr int kRecord = 1 + 3072;
   if (size <= 0 || size % kRecord) throw InputError("'" + file + "' is not in the CIFAR-10 binary record format");
@@ -82,6 +98,7 @@ Dataset load_cifar10(const std::string& file, int offset, int count) {
   clamp_range(total, offset, count, file);
   Dataset d;
   d.name = "cifar10";
+  d.first = offset;
   d.shape = {3, 32, 32};
   d.pixels.resize(static_cast<size_t>(count) * 3072);
   d.labels.resize(count);
@@ -113,6 +130,7 @@ Dataset load_mnist(const std::string& images, const std::string& labels, int off
   clamp_range(total, offset, count, images);
   Dataset d;
   d.name = "mnist";
+  d.first = offset;
   d.shape = {1, rows, cols};
   const size_t n = static_cast<size_t>(rows) * cols;
   d.pixels.assign(im.begin() + 16 + offset * n, im.begin() + 16 + (offset + count) * n);
@@ -163,6 +181,29 @@ void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, in
   for (double v : pre.std)
     if (!(v > 0)) throw InputError("'preprocessing.std' values must be > 0");
   if (!(pre.scale > 0)) throw InputError("'preprocessing.scale' must be > 0");
+  // The network computes in float: every preprocessed pixel (0..255) must be a finite float,
+  // and not every one zero.
+  bool any_nonzero = false;
+  for (int c = 0; c < channels; ++c) {
+    const double mean_c = pre.mean.size() == 1 ? pre.mean[0] : pre.mean[c];
+    const double std_c = pre.std.size() == 1 ? pre.std[0] : pre.std[c];
+    for (double pixel : {0.0, 255.0}) {
+      const double x = (pixel * pre.scale - mean_c) / std_c;
+      if (!(std::fabs(x) <= std::numeric_limits<float>::max())) {
+        char msg[512];
+        std::snprintf(msg, sizeof msg,
+                      "preprocessing turns pixel %d of channel %d into (%d x %.6g - %.6g) / %.6g = %.6g, which a float "
+                      "cannot hold: check 'preprocessing.scale', 'preprocessing.mean' and 'preprocessing.std' (or the "
+                      "model's metadata they override)",
+                      static_cast<int>(pixel), c, static_cast<int>(pixel), pre.scale, mean_c, std_c, x);
+        throw InputError(msg);
+      }
+      any_nonzero = any_nonzero || static_cast<float>(x) != 0.0f;
+    }
+  }
+  if (!any_nonzero)
+    throw InputError("preprocessing ('preprocessing.scale', 'preprocessing.mean', 'preprocessing.std' or the "
+                     "model's metadata) turns every pixel into 0");
 }
 
 std::string resolve_models_dir(const ConfigTree& cfg) {
@@ -192,20 +233,19 @@ std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
   throw InputError("model '" + given + "' not found (looked at:" + list + ")");
 }
 
-Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
-  if (name == "cifar10") {
-    const std::string file = dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin");
-    if (!exists(file)) throw InputError("CIFAR-10 file not found: looked for '" + file + "'");
-    return load_cifar10(file, offset, count);
-  }
-  if (name == "mnist") {
-    const std::string im = dir + "/mnist/t10k-images-idx3-ubyte.gz", lb = dir + "/mnist/t10k-labels-idx1-ubyte.gz";
-    for (const auto& f : {im, lb})
-      if (!exists(f)) throw InputError("MNIST file not found: looked for '" + f + "'");
-    if (split == "calib") return load_mnist(im, lb, kMnistCalibrationStart + offset, count);
-    return load_mnist(im, lb, offset, count);
-  }
+std::vector<std::string> dataset_files(const std::string& name, const std::string& dir, const std::string& split) {
+  if (name == "cifar10") return {dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin")};
+  if (name == "mnist") return {dir + "/mnist/t10k-images-idx3-ubyte.gz", dir + "/mnist/t10k-labels-idx1-ubyte.gz"};
   throw InputError("unknown dataset '" + name + "' (cifar10 or mnist)");
+}
+
+Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
+  const std::vector<std::string> files = dataset_files(name, dir, split);
+  for (const auto& f : files)
+    if (!exists(f)) throw InputError((name == "mnist" ? "MNIST" : "CIFAR-10") + std::string(" file not found: looked for '") + f + "'");
+  if (name == "cifar10") return load_cifar10(files[0], offset, count);
+  // MNIST ships no training images here: its calibration split is test images 9000-9999.
+  return load_mnist(files[0], files[1], split == "calib" ? kMnistCalibrationStart + offset : offset, count);
 }
 
 }  // namespace xbarsim

@@ -14,6 +14,7 @@ struct Dataset {
   Shape shape;                  ///< C x H x W of one image
   std::vector<uint8_t> pixels;  ///< count x (C*H*W), C planes row-major
   std::vector<int> labels;
+  int first = 0;  ///< the index of image 0 in its file (a range's offset)
   int count() const { return static_cast<int>(labels.size()); }
   /// x = (pixel * scale - mean[c]) / std[c] into `out` (C*H*W floats).
   void preprocess(int index, const Preprocessing& p, float* out) const;
@@ -51,6 +52,9 @@ std::string find_model_file(const std::string& given, const ConfigTree& cfg);
 /// no training images here, so its calibration split is test images 9000-9999, which
 /// callers must then exclude from evaluation (see kMnistCalibrationStart).
 constexpr int kMnistCalibrationStart = 9000;
+
+/// The files of `split` of the named dataset in `data_dir` (InputError for an unknown name).
+std::vector<std::string> dataset_files(const std::string& name, const std::string& data_dir, const std::string& split);
 
 Dataset load_dataset(const std::string& name, const std::string& data_dir, const std::string& split, int offset,
                      int count);

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/common/parse.h"
 #include "sw/nn/model.h"
 
@@ -601,10 +602,10 @@ Model load_proto(const onnx::ModelProto& proto, const std::string& path, Shape i
 }  // namespace
 
 Model load_onnx_model(const std::string& path, Shape input) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot open model '" + path + "'");
+  // protobuf refuses messages of 2 GiB and more.
+  const std::string bytes = read_input_file(path, "the model", (size_t{2} << 30) - 1);
   onnx::ModelProto proto;
-  if (!proto.ParseFromIstream(&in)) throw InputError("'" + path + "' is not a valid ONNX model");
+  if (!proto.ParseFromString(bytes)) throw InputError("'" + path + "' is not a valid ONNX model");
   return load_proto(proto, path, input);
 }
 
