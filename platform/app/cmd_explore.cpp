@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <stdexcept>
 
 #include "platform/app/simulation.h"
 #include "sw/app/app_common.h"
@@ -94,10 +95,7 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
   } catch (const std::exception&) {
     const Failure f = current_failure();
     if (f.kind == Failure::Kind::Internal) throw;
-    const std::string reason = f.kind == Failure::Kind::OutOfMemory ? std::string(kOutOfMemory)
-                               : f.kind == Failure::Kind::Solver    ? "solver: " + f.message
-                                                                    : f.message;
-    return {{"status", "failed"}, {"reason", reason}};
+    return {{"status", "failed"}, {"reason", f.reason()}};
   }
 }
 
@@ -120,11 +118,18 @@ std::string interval(const nlohmann::json& row) {
   return drop_interval_text((*it)[0].get<double>(), (*it)[1].get<double>());
 }
 
+/// The row of a journal line as a result: the fields that vary between runs (timing), the place
+/// in a space (index) and how the point was written (label, point: 8 and 8.0 are one point) left
+/// out, so two lines of one point compare by their results.
+nlohmann::json result_part(nlohmann::json row) {
+  for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "index", "label", "point"})
+    row.erase(k);
+  return row;
+}
+
 int cmd_explore(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--dataset", "--images", "--out", "--report"});
-  check_outputs(args, {"--json", "--csv", "--report"});
   const std::string out_path = args.require("--out");
-  check_output_path(out_path, "--out", {args.get("--config")});
   std::vector<std::string> sets = args.sets();
   if (args.has("--model")) sets.push_back("explore.model=" + args.get("--model"));
   if (args.has("--dataset")) sets.push_back("explore.dataset=" + args.get("--dataset"));
@@ -133,35 +138,71 @@ int cmd_explore(int argc, char** argv) {
   const ExploreSpec spec = parse_explore_spec(base);
   const EvalSpec eval_spec = parse_eval_spec(base);
   if (spec.model.empty()) throw InputError("no model: give --model or explore.model");
+  for (const std::string& key : base.sweep_keys())
+    if (point_key_ignores(key))
+      throw InputError("configuration key '" + key +
+                       "' cannot be a list in an exploration: it does not change a point's results, so its values "
+                       "would be one point run several times (give one value)");
   const std::vector<SweepPoint> values = explore_points(base, spec.combine);
-  std::vector<SpacePoint> space;
-  space.reserve(values.size());
-  {
-    ProgressBar bar(static_cast<int>(values.size()), "checking the space");
-    for (const SweepPoint& v : values) {
-      SpacePoint p{v, sweep_config(base, v), "", sweep_label(v)};
-      p.key = point_key(p.cfg);
-      space.push_back(std::move(p));
-      bar.update(static_cast<int>(space.size()));
-    }
-  }
-  const std::string color = spec.color_by.empty() && !base.sweep_keys().empty() ? base.sweep_keys()[0] : spec.color_by;
+  // Every point is checked before any runs: a value outside its range is an input error, as in
+  // eval and simulate, not a failed row.
+  check_sweep<EvalPoint>(base, values, parse_eval_point);
 
   Model model = load_onnx_model(find_model_file(spec.model, base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
   const EvalData data = load_eval_data(model, spec.dataset, resolve_data_dir(base), eval_spec);
   if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim explore: %s\n", data.note.c_str());
+  check_outputs(args, {"--out", "--json", "--csv", "--report"});  // every file it reads is known now
+
+  const std::string model_id = file_id(model.path);
+  std::vector<SpacePoint> space;
+  space.reserve(values.size());
+  std::map<std::string, size_t> point_of_key;
+  for (const SweepPoint& v : values) {
+    SpacePoint p{v, sweep_config(base, v), "", sweep_label(v)};
+    p.key = explore_point_key(p.cfg, model_id, data.test.name);
+    const auto seen = point_of_key.emplace(p.key, space.size());
+    if (!seen.second)
+      throw InputError("points '" + space[seen.first->second].label + "' and '" + p.label +
+                       "' are one design (their values are equal as numbers): list each value once");
+    space.push_back(std::move(p));
+  }
+  const std::string color = spec.color_by.empty() && !base.sweep_keys().empty() ? base.sweep_keys()[0] : spec.color_by;
 
   // Points already in the journal are done; the rest are shared round-robin among the ranks.
-  const ResultJournal journal(out_path);
+  const ResultJournal journal(out_path, explore_journal_kind());
   if (Ranks::root()) journal.repair();
   Ranks::barrier();
-  int skipped = 0;
-  std::map<std::string, nlohmann::json> done;
-  for (auto& row : journal.read(&skipped)) {
-    const std::string key = row["key"];  // (the assignment's right side is evaluated first)
-    done[key] = std::move(row);
-  }
+  // A line of this space's point counts when it is a result (explore_row_problem); two lines
+  // with different results for one point are a contradiction the user must resolve.
+  const auto read_done = [&](bool speak) {
+    std::map<std::string, JournalLine> done;
+    int skipped = 0, invalid = 0;
+    for (JournalLine& line : journal.read(&skipped)) {
+      const std::string key = line.row["key"];
+      if (!point_of_key.count(key)) continue;
+      const std::string problem = explore_row_problem(line.row);
+      if (!problem.empty()) {
+        if (speak)
+          std::fprintf(stderr, "xbarsim explore: %s, line %d: %s; the point runs again\n", out_path.c_str(),
+                       line.number, problem.c_str());
+        ++invalid;
+        continue;
+      }
+      const auto it = done.find(key);
+      if (it == done.end()) {
+        done.emplace(key, std::move(line));
+      } else if (result_part(it->second.row) != result_part(line.row)) {
+        throw InputError(journal.describe() + ": lines " + std::to_string(it->second.number) + " and " +
+                         std::to_string(line.number) + " give different results for point '" +
+                         space[point_of_key[key]].label + "'; delete one of them");
+      }
+    }
+    if (speak && skipped)
+      std::fprintf(stderr, "xbarsim explore: %d unreadable lines of %s ignored\n", skipped, out_path.c_str());
+    return done;
+  };
+  std::map<std::string, JournalLine> done = read_done(Ranks::root());
   Ranks::barrier();  // everyone has read the journal before anyone appends to it
   std::vector<size_t> pending;
   for (size_t k = 0; k < space.size(); ++k)
@@ -171,8 +212,6 @@ int cmd_explore(int argc, char** argv) {
                  space.size() - pending.size(), out_path.c_str(), pending.size());
     if (Ranks::size() > 1) std::fprintf(stderr, " on %d ranks", Ranks::size());
     std::fprintf(stderr, "\n");
-    if (skipped)
-      std::fprintf(stderr, "xbarsim explore: %d unreadable lines of %s ignored\n", skipped, out_path.c_str());
   }
   for (size_t i = Ranks::rank(); i < pending.size(); i += Ranks::size()) {
     const SpacePoint& p = space[pending[i]];
@@ -182,22 +221,20 @@ int cmd_explore(int argc, char** argv) {
     row["index"] = pending[i];
     row["label"] = p.label;
     row["point"] = point_json(p.values);
+    const std::string problem = explore_row_problem(row);
+    if (!problem.empty()) throw std::logic_error("explore wrote a row it would not read back: " + problem);
     journal.append(row);
   }
   Ranks::barrier();
   if (!Ranks::root()) return 0;
 
   // Rank 0: every point of the space from the journal, in space order, and the front.
-  done.clear();
-  for (auto& row : journal.read()) {
-    const std::string key = row["key"];
-    done[key] = std::move(row);
-  }
+  done = read_done(false);
   nlohmann::json rows = nlohmann::json::array();
   for (size_t k = 0; k < space.size(); ++k) {
     const auto it = done.find(space[k].key);
     if (it == done.end()) throw InputError("point '" + space[k].label + "' is missing from " + out_path);
-    nlohmann::json row = it->second;
+    nlohmann::json row = it->second.row;
     row["index"] = k;  // its place in this space (the journal may come from a reordered one)
     rows.push_back(std::move(row));
   }

@@ -2,9 +2,13 @@
 
 #include "sw/analog/error_metrics.h"
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/study/explore.h"
+#include "sw/study/journal.h"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -28,17 +32,28 @@ EvalData load_eval_data(const Model& model, std::string dataset, const std::stri
   if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
   EvalData d;
   int count = spec.images;
-  if (dataset == "mnist") {
+  const bool mnist = dataset == "mnist";
+  if (mnist) {
     const int limit = kMnistCalibrationStart - spec.offset;
     if (limit <= 0) throw InputError("MNIST test images from 9000 on are the calibration set (see README)");
-    if (count < 0 || count > limit) {
-      count = limit;
-      d.note = "MNIST images 9000-9999 are used for calibration; evaluating images " + std::to_string(spec.offset) +
-               ".." + std::to_string(spec.offset + count - 1);
-    }
+    if (count < 0 || count > limit) count = limit;
   }
   d.test = load_dataset(dataset, data_dir, "test", spec.offset, count);
   d.calib = load_dataset(dataset, data_dir, "calib", 0, spec.calibration_images);
+  // Fewer images than asked for (the end of the test set, MNIST's calibration images) is said,
+  // never silent.
+  const int n = d.test.count();
+  const std::string range = "images " + std::to_string(spec.offset) + ".." + std::to_string(spec.offset + n - 1);
+  if (spec.images > n)
+    d.note = (mnist ? "MNIST test images 9000-9999 are the calibration set" : "the " + dataset + " test set ends there") +
+             ": using " + range + " (" + std::to_string(n) + " of the " + std::to_string(spec.images) +
+             " images asked for)";
+  else if (mnist && spec.images < 0)
+    d.note = "MNIST test images 9000-9999 are the calibration set: using " + range;
+  if (d.calib.count() < spec.calibration_images)
+    d.note += std::string(d.note.empty() ? "" : "; ") + "calibrating on " + std::to_string(d.calib.count()) + " of the " +
+              std::to_string(spec.calibration_images) + " images eval.calibration_images asks for (all the " +
+              dataset + " calibration set has)";
   if (!(d.test.shape == model.input))
     throw InputError("dataset images are " + std::to_string(d.test.shape.c) + "x" + std::to_string(d.test.shape.h) +
                      "x" + std::to_string(d.test.shape.w) + " but the model expects " + std::to_string(model.input.c) +
@@ -59,6 +74,11 @@ EvalPoint parse_eval_point(const ConfigTree& cfg) {
 
 namespace {
 
+/// The largest relative error a journal line may hold: far above any run's (errors are relative
+/// to a channel's calibration range), and small enough that a layer's sum over a test set stays
+/// finite (1e308 per image would add up to inf).
+constexpr double kMaxJournalError = 1e100;
+
 /// Relative errors of one image's layer output (crossbar vs software), each normalised by
 /// the output channel's range over the calibration images.
 ErrorTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
@@ -76,33 +96,51 @@ struct ImageTallies {
 };
 
 /// Fills `t` with the journal's images of this run; returns which images it had.
-std::vector<char> read_journal(const EvalJournal& j, ImageTallies& t, int images, int L) {
+std::vector<char> read_journal(const EvalJournal& j, const Model& model, ImageTallies& t, int images) {
+  const int L = static_cast<int>(model.linear.size());
   std::vector<char> have(images, 0);
   if (!j.rows) return have;
-  for (const auto& row : *j.rows) {
+  std::vector<const JournalLine*> line_of(images, nullptr);
+  const std::string where = j.file ? j.file->describe() : std::string("the eval journal");
+  for (const JournalLine& line : *j.rows) {
+    const nlohmann::json& row = line.row;
     if (row.value("key", std::string()) != j.key) continue;
-    const auto bad = [&] {
-      return InputError("eval journal '" + (j.file ? j.file->path() : std::string()) + "': a line of this run (key " +
-                        j.key + ") is malformed: " + row.dump().substr(0, 120) + "; delete it");
+    const auto bad = [&](const std::string& why) {
+      return InputError(where + ", line " + std::to_string(line.number) + ": a line of this run (key " + j.key +
+                        ") " + why + ": " + excerpt(row.dump(), 120) + "; delete the line");
     };
     if (!row.contains("image") || !row["image"].is_number_integer() || !row.contains("layers") ||
         !row["layers"].is_array() || static_cast<int>(row["layers"].size()) != L || !row.contains("sw") ||
         !row.contains("xb") || !row["sw"].is_number_integer() || !row["xb"].is_number_integer() ||
         (row["sw"] != 0 && row["sw"] != 1) || (row["xb"] != 0 && row["xb"] != 1))
-      throw bad();
+      throw bad("is malformed");
     const long long k = row["image"].get<long long>() - j.offset;
     if (k < 0 || k >= images) continue;  // outside this run's range of images
+    if (line_of[k]) {
+      if (line_of[k]->row == row) continue;  // the same result twice (two runs finished the image)
+      throw bad("contradicts line " + std::to_string(line_of[k]->number) + " for image " +
+                std::to_string(row["image"].get<long long>()));
+    }
+    line_of[k] = &line;
     t.sw_correct[k] = row["sw"].get<int>() != 0;
     t.xb_correct[k] = row["xb"].get<int>() != 0;
     for (int l = 0; l < L; ++l) {
       const auto& e = row["layers"][l];
-      if (!e.is_array() || e.size() != 3 || !e[0].is_number() || !e[1].is_number() || !e[2].is_number_integer() ||
-          !(e[0].get<double>() >= 0) || !(e[1].get<double>() >= 0) || e[2].get<long long>() < 0)
-        throw bad();
+      // A layer's tally is over its output values (a fixed count); its errors are finite, at
+      // least 0, and their sum is at most count x worst.
+      const long long outputs = static_cast<long long>(model.linear[l].out.size());
+      if (!e.is_array() || e.size() != 3 || !e[0].is_number() || !e[1].is_number() || !e[2].is_number_integer())
+        throw bad("is malformed");
+      const double sum = e[0].get<double>(), worst = e[1].get<double>();
+      if (e[2].get<long long>() != outputs)
+        throw bad("counts " + e[2].dump() + " outputs of layer " + model.linear[l].name + ", which has " +
+                  std::to_string(outputs));
+      if (!(worst >= 0 && worst <= kMaxJournalError && sum >= 0 && sum <= worst * outputs * (1 + 1e-9)))
+        throw bad("has errors no run can give for layer " + model.linear[l].name);
       ErrorTally& et = t.layer[static_cast<size_t>(k) * L + l];
-      et.sum = e[0].get<double>();
-      et.worst = e[1].get<double>();
-      et.count = e[2].get<long long>();
+      et.sum = sum;
+      et.worst = worst;
+      et.count = outputs;
     }
     have[k] = 1;
   }
@@ -131,7 +169,7 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
   const int L = static_cast<int>(model.linear.size());
   ImageTallies t{std::vector<ErrorTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
                  std::vector<char>(images, 0)};
-  const std::vector<char> have = journal ? read_journal(*journal, t, images, L) : std::vector<char>(images, 0);
+  const std::vector<char> have = journal ? read_journal(*journal, model, t, images) : std::vector<char>(images, 0);
   from_journal = static_cast<int>(std::count(have.begin(), have.end(), 1));
   std::mutex mu;
   int done = 0, mine = 0;  // images of this share still to evaluate
@@ -140,6 +178,11 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
   std::string pending;
   auto last_write = std::chrono::steady_clock::now();
   const ResultJournal* file = journal ? journal->file : nullptr;
+  // An image that fails ends the run with the lowest such image, whatever the threads: after a
+  // failure at image f every thread still evaluates its images below f (a failure among them
+  // becomes the one reported), and none above.
+  std::atomic<int> first_failed{images};
+  std::exception_ptr failure;
   // Images in parallel; inside an image, linear layers run serially.
   try {
     parallel_for(threads, threads, [&](int th) {
@@ -147,12 +190,25 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
       LayerTrace sw_trace, xb_trace;
       sw_trace.record_inputs = xb_trace.record_inputs = false;
       std::vector<float> x(model.input.size());
-      for (int k = shard.index + th * shard.count; k < images; k += threads * shard.count) {
+      for (int k = shard.index + th * shard.count; k < images && k < first_failed; k += threads * shard.count) {
         if (have[k]) continue;
         test.preprocess(k, model.pre, x.data());
         Eigen::Index a, b;
         run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
-        run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
+        try {
+          try {
+            run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
+          } catch (const std::exception&) {
+            rethrow_with_context(test.name + " image " + std::to_string(test.first + k));
+          }
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(mu);
+          if (k < first_failed) {
+            first_failed = k;
+            failure = std::current_exception();
+          }
+          return;
+        }
         t.sw_correct[k] = a == test.labels[k];
         t.xb_correct[k] = b == test.labels[k];
         for (int l = 0; l < L; ++l)
@@ -176,6 +232,7 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
     throw;
   }
   if (file) file->append_lines(pending);
+  if (failure) std::rethrow_exception(failure);
   return t;
 }
 
@@ -213,6 +270,13 @@ CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, co
   CrossbarBackend xb(model, point.ac);
   xb.program(calib, spec.calibration_samples, progress);
   return xb;
+}
+
+JournalKind eval_journal_kind() {
+  return {"eval journal", "--journal", [](const nlohmann::json& row) {
+            return row.contains("key") && row["key"].is_string() && row.contains("image") &&
+                   row["image"].is_number_integer();
+          }};
 }
 
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset) {

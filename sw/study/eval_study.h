@@ -90,7 +90,9 @@ struct ImageShard {
   std::function<std::vector<std::string>(const std::string&)> gather;
 };
 
-class ResultJournal;  // sw/study/explore.h
+class ResultJournal;  // sw/study/journal.h
+struct JournalKind;
+struct JournalLine;
 
 /// A resumable evaluation (eval --journal): every finished image is one line of the journal
 /// under the run's key (appended about once a second); an image whose line is there already is
@@ -99,9 +101,14 @@ struct EvalJournal {
   const ResultJournal* file = nullptr;  ///< where finished images are appended (null: nowhere)
   std::string key;                      ///< eval_run_key of the run
   int offset = 0;                       ///< dataset index of test image 0 (eval.offset)
-  const std::vector<nlohmann::json>* rows = nullptr;  ///< the journal's lines, read before the run
-                                                      ///< (any key; not owned)
+  const std::vector<JournalLine>* rows = nullptr;  ///< the journal's lines, read before the run
+                                                  ///< (any key; not owned)
 };
+/// The kind of eval's journal (--journal): a line per finished image, with its key and index.
+/// A line of a run is checked when the run reads it: its image's outcome and per-layer error
+/// tallies must be ones the run could have written (InputError naming the line otherwise), and
+/// two different lines for one image are refused.
+JournalKind eval_journal_kind();
 /// A run's identity in a journal: its whole effective configuration except the image range
 /// (eval.images, eval.offset: an image is identified by its dataset index), the sections that
 /// cannot change an image's outcome (platform, study, explore) and what point_key ignores, with

@@ -1,9 +1,5 @@
 #include "sw/study/explore.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -15,6 +11,7 @@
 #include <sstream>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/nn/dataset.h"
 
 namespace xbarsim {
@@ -146,6 +143,8 @@ std::string canonical_value(const std::string& text) {
   if (end == text.c_str() + text.size() && errno == 0) return std::to_string(n);
   const double v = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size() || !std::isfinite(v)) return text;
+  // A whole number as the integer it is (8.0 and 8e0 are 8, as ConfigTree::get_int reads them).
+  if (v == std::floor(v) && std::fabs(v) < kExactIntegerLimit) return std::to_string(static_cast<long long>(v));
   char buf[32];
   for (int digits = 1; digits <= 17; ++digits) {
     std::snprintf(buf, sizeof buf, "%.*g", digits, v == 0 ? 0.0 : v);  // -0 is 0
@@ -154,18 +153,27 @@ std::string canonical_value(const std::string& text) {
   return buf;
 }
 
+namespace {
+
+/// Whether `key` is one of `keys` (an entry ending in '.' is a whole section).
+bool listed(const std::string& key, const std::vector<std::string>& keys) {
+  for (const std::string& a : keys)
+    if (a.back() == '.' ? starts_with(key, a.c_str()) : key == a) return true;
+  return false;
+}
+
+}  // namespace
+
+bool point_key_ignores(const std::string& key) {
+  static const std::vector<std::string> never = {"solver.threads", "explore.objectives", "explore.color_by",
+                                                 "explore.combine", "limits."};
+  return listed(key, never);
+}
+
 std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& also_ignored) {
   // Over "key=value\n" of every effective key that can change a result, the numeric keys'
   // values canonical (3, 3.0 and 3e0 are one value; a path such as data.dir stays as written).
-  // An ignored entry ending in '.' is a whole section.
-  static const std::vector<std::string> never = {"solver.threads", "explore.objectives", "explore.color_by",
-                                                 "explore.combine", "limits."};
-  const auto ignored = [&](const std::string& key) {
-    for (const auto* list : {&never, &also_ignored})
-      for (const std::string& a : *list)
-        if (a.back() == '.' ? starts_with(key, a.c_str()) : key == a) return true;
-    return false;
-  };
+  const auto ignored = [&](const std::string& key) { return point_key_ignores(key) || listed(key, also_ignored); };
   Fnv1a h;
   for (const auto& key : cfg.leaf_keys()) {
     if (ignored(key)) continue;
@@ -173,6 +181,10 @@ std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& als
     h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value) : value) + "\n");
   }
   return h.hex();
+}
+
+std::string explore_point_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset) {
+  return point_key(point_cfg, {"explore.model", "explore.dataset"}) + " model " + model_id + " " + dataset;
 }
 
 double objective_cost(const nlohmann::json& row, Objective o) {
@@ -225,69 +237,40 @@ std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs) {
   return front;
 }
 
-ResultJournal::ResultJournal(std::string path) : path_(std::move(path)) {
-  struct stat st;
-  if (stat(path_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
-    throw InputError("the journal '" + path_ + "' is not a regular file; a journal is read back and appended to");
-  // Created now, so that a place that refuses files (e.g. /sys) fails before the work, not after.
-  const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  if (fd < 0) throw InputError("cannot write the journal '" + path_ + "': " + std::strerror(errno));
-  close(fd);
+JournalKind explore_journal_kind() {
+  return {"explore results file", "--out", [](const nlohmann::json& row) {
+            return row.contains("key") && row["key"].is_string() && row.contains("status") && row["status"].is_string();
+          }};
 }
 
-void ResultJournal::repair() const {
-  std::ifstream in(path_, std::ios::binary);
-  if (!in) return;
-  const std::string text((std::istreambuf_iterator<char>(in)), {});
-  if (text.empty() || text.back() == '\n') return;
-  const size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
-  if (truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
-    throw InputError("cannot repair the results file '" + path_ + "': " + std::strerror(errno));
-  std::fprintf(stderr, "xbarsim: dropped an incomplete last line of %s (cut short by a kill)\n", path_.c_str());
-}
-
-std::vector<nlohmann::json> ResultJournal::read(int* skipped) const {
-  std::vector<nlohmann::json> rows;
-  int bad = 0;
-  std::ifstream in(path_);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
-    if (j.is_discarded() || !j.is_object() || !j.contains("key") || !j["key"].is_string()) {
-      ++bad;
-      continue;
-    }
-    rows.push_back(std::move(j));
-  }
-  if (skipped) *skipped = bad;
-  return rows;
-}
-
-void ResultJournal::append_lines(const std::string& line) const {
-  if (line.empty()) return;
-  const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  if (fd < 0) throw InputError("cannot open the results file '" + path_ + "': " + std::strerror(errno));
-  struct flock lock {};
-  lock.l_type = F_WRLCK;
-  lock.l_whence = SEEK_SET;
-  while (fcntl(fd, F_SETLKW, &lock) < 0 && errno == EINTR) {
-  }
-  size_t done = 0;
-  bool ok = true;
-  while (done < line.size()) {
-    const ssize_t w = write(fd, line.data() + done, line.size() - done);
-    if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) {
-      ok = false;
-      break;
-    }
-    done += static_cast<size_t>(w);
-  }
-  const int err = errno;
-  ok = ok && fsync(fd) == 0;
-  close(fd);  // releases the lock
-  if (!ok) throw InputError("cannot write the results file '" + path_ + "': " + std::strerror(err));
+std::string explore_row_problem(const nlohmann::json& row) {
+  const auto text = [&](const char* k) { return row.contains(k) && row[k].is_string(); };
+  const auto number = [&](const char* k, double lo, double hi) {
+    return row.contains(k) && row[k].is_number() && row[k].get<double>() >= lo && row[k].get<double>() <= hi;
+  };
+  constexpr double kHuge = std::numeric_limits<double>::max();
+  if (!text("label")) return "'label' is not a text";
+  const std::string status = row["status"];
+  if (status == "failed") return text("reason") ? "" : "a failed point's 'reason' is not a text";
+  if (status != "ok") return "'status' is '" + excerpt(status) + "', not ok or failed";
+  for (const char* k : {"accuracy", "software_accuracy"})
+    if (!number(k, 0, 1)) return "'" + std::string(k) + "' is not an accuracy in [0, 1]";
+  if (!number("accuracy_drop", -1, 1)) return "'accuracy_drop' is not in [-1, 1]";
+  const auto& ci = row.value("accuracy_drop_ci95", nlohmann::json());
+  if (!ci.is_array() || ci.size() != 2 || !ci[0].is_number() || !ci[1].is_number() ||
+      !(ci[0].get<double>() >= -1 && ci[0].get<double>() <= ci[1].get<double>() && ci[1].get<double>() <= 1))
+    return "'accuracy_drop_ci95' is not an interval in [-1, 1]";
+  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "mean_relative_error",
+                        "worst_relative_error"})
+    if (!number(k, 0, kHuge)) return "'" + std::string(k) + "' is not a finite number >= 0";
+  const auto& w = row.value("warnings", nlohmann::json::array());
+  if (!w.is_array() || std::any_of(w.begin(), w.end(), [](const nlohmann::json& x) { return !x.is_string(); }))
+    return "'warnings' is not a list of texts";
+  const auto& layers = row.value("layers", nlohmann::json());
+  if (!layers.is_array()) return "'layers' is not a list";
+  for (const auto& l : layers)
+    if (!l.is_object() || !l.contains("name") || !l["name"].is_string()) return "a layer has no name";
+  return "";
 }
 
 }  // namespace xbarsim

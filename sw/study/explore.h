@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "sw/common/config.h"
+#include "sw/study/journal.h"
 #include "sw/study/sweep.h"
 
 namespace xbarsim {
@@ -60,8 +61,18 @@ std::string file_id(const std::string& path);
 /// only when its key matches.
 std::string point_key(const ConfigTree& point_cfg, const std::vector<std::string>& also_ignored = {});
 
-/// A decimal number as the shortest text that reads back as the same double ("3.0", "3e0" and
-/// "3" are "3"; "0.40" is "0.4"); any other text unchanged.
+/// Whether point_key leaves `key` out whatever the caller (solver.threads, explore.objectives /
+/// color_by / combine, limits.*): a list over such a key gives points that are one point.
+bool point_key_ignores(const std::string& key);
+
+/// A point of an exploration's identity: point_key without explore.model and explore.dataset,
+/// with the model known by its content (`model_id`, file_id of its file: a moved copy matches,
+/// a changed file not) and the dataset by name, as eval_run_key does.
+std::string explore_point_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset);
+
+/// A decimal number as the shortest text that reads back as the same double ("0.40" is "0.4"),
+/// a whole number below 2^53 as its integer ("3.0", "3e0" and "3" are "3", as get_int reads
+/// them), an integer text exactly; any other text unchanged.
 std::string canonical_value(const std::string& text);
 
 /// The value of `o` for a result row, as a cost to minimise (accuracy negated); NaN when the
@@ -73,28 +84,13 @@ double objective_cost(const nlohmann::json& row, Objective o);
 /// cost are never on the front and dominate nothing; equal rows are both on it.
 std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs);
 
-/// The resumable record of an exploration: one JSON object per line, each appended whole
-/// under an fcntl lock and flushed to disk as its point finishes, so a killed run loses only
-/// the points in flight and several MPI ranks can append to one file.
-class ResultJournal {
- public:
-  /// Creates the file when it does not exist. Throws InputError when `path` is not a regular
-  /// file (a journal is read back and appended to: /dev/null would lose it, /dev/zero never
-  /// ends) or cannot be created.
-  explicit ResultJournal(std::string path);
-  /// Drops a last line cut short by a kill (call on one process, before anyone appends).
-  void repair() const;
-  /// Every complete line that parses as a JSON object with a "key"; others are counted in
-  /// `skipped`.
-  std::vector<nlohmann::json> read(int* skipped = nullptr) const;
-  /// Appends one row as one line; throws InputError when the file cannot be written.
-  void append(const nlohmann::json& row) const { append_lines(row.dump() + "\n"); }
-  /// Appends whole lines ("...\n" each) in one write under the lock.
-  void append_lines(const std::string& lines) const;
-  const std::string& path() const { return path_; }
+/// The kind of explore's results file (--out): a row per finished point, with its key and
+/// status.
+JournalKind explore_journal_kind();
 
- private:
-  std::string path_;
-};
+/// Why a row of the results file cannot be a point's result ("" when it can): the fields a
+/// row of its status has, with their types and ranges (a hand-edited or foreign line is not
+/// shown as a result, and the point runs again).
+std::string explore_row_problem(const nlohmann::json& row);
 
 }  // namespace xbarsim

@@ -31,7 +31,7 @@ std::vector<SweepPoint> sweep_points(const ConfigTree& cfg) {
 
 ConfigTree sweep_config(const ConfigTree& base, const SweepPoint& point) {
   ConfigTree cfg = base;
-  for (const auto& kv : point) cfg.set(kv.first, kv.second);
+  for (const auto& kv : point) cfg.set_scalar(kv.first, kv.second);
   return cfg;
 }
 

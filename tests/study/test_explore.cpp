@@ -8,6 +8,7 @@
 #include <map>
 
 #include "sw/common/errors.h"
+#include "sw/common/input_file.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
 
@@ -139,10 +140,17 @@ TEST(ExploreSpec, ChecksNameTheKey) {
   EXPECT_EQ(s.objectives, (std::vector<Objective>{Objective::Energy, Objective::Accuracy}));
 }
 
+namespace {
+/// A journal kind for these tests: a line is one of its own when it has a text "key".
+JournalKind test_kind() {
+  return {"example journal", "--example", [](const nlohmann::json& r) { return r.contains("key") && r["key"].is_string(); }};
+}
+}  // namespace
+
 TEST(ResultJournal, AppendsRepairsAndSkipsBadLines) {
   const std::string path = ::testing::TempDir() + "xbarsim_journal_test.jsonl";
   std::remove(path.c_str());
-  const ResultJournal j(path);
+  const ResultJournal j(path, test_kind());
   EXPECT_TRUE(j.read().empty());  // no file yet
   j.append({{"key", "a"}, {"accuracy", 0.5}});
   j.append({{"key", "b"}, {"accuracy", 0.25}});
@@ -153,11 +161,49 @@ TEST(ResultJournal, AppendsRepairsAndSkipsBadLines) {
   int skipped = 0;
   const auto rows = j.read(&skipped);
   ASSERT_EQ(rows.size(), 2u);
-  EXPECT_EQ(rows[1]["key"], "b");
-  EXPECT_EQ(rows[1]["accuracy"], 0.25);
+  EXPECT_EQ(rows[1].row["key"], "b");
+  EXPECT_EQ(rows[1].row["accuracy"], 0.25);
+  EXPECT_EQ(rows[1].number, 2);
   EXPECT_EQ(skipped, 1);
   j.append({{"key", "c"}});  // lands on its own line after the repair
   EXPECT_EQ(j.read().size(), 3u);
+  EXPECT_EQ(j.read()[2].number, 4);  // after the garbage line
+  std::remove(path.c_str());
+}
+
+TEST(ResultJournal, AFileThatIsNotOneOfItsKindIsLeftAsItIs) {
+  // Before: any file given as a journal lost its last line (repair) and got lines appended.
+  const std::string path = ::testing::TempDir() + "xbarsim_not_a_journal.txt";
+  for (const std::string text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\": 1}\n"),
+                                 std::string("\x08\x01\x12\x04onnx"), std::string(2u << 20, '{')}) {
+    std::ofstream(path, std::ios::binary) << text;
+    try {
+      ResultJournal j(path, test_kind());
+      FAIL() << "accepted " << text.substr(0, 20);
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("is not an example journal"), std::string::npos) << e.what();
+    }
+    std::ifstream in(path, std::ios::binary);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), text);
+  }
+  // Ours: an empty file, a journal, and a first line a kill cut short.
+  for (const std::string text : {std::string(), std::string("{\"key\":\"a\"}\nrest"), std::string("{\"key\":\"a")}) {
+    std::ofstream(path, std::ios::binary) << text;
+    EXPECT_NO_THROW(ResultJournal(path, test_kind())) << text;
+  }
+  // Never a file the run reads in another role (`path` was opened as a journal above, and
+  // stays while this runs: the registry knows files by their inode, which a new file could
+  // reuse once it is gone).
+  const std::string model = ::testing::TempDir() + "xbarsim_registered_input.jsonl";
+  std::ofstream(model, std::ios::binary) << "{\"key\":\"a\"}\n";
+  register_input(model, "the model");
+  try {
+    ResultJournal j(model, test_kind());
+    FAIL() << "a registered input accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is the model this run reads"), std::string::npos) << e.what();
+  }
+  std::remove(model.c_str());
   std::remove(path.c_str());
 }
 
@@ -166,7 +212,7 @@ TEST(ResultJournalFile, MustBeARegularFile) {
   // /dev/null loses every line.
   for (const char* special : {"/dev/null", "/dev/zero"}) {
     try {
-      ResultJournal j(special);
+      ResultJournal j(special, test_kind());
       FAIL() << special << " accepted";
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
@@ -175,13 +221,13 @@ TEST(ResultJournalFile, MustBeARegularFile) {
   // A new journal is created at once: a place that refuses files fails before the work.
   const std::string fresh = ::testing::TempDir() + "xbarsim_fresh_journal.jsonl";
   std::remove(fresh.c_str());
-  EXPECT_NO_THROW(ResultJournal{fresh});
+  EXPECT_NO_THROW(ResultJournal(fresh, test_kind()));
   EXPECT_TRUE(std::ifstream(fresh).good());
   std::remove(fresh.c_str());
   try {
-    ResultJournal j("/proc/xbarsim_journal.jsonl");
+    ResultJournal j("/proc/xbarsim_journal.jsonl", test_kind());
     FAIL() << "/proc accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("cannot write the journal"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot write the example journal"), std::string::npos) << e.what();
   }
 }
