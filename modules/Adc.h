@@ -12,6 +12,7 @@
 
 #include "modules/LayerJob.h"
 #include "sw/hw/inventory.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -50,7 +51,7 @@ class Adc : public sc_core::sc_module {
       conversions_ += static_cast<long long>(job->iterations()) * cols;
     }
     job->stage_ns[kAdc].assign(job->iterations(), slowest);
-    if (job->detailed) delay += sc_core::sc_time(slowest, sc_core::SC_NS);
+    if (job->detailed) delay += sim_delay(slowest, delay);
     adc2acc->b_transport(p, delay);
   }
   int columns_per_adc_;

@@ -9,6 +9,7 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -38,7 +39,7 @@ class CrossbarArray : public sc_core::sc_module {
     }
     evaluations_ += static_cast<long long>(job->iterations()) * nb;
     job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_);
-    if (job->detailed) delay += sc_core::sc_time(settle_ns_, sc_core::SC_NS);
+    if (job->detailed) delay += sim_delay(settle_ns_, delay);
     xbar2adc->b_transport(p, delay);
   }
   double settle_ns_;

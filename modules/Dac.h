@@ -9,6 +9,7 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -36,7 +37,7 @@ class Dac : public sc_core::sc_module {
     job->dac_conversions += n;
     conversions_ += n;
     job->stage_ns[kDac].assign(job->iterations(), latency_ns_);
-    if (job->detailed) delay += sc_core::sc_time(latency_ns_, sc_core::SC_NS);
+    if (job->detailed) delay += sim_delay(latency_ns_, delay);
     dac2xbar->b_transport(p, delay);
   }
   double latency_ns_;

@@ -7,6 +7,7 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -36,7 +37,7 @@ class DigitalAccumulator : public sc_core::sc_module {
     job->accumulations += n;
     accumulations_ += n;
     job->stage_ns[kAccumulate].assign(job->iterations(), latency_ns_);
-    if (job->detailed) delay += sc_core::sc_time(latency_ns_, sc_core::SC_NS);
+    if (job->detailed) delay += sim_delay(latency_ns_, delay);
     p.set_response_status(tlm::TLM_OK_RESPONSE);
   }
   double latency_ns_;

@@ -10,6 +10,7 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -77,7 +78,7 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
     for (double& t : job->stage_ns[kShift]) t = std::ceil(t / entries_per_cycle_) * clock_ns_;
     shifted_ += job->shifted_entries - before_s;
     refills_ += job->refills - before_r;
-    if (job->detailed) delay += sc_core::sc_time(job->stage_ns[kShift].front(), sc_core::SC_NS);
+    if (job->detailed) delay += sim_delay(job->stage_ns[kShift].front(), delay);
     sr2dac->b_transport(p, delay);
   }
 

@@ -10,6 +10,7 @@
 #include <systemc>
 #include <tlm>
 #include <tlm_utils/multi_passthrough_target_socket.h>
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -38,7 +39,7 @@ class Bus : public sc_core::sc_module {
     const sc_core::sc_time now = sc_core::sc_time_stamp() + delay;
     sc_core::sc_time& lane = *std::min_element(free_at_.begin(), free_at_.end());
     const sc_core::sc_time start = std::max(now, lane);
-    const sc_core::sc_time dur(transfer_ns(p.get_data_length()), sc_core::SC_NS);
+    const sc_core::sc_time dur = sim_delay(transfer_ns(p.get_data_length()), start - sc_core::sc_time_stamp());
     lane = start + dur;
     busy_ += dur;
     bytes_ += p.get_data_length();

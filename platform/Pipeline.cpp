@@ -5,6 +5,8 @@
 #include <map>
 
 #include "sw/hw/inventory.h"
+#include "modules/sim_time.h"
+#include "sw/common/output_file.h"
 
 namespace xbarsim {
 
@@ -43,11 +45,29 @@ inline std::ostream& operator<<(std::ostream& os, const RowId& r) {
   return os << r.image << ":" << r.row << "+" << r.count;
 }
 
+void ProcessFailure::guard(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const sc_core::sc_unwind_exception&) {
+    throw;  // SystemC's own (a process being killed or reset): it must pass
+  } catch (...) {
+    if (first_) return;
+    first_ = std::current_exception();
+    // Stopping is how the run ends here, not news for the user ("Simulation stopped by user.").
+    sc_core::sc_report_handler::set_actions("/OSCI/SystemC", sc_core::SC_INFO, sc_core::SC_DO_NOTHING);
+    sc_core::sc_stop();
+  }
+}
+
+void ProcessFailure::rethrow() const {
+  if (first_) std::rethrow_exception(first_);
+}
+
 /// One replica of a layer's tile: a process that works through its share of each row.
 class TileReplica : public sc_core::sc_module {
  public:
-  TileReplica(sc_core::sc_module_name name, sc_core::sc_event& done, int& pending)
-      : sc_module(name), done_(done), pending_(pending) {
+  TileReplica(sc_core::sc_module_name name, sc_core::sc_event& done, int& pending, ProcessFailure& failure)
+      : sc_module(name), done_(done), pending_(pending), failure_(failure) {
     SC_HAS_PROCESS(TileReplica);
     SC_THREAD(run);
   }
@@ -59,16 +79,19 @@ class TileReplica : public sc_core::sc_module {
 
  private:
   void run() {
-    for (;;) {
-      sc_core::wait(start_);
-      sc_core::wait(sc_core::sc_time(share_ns_, sc_core::SC_NS));
-      busy_ns += share_ns_;
-      if (--pending_ == 0) done_.notify(sc_core::SC_ZERO_TIME);
-    }
+    failure_.guard([&] {
+      for (;;) {
+        sc_core::wait(start_);
+        sc_core::wait(sim_delay(share_ns_));
+        busy_ns += share_ns_;
+        if (--pending_ == 0) done_.notify(sc_core::SC_ZERO_TIME);
+      }
+    });
   }
   sc_core::sc_event start_;
   sc_core::sc_event& done_;
   int& pending_;
+  ProcessFailure& failure_;
   double share_ns_ = 0;
 };
 
@@ -100,12 +123,16 @@ struct Pipeline::Stage : public sc_core::sc_module {
     SC_THREAD(run);
     SC_THREAD(send);
   }
-  void run() { owner->stage_process(*this); }
+  void run() {
+    owner->failure_.guard([&] { owner->stage_process(*this); });
+  }
   void send() {
-    for (;;) {
-      const RowId row = out_rows.read();
-      owner->send_rows(*this, row.image, row.row, row.count, op->out, out_row_bytes);
-    }
+    owner->failure_.guard([&] {
+      for (;;) {
+        const RowId row = out_rows.read();
+        owner->send_rows(*this, row.image, row.row, row.count, op->out, out_row_bytes);
+      }
+    });
   }
   /// Input rows [first, last] the output row `r` needs from input `i` (last < 0: none).
   std::pair<int, int> window(int i, int r) const;
@@ -137,9 +164,12 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
       const int y = op->start[1] + r * op->step[1];
       return {y, y};
     }
-    default:
+    case OpKind::Relu:
+    case OpKind::Add:
+    case OpKind::Affine:
       return {r, r};
   }
+  return {r, r};
 }
 
 namespace {
@@ -163,9 +193,13 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
     case OpKind::GlobalAvgPool:
     case OpKind::Flatten:
       return in.h;
-    default:
+    case OpKind::Relu:
+    case OpKind::Affine:
+    case OpKind::Slice:
+    case OpKind::Pad:
       return std::min(in.h, 2 * grain);
   }
+  return in.h;
 }
 
 long long row_bytes(const Shape& s, int activation_bytes) {
@@ -225,7 +259,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       for (int q = 0; q < r; ++q)
         s->replicas.push_back(
             std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(),
-                                          s->replicas_done, s->replicas_pending));
+                                          s->replicas_done, s->replicas_pending, failure_));
     }
     s->stage2bus.bind(bus_.stage2bus);
     stages_.push_back(std::move(s));
@@ -237,8 +271,8 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
   consumers_of_[model.output].push_back(output_);
   mem2bus.bind(bus_.stage2bus);
   SC_HAS_PROCESS(Pipeline);
-  SC_THREAD(source);
-  SC_THREAD(sink);
+  SC_THREAD(source_process);
+  SC_THREAD(sink_process);
 }
 
 Pipeline::~Pipeline() {
@@ -252,6 +286,9 @@ const Tile& Pipeline::tile(int l) const {
 }
 
 void Pipeline::trace(const std::string& vcd_path, int images) {
+  // SystemC opens the file only when the simulation starts, and a trace file that failed to
+  // open divides by zero when it is closed: the file must be creatable before it is made.
+  check_output_path(vcd_path, "the trace file");
   std::string base = vcd_path;
   if (base.size() > 4 && base.compare(base.size() - 4, 4, ".vcd") == 0) base.resize(base.size() - 4);
   vcd_ = sc_core::sc_create_vcd_trace_file(base.c_str());
@@ -342,8 +379,12 @@ long long Pipeline::row_ops(const Stage& s) const {
     case OpKind::GlobalAvgPool:
       ops = static_cast<long long>(s.in_shape[0].size());
       break;
-    default:
-      ops = 0;  // padding, slicing, flattening move data only
+    case OpKind::Pad:
+    case OpKind::Slice:
+    case OpKind::Flatten:
+    case OpKind::Linear:  // (a tile's time comes from its modules)
+      ops = 0;            // padding, slicing, flattening move data only
+      break;
   }
   return ops;
 }
@@ -396,8 +437,16 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
     t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
     s.stats.digital_ops += ops;
   }
-  if (t > 0) sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+  if (t > 0) sc_core::wait(sim_delay(t));
   return t;
+}
+
+void Pipeline::source_process() {
+  failure_.guard([&] { source(); });
+}
+
+void Pipeline::sink_process() {
+  failure_.guard([&] { sink(); });
 }
 
 void Pipeline::source() {
@@ -414,7 +463,7 @@ void Pipeline::source() {
     for (int r = 0; r < in.h; ++r) {
       const double t = (r == 0 ? cfg_.memory_latency_ns : 0.0) +
                        std::ceil(static_cast<double>(rb) / cfg_.memory_bytes_per_cycle) * clk;
-      sc_core::wait(sc_core::sc_time(t, sc_core::SC_NS));
+      sc_core::wait(sim_delay(t));
       result_.memory_bytes += rb;
       for (RowBuffer* b : consumers_of_[0]) {
         const sc_core::sc_time t0 = sc_core::sc_time_stamp();
@@ -440,9 +489,8 @@ void Pipeline::sink() {
   const double clk = cfg_.clock_ns();
   for (int img = 0; img < cfg_.images; ++img) {
     output_->wait_for(img, out.h - 1);
-    sc_core::wait(sc_core::sc_time(
-        cfg_.memory_latency_ns + std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * clk,
-        sc_core::SC_NS));
+    sc_core::wait(
+        sim_delay(cfg_.memory_latency_ns + std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * clk));
     output_->release_before(img, out.h);
     result_.memory_bytes += bytes;
     const std::vector<float>& y = values_->at(img, model_.output);
@@ -457,6 +505,7 @@ void Pipeline::sink() {
 }
 
 const PipelineResult& Pipeline::result() {
+  failure_.rethrow();
   result_.completed = images_left_ == cfg_.images;
   result_.stages.clear();
   for (const auto& s : stages_) {
@@ -472,18 +521,25 @@ const PipelineResult& Pipeline::result() {
 
 std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& programmed, const PlatformConfig& cfg) {
   const int L = static_cast<int>(m.linear.size());
-  if (!cfg.replication_per_layer.empty()) {
-    if (static_cast<int>(cfg.replication_per_layer.size()) != L)
-      throw InputError("platform.replication_per_layer lists " + std::to_string(cfg.replication_per_layer.size()) +
-                       " values for " + std::to_string(L) + " linear layers");
-    return cfg.replication_per_layer;
+  const bool per_layer = !cfg.replication_per_layer.empty();
+  if (per_layer && static_cast<int>(cfg.replication_per_layer.size()) != L)
+    throw InputError("platform.replication_per_layer lists " + std::to_string(cfg.replication_per_layer.size()) +
+                     " values for " + std::to_string(L) + " linear layers");
+  std::vector<int> r = per_layer ? cfg.replication_per_layer : std::vector<int>(L, cfg.replication);
+  const bool automatic = cfg.auto_replication && !per_layer;
+  long long base = 0, needed = 0;
+  for (int l = 0; l < L; ++l) {
+    base += programmed.layer(l).crossbars();
+    needed += programmed.layer(l).crossbars() * (automatic ? 1 : r[l]);
   }
-  std::vector<int> r(L, cfg.replication);
-  if (!cfg.auto_replication) return r;
+  // A budget the network does not fit is an error, not a setting to ignore.
+  if (cfg.crossbar_budget > 0 && needed > cfg.crossbar_budget)
+    throw InputError("platform.crossbar_budget = " + std::to_string(cfg.crossbar_budget) + " is below the " +
+                     std::to_string(needed) + " crossbars the network needs" +
+                     (needed == base ? " without replication" : " with its replication"));
+  if (!automatic) return r;
   // Greedy, as ISAAC balances its pipeline: copy the slowest layer (iterations / copies)
   // while the crossbars fit the budget.
-  long long base = 0;
-  for (int l = 0; l < L; ++l) base += programmed.layer(l).crossbars();
   const long long budget = cfg.crossbar_budget > 0 ? cfg.crossbar_budget : 2 * base;
   long long used = base;
   for (;;) {

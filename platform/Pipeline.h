@@ -10,6 +10,7 @@
 /// overlap and several images are in flight. Timing, stalls and throughput emerge from the
 /// processes; the values are computed by the same modules and functions as `eval`, so the
 /// logits are bit-identical.
+#include <exception>
 #include <functional>
 #include <memory>
 #include <string>
@@ -53,6 +54,21 @@ struct PipelineResult {
   double throughput_per_s() const;
 };
 
+/// The first exception a process of the simulation threw (a solver that did not converge, a
+/// time sc_time cannot hold). SystemC would turn it into an sc_report, an internal error that
+/// has lost its kind; here the process ends the run (sc_stop) and the exception is rethrown,
+/// with its type, once sc_start() has returned.
+class ProcessFailure {
+ public:
+  /// Runs a process's body; an exception ends the simulation and is kept (the first one).
+  void guard(const std::function<void()>& body);
+  /// After sc_start(): rethrows the kept exception, if any.
+  void rethrow() const;
+
+ private:
+  std::exception_ptr first_;
+};
+
 /// Copies of every linear layer's tile: per-layer list, one value for all, or `auto`
 /// (the slowest stage is replicated while the crossbar budget allows, as ISAAC does).
 std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& programmed, const PlatformConfig& cfg);
@@ -68,7 +84,7 @@ class Pipeline : public sc_core::sc_module {
            std::function<void(int)> progress = nullptr, std::vector<double> sparse_ns = {});
   ~Pipeline() override;
 
-  /// Result after sc_start() returned.
+  /// Result after sc_start() returned; rethrows the exception a process ended the run with.
   const PipelineResult& result();
   /// The datapath of linear layer l (its modules' action counters).
   const Tile& tile(int l) const;
@@ -80,6 +96,8 @@ class Pipeline : public sc_core::sc_module {
  private:
   struct Stage;
   class Values;
+  void source_process();
+  void sink_process();
   void source();
   void sink();
   void stage_process(Stage& s);
@@ -108,6 +126,7 @@ class Pipeline : public sc_core::sc_module {
   sc_core::sc_event image_left_;
   int images_left_ = 0;
   PipelineResult result_;
+  ProcessFailure failure_;
   sc_core::sc_trace_file* vcd_ = nullptr;
   int vcd_images_ = 0;
   bool tracing_ = false;  ///< true until the first vcd_images_ images have left

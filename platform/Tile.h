@@ -20,6 +20,7 @@
 #include "modules/ShiftRegisterBuffer.h"
 #include "sw/hw/cost.h"
 #include "sw/hw/platform_spec.h"
+#include "modules/sim_time.h"
 
 namespace xbarsim {
 
@@ -113,11 +114,11 @@ class Tile : public sc_core::sc_module {
       double sum = 0;
       for (int k = 1; k < n; ++k) sum += t.ii_ns[k];
       steady_ns = sum / r;
-      delay = start + sc_core::sc_time(t.fill_ns, sc_core::SC_NS);
+      delay = start + sim_delay(t.fill_ns, start);
     } else {
       steady_ns = static_cast<double>((n + r - 1) / r) * clk;
     }
-    delay += sc_core::sc_time(steady_ns, sc_core::SC_NS);
+    delay += sim_delay(steady_ns, delay);
     iterations_ += n;
     outputs_written_ += static_cast<long long>(job->y.size());
     cycles_ += std::llround((delay - start).to_seconds() * 1e9 / clk);

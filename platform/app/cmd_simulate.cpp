@@ -7,6 +7,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/input_file.h"
 #include "sw/study/hardware.h"
 #include "sw/study/sweep.h"
 
@@ -14,13 +15,23 @@ namespace xbarsim {
 
 namespace {
 
-/// One simulation in this process: the model and images of the arguments.
-nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print) {
+/// One simulation in this process: the model and images of the arguments; `vcd`: its trace file or "".
+nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
   Model model = model_from_args(args, cfg);
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const int images = make_hardware_context(cfg, parse_analog_config(cfg)).platform.images;
   const SimulationData data = simulation_data(args.get("--dataset"), cfg, model, images);
-  return simulate_model(cfg, model, data, args.get("--vcd"), print);
+  return simulate_model(cfg, model, data, vcd, print);
+}
+
+/// Registers the files a point will read, before anything is written (sw/common/input_file.h):
+/// its model and its dataset's files.
+void register_point_inputs(const CliArgs& args, const ConfigTree& cfg) {
+  if (args.has("--model")) register_input(find_model_file(args.get("--model"), cfg), "the model");
+  if (!args.has("--dataset")) return;
+  const std::string dir = resolve_data_dir(cfg);
+  for (const char* split : {"test", "calib"})
+    for (const std::string& f : dataset_files(args.get("--dataset"), dir, split)) register_input(f, "the dataset file");
 }
 
 void print_summary(const nlohmann::json& j) {
@@ -40,10 +51,7 @@ void print_summary(const nlohmann::json& j) {
 int cmd_simulate(int argc, char** argv) {
   const CliArgs args(argc, argv, 0,
                      {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images", "--report"});
-  check_outputs(args, {"--json", "--csv", "--vcd", "--report"});
   const std::string vcd = args.get("--vcd");
-  if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
-    throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("platform.images=" + args.get("--images"));
   if (args.has("--timing")) sets.push_back("platform.timing=" + args.get("--timing"));
@@ -53,12 +61,21 @@ int cmd_simulate(int argc, char** argv) {
   check_sweep<HardwareContext>(base, points, [](const ConfigTree& cfg) {  // every point before any runs
     return make_hardware_context(cfg, parse_analog_config(cfg));
   });
+  for (const SweepPoint& p : points) register_point_inputs(args, sweep_config(base, p));
+  // A sweep traces each point into a file of its own: F-0.vcd, F-1.vcd, ...
+  std::vector<std::pair<std::string, std::string>> vcds;
+  const std::string vcd_stem = vcd.size() > 4 ? vcd.substr(0, vcd.size() - 4) : vcd;
+  for (size_t k = 0; args.has("--vcd") && k < points.size(); ++k)
+    vcds.emplace_back("--vcd", points.size() == 1 ? vcd : vcd_stem + "-" + std::to_string(k) + ".vcd");
+  check_outputs(args, {"--json", "--csv", "--report"}, vcds);
+  if (args.has("--vcd") && (vcd.size() < 5 || vcd.compare(vcd.size() - 4, 4, ".vcd") != 0))
+    throw InputError("--vcd '" + vcd + "': the trace file name must end in .vcd (SystemC adds the suffix)");
   SweepOutputs out(args, points.front(),
                    "latency_us,makespan_us,throughput_images_per_s,energy_uj_per_image,avg_power_mw,peak_power_mw,"
                    "area_mm2");
   out.set_report("simulate", base);
   if (points.size() == 1) {
-    const nlohmann::json j = simulate_once(args, base, true);
+    const nlohmann::json j = simulate_once(args, base, true, vcd);
     print_summary(j);
     if (out.csv().enabled()) {
       out.csv().row(0, points[0]) << "," << j["latency_us"] << "," << j["makespan_us"] << ","
@@ -78,7 +95,9 @@ int cmd_simulate(int argc, char** argv) {
   table.print_header(stdout);
   for (size_t k = 0; k < points.size(); ++k) {
     const ConfigTree cfg = sweep_config(base, points[k]);
-    const nlohmann::json j = run_in_child([&] { return simulate_once(args, cfg, false); });
+    const std::string point_vcd = vcds.empty() ? std::string() : vcds[k].second;
+    const nlohmann::json j = run_in_child([&] { return simulate_once(args, cfg, false, point_vcd); });
+    if (!point_vcd.empty()) std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
     table.print_row(
         stdout, {sweep_label(points[k]), j["latency_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
                  j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});
