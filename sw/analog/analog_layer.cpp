@@ -104,7 +104,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
   xbars_.clear();
   reports_.clear();
-  for (size_t b = 0; b < blocks_.size(); ++b) {
+  for (size_t b = 0; b < blocks_.size(); ++b) try {
     const Block& blk = blocks_[b];
     auto xb = std::make_unique<Crossbar>();
     static_cast<MappedWeights&>(*xb) =
@@ -124,7 +124,15 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
     calibrate(*xb, in);
     xbars_.push_back(std::move(xb));
     reports_.push_back(rep);
+  } catch (const std::exception&) {
+    rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
   }
+}
+
+std::string AnalogLayer::crossbar_name(const Block& blk) const {
+  return "crossbar of rows " + std::to_string(blk.row0) + ".." + std::to_string(blk.row0 + blk.rows - 1) +
+         ", weight columns " + std::to_string(blk.col0) + ".." + std::to_string(blk.col0 + blk.cols - 1) + " (of " +
+         std::to_string(crossbars()) + ")";
 }
 
 Eigen::MatrixXd AnalogLayer::volts(const Eigen::MatrixXd& x) const {
@@ -274,11 +282,13 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   }
   y.setZero(x.rows(), w_.cols());
   Mat<S> cur;
-  for (int b = 0; b < crossbars(); ++b) {
-    analog<S>(b, *xq, cur);
-    adc_inplace<S>(b, cur, *xq);
-    recover_add<S>(b, cur, *xq, y);
-  }
+  for (int b = 0; b < crossbars(); ++b) try {
+      analog<S>(b, *xq, cur);
+      adc_inplace<S>(b, cur, *xq);
+      recover_add<S>(b, cur, *xq, y);
+    } catch (const std::exception&) {
+      rethrow_with_context(crossbar_name(blocks_[b]));
+    }
 }
 
 Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {

@@ -92,6 +92,8 @@ class AnalogLayer {
   /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
   template <typename S>
   void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
+  /// "crossbar of rows 144..287, weight columns 0..63 (of 4)", for messages.
+  std::string crossbar_name(const Block& blk) const;
   /// DAC quantization of n values in place. Unsigned inputs: 2^bits levels on [0, x_max];
   /// signed: sign and bits-1 magnitude bits (zero is a level, so quantizing activations
   /// before or after im2col gives identical vectors).

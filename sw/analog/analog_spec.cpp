@@ -27,9 +27,11 @@ ConversionKind MitigationSpec::conversion() const {
     case Mitigation::MatrixConversion:
     case Mitigation::MatrixConversionCalibration:
       return ConversionKind::Matrix;
-    default:
+    case Mitigation::None:
+    case Mitigation::Calibration:
       return ConversionKind::None;
   }
+  return ConversionKind::None;
 }
 
 bool MitigationSpec::calibrate() const {

@@ -2,6 +2,7 @@
 
 #include <limits>
 #include <algorithm>
+#include <exception>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -84,9 +85,12 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
   const int L = static_cast<int>(model_.linear.size());
   layers_.clear();
   layers_.reserve(L);
-  for (int l = 0; l < L; ++l)
-    layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
-                         static_cast<uint64_t>(l + 1));
+  for (int l = 0; l < L; ++l) try {
+      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
+                           static_cast<uint64_t>(l + 1));
+    } catch (const std::exception&) {
+      rethrow_with_context("layer " + model_.linear[l].name);
+    }
   // Layers are independent: program them on all threads (largest first), each serially.
   AnalogConfig serial = cfg_;
   serial.solver.threads = 1;
@@ -98,16 +102,30 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
   std::mutex mu;
   int done = 0;
   const int workers = resolve_threads(cfg_.solver.threads);
+  // A layer that fails is reported by its place in the network, not by which thread was first:
+  // the same message on any thread count.
+  std::vector<std::exception_ptr> failed(L);
   parallel_for(L, workers, [&](int k) {
     const int l = order[k];
-    layers_[l].program(stats_[l].samples, serial.solver);
+    try {
+      layers_[l].program(stats_[l].samples, serial.solver);
+    } catch (const std::exception&) {
+      try {
+        rethrow_with_context("layer " + model_.linear[l].name);
+      } catch (...) {
+        failed[l] = std::current_exception();
+      }
+      return;
+    }
     std::lock_guard<std::mutex> lock(mu);
     if (progress) progress(++done, L);
   });
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
 }
 
 void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
-                                          Eigen::MatrixXf& out) const {
+                                          Eigen::MatrixXf& out) const try {
   const AnalogLayer& a = layers_.at(layer);
   if (a.config().converters.dac_bits <= 0) {
     im2col(L, chw, scratch);
@@ -119,10 +137,14 @@ void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const
   a.dac_values<float>(q.data(), static_cast<Eigen::Index>(q.size()));
   im2col(L, q.data(), scratch);
   a.forward<float>(scratch, out, /*quantized=*/true);
+} catch (const std::exception&) {
+  rethrow_with_context("layer " + L.name);
 }
 
-void CrossbarBackend::multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const {
+void CrossbarBackend::multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const try {
   layers_.at(layer).forward<float>(cols, out);
+} catch (const std::exception&) {
+  rethrow_with_context("layer " + model_.linear.at(layer).name);
 }
 
 }  // namespace xbarsim
