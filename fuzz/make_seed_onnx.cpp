@@ -2,6 +2,8 @@
 // numbers; nothing is taken from trained models). Usage: make_seed_onnx <output-dir>
 #include <onnx/onnx_pb.h>
 
+#include "tests/onnx_builder.h"
+
 #include <cstdio>
 #include <fstream>
 #include <initializer_list>
@@ -10,75 +12,14 @@
 
 namespace {
 
-void add_float_init(onnx::GraphProto* g, const std::string& name, std::vector<int64_t> dims) {
-  auto* t = g->add_initializer();
-  t->set_name(name);
-  t->set_data_type(onnx::TensorProto::FLOAT);
-  size_t n = 1;
-  for (auto d : dims) {
-    t->add_dims(d);
-    n *= static_cast<size_t>(d);
-  }
-  std::vector<float> v(n);
-  for (size_t i = 0; i < n; ++i) v[i] = static_cast<float>(static_cast<int>(i % 7) - 3) * 0.25f;
-  t->set_raw_data(std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float)));
+using namespace onnx_builder;
+
+/// Small deterministic weights: (i mod 7 - 3) / 4.
+void add_float_init(onnx::GraphProto* g, const std::string& name, std::initializer_list<int64_t> dims) {
+  float_init(g, name, dims, [](size_t i) { return static_cast<float>(static_cast<int>(i % 7) - 3) * 0.25f; });
 }
 
-void add_int_init(onnx::GraphProto* g, const std::string& name, std::vector<int64_t> vals) {
-  auto* t = g->add_initializer();
-  t->set_name(name);
-  t->set_data_type(onnx::TensorProto::INT64);
-  t->add_dims(static_cast<int64_t>(vals.size()));
-  for (auto v : vals) t->add_int64_data(v);
-}
-
-onnx::NodeProto* node(onnx::GraphProto* g, const std::string& op, std::initializer_list<const char*> in,
-                      const std::string& out) {
-  auto* n = g->add_node();
-  n->set_op_type(op);
-  n->set_name(op + "_" + out);
-  for (const char* i : in) n->add_input(i);
-  n->add_output(out);
-  return n;
-}
-
-void ints_attr(onnx::NodeProto* n, const char* name, std::initializer_list<int64_t> v) {
-  auto* a = n->add_attribute();
-  a->set_name(name);
-  a->set_type(onnx::AttributeProto::INTS);
-  for (auto x : v) a->add_ints(x);
-}
-
-void int_attr(onnx::NodeProto* n, const char* name, int64_t v) {
-  auto* a = n->add_attribute();
-  a->set_name(name);
-  a->set_type(onnx::AttributeProto::INT);
-  a->set_i(v);
-}
-
-void io(onnx::ValueInfoProto* v, const std::string& name, std::initializer_list<int64_t> dims) {
-  v->set_name(name);
-  auto* tt = v->mutable_type()->mutable_tensor_type();
-  tt->set_elem_type(onnx::TensorProto::FLOAT);
-  for (auto d : dims) tt->mutable_shape()->add_dim()->set_dim_value(d);
-}
-
-onnx::ModelProto base(const char* name) {
-  onnx::ModelProto m;
-  m.set_ir_version(8);
-  m.set_producer_name("xbarsim make_seed_onnx");
-  auto* op = m.add_opset_import();
-  op->set_domain("");
-  op->set_version(13);
-  m.mutable_graph()->set_name(name);
-  return m;
-}
-
-void meta(onnx::ModelProto& m, const char* k, const char* v) {
-  auto* p = m.add_metadata_props();
-  p->set_key(k);
-  p->set_value(v);
-}
+onnx::ModelProto base(const char* name) { return model(name, "xbarsim make_seed_onnx"); }
 
 // 1x1x4x4 -> Conv 3x3 (2 ch, pad 1) -> Relu -> MaxPool 2x2/2 -> Flatten -> Gemm (8 -> 3).
 onnx::ModelProto small_cnn() {
@@ -115,7 +56,7 @@ onnx::ModelProto ops_mix() {
   auto m = base("ops_mix");
   auto* g = m.mutable_graph();
   io(g->add_input(), "x", {1, 2, 4, 4});
-  add_int_init(g, "pads", {0, 0, 1, 1, 0, 0, 1, 1});
+  int_init(g, "pads", {0, 0, 1, 1, 0, 0, 1, 1});
   add_float_init(g, "bn_s", {2});
   add_float_init(g, "bn_b", {2});
   add_float_init(g, "bn_m", {2});
@@ -125,9 +66,9 @@ onnx::ModelProto ops_mix() {
   var->add_dims(2);
   var->add_float_data(1.0f);
   var->add_float_data(2.0f);
-  add_int_init(g, "st", {1});
-  add_int_init(g, "en", {5});
-  add_int_init(g, "ax", {2});
+  int_init(g, "st", {1});
+  int_init(g, "en", {5});
+  int_init(g, "ax", {2});
   add_float_init(g, "wm", {8, 2});
   node(g, "Pad", {"x", "pads"}, "pd");
   node(g, "BatchNormalization", {"pd", "bn_s", "bn_b", "bn_m", "bn_v"}, "bn");
