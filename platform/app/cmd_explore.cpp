@@ -177,7 +177,7 @@ int cmd_explore(int argc, char** argv) {
   // with different results for one point are a contradiction the user must resolve.
   const auto read_done = [&](bool speak) {
     std::map<std::string, JournalLine> done;
-    int skipped = 0, invalid = 0;
+    int skipped = 0;
     for (JournalLine& line : journal.read(&skipped)) {
       const std::string key = line.row["key"];
       if (!point_of_key.count(key)) continue;
@@ -186,7 +186,6 @@ int cmd_explore(int argc, char** argv) {
         if (speak)
           std::fprintf(stderr, "xbarsim explore: %s, line %d: %s; the point runs again\n", out_path.c_str(),
                        line.number, problem.c_str());
-        ++invalid;
         continue;
       }
       const auto it = done.find(key);

@@ -67,7 +67,7 @@ struct Model {
   std::map<std::string, std::string> metadata;
 };
 
-/// Loads an ONNX model (opset 13 ops listed in the README). Any other op or attribute
+/// Loads an ONNX model (opset 13 ops listed in docs/commands.md). Any other op or attribute
 /// value throws InputError naming the node and op. `input` gives C,H,W when the model's
 /// input has symbolic dimensions (0 = take them from the model).
 Model load_onnx_model(const std::string& path, Shape input = Shape{0, 0, 0});

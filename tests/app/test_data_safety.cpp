@@ -134,7 +134,7 @@ TEST_F(Safety, Item1_ExploreOutOntoTheModelLeavesItIntact) {
 }
 
 TEST_F(Safety, Item2_AJournalThatIsNotOneIsLeftAsItIs) {
-  for (const std::string text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\":1}\n")}) {
+  for (const std::string& text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\":1}\n")}) {
     spit(path("n.txt"), text);
     expect_input_error(run(std::string(kEval) + " --journal " + path("n.txt")), "is not an eval journal", text);
     EXPECT_EQ(slurp(path("n.txt")), text);

@@ -174,7 +174,7 @@ TEST(ResultJournal, AppendsRepairsAndSkipsBadLines) {
 TEST(ResultJournal, AFileThatIsNotOneOfItsKindIsLeftAsItIs) {
   // Before: any file given as a journal lost its last line (repair) and got lines appended.
   const std::string path = ::testing::TempDir() + "xbarsim_not_a_journal.txt";
-  for (const std::string text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\": 1}\n"),
+  for (const std::string& text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\": 1}\n"),
                                  std::string("\x08\x01\x12\x04onnx"), std::string(2u << 20, '{')}) {
     std::ofstream(path, std::ios::binary) << text;
     try {
@@ -187,7 +187,7 @@ TEST(ResultJournal, AFileThatIsNotOneOfItsKindIsLeftAsItIs) {
     EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), text);
   }
   // Ours: an empty file, a journal, and a first line a kill cut short.
-  for (const std::string text : {std::string(), std::string("{\"key\":\"a\"}\nrest"), std::string("{\"key\":\"a")}) {
+  for (const std::string& text : {std::string(), std::string("{\"key\":\"a\"}\nrest"), std::string("{\"key\":\"a")}) {
     std::ofstream(path, std::ios::binary) << text;
     EXPECT_NO_THROW(ResultJournal(path, test_kind())) << text;
   }
