@@ -22,7 +22,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=build-asan
 JOBS=${JOBS:-2}
-EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)'}
+EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)'}
 EXCLUDE_LABEL=${SANITIZE_EXCLUDE_LABEL:-^slow\$}
 FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 

@@ -167,6 +167,16 @@ TEST_F(Safety, Item5And12_SimulateNeverRunsPastTheImagesItHas) {
   EXPECT_EQ(nlohmann::json::parse(slurp(path("s.json")))["images"], 16);
 }
 
+TEST_F(Safety, Item12_MnistSimulatesTheImagesItEvaluatesNotACalibrationImage) {
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data not found; test skipped";
+  // Images 9000-9999 calibrate: 9001 asked for are the 9000 before them.
+  const Result r = xbarsim_test::run_xbarsim("simulate --model lenet_mnist --dataset mnist --images 9001 --timing ideal "
+                                             "--set eval.calibration_images=4 --json " + path("m.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("using images 0..8999 (9000 of the 9001 images asked for)"), std::string::npos) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(slurp(path("m.json")))["images"], 9000);
+}
+
 TEST_F(Safety, Item6_AJournalLineWithMissingOrMistypedFieldsRunsThePointAgain) {
   ASSERT_EQ(run(std::string(kExplore) + " --out " + path("j.jsonl")).code, 0);
   std::vector<std::string> lines;
