@@ -16,8 +16,8 @@ namespace xbarsim {
 inline sc_core::sc_time sim_delay(double ns, const sc_core::sc_time& after = sc_core::SC_ZERO_TIME) {
   constexpr double kLimitUnits = 1.8e19;  // just below 2^64 = 1.845e19, with room for rounding
   const double unit_ns = sc_core::sc_get_time_resolution().to_seconds() * 1e9;
-  const double end = static_cast<double>(sc_core::sc_time_stamp().value()) + static_cast<double>(after.value()) +
-                     ns / unit_ns;
+  const double end =
+      static_cast<double>(sc_core::sc_time_stamp().value()) + static_cast<double>(after.value()) + ns / unit_ns;
   if (!(ns >= 0) || !(end < kLimitUnits))
     throw InputError(
         "the simulated time would pass the 2^64 ps (about 213 days) that SystemC's sc_time can hold, after " +

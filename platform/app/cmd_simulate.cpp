@@ -97,7 +97,8 @@ int cmd_simulate(int argc, char** argv) {
     const ConfigTree cfg = sweep_config(base, points[k]);
     const std::string point_vcd = vcds.empty() ? std::string() : vcds[k].second;
     const nlohmann::json j = run_in_child([&] { return simulate_once(args, cfg, false, point_vcd); });
-    if (!point_vcd.empty()) std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
+    if (!point_vcd.empty())
+      std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
     table.print_row(
         stdout, {sweep_label(points[k]), j["latency_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
                  j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});

@@ -104,28 +104,30 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
   xbars_.clear();
   reports_.clear();
-  for (size_t b = 0; b < blocks_.size(); ++b) try {
-    const Block& blk = blocks_[b];
-    auto xb = std::make_unique<Crossbar>();
-    static_cast<MappedWeights&>(*xb) =
-        map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
-    xb->beta = Eigen::VectorXd::Ones(xb->pcols);
-    xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
-    const ProgrammingInputs in{
-        cal.middleCols(blk.row0, blk.rows),
-        calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
-        cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
-    CrossbarReport rep;
-    rep.block = blk;
-    rep.physical_cols = xb->pcols;
-    convert(*xb, in, rep);
-    add_programming_noise(*xb, static_cast<int>(b));
-    set_adc_ranges(*xb, range_x);
-    calibrate(*xb, in);
-    xbars_.push_back(std::move(xb));
-    reports_.push_back(rep);
-  } catch (const std::exception&) {
-    rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
+  for (size_t b = 0; b < blocks_.size(); ++b) {
+    try {
+      const Block& blk = blocks_[b];
+      auto xb = std::make_unique<Crossbar>();
+      static_cast<MappedWeights&>(*xb) =
+          map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
+      xb->beta = Eigen::VectorXd::Ones(xb->pcols);
+      xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
+      const ProgrammingInputs in{
+          cal.middleCols(blk.row0, blk.rows),
+          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
+          cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
+      CrossbarReport rep;
+      rep.block = blk;
+      rep.physical_cols = xb->pcols;
+      convert(*xb, in, rep);
+      add_programming_noise(*xb, static_cast<int>(b));
+      set_adc_ranges(*xb, range_x);
+      calibrate(*xb, in);
+      xbars_.push_back(std::move(xb));
+      reports_.push_back(rep);
+    } catch (const std::exception&) {
+      rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
+    }
   }
 }
 
@@ -282,13 +284,15 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   }
   y.setZero(x.rows(), w_.cols());
   Mat<S> cur;
-  for (int b = 0; b < crossbars(); ++b) try {
+  for (int b = 0; b < crossbars(); ++b) {
+    try {
       analog<S>(b, *xq, cur);
       adc_inplace<S>(b, cur, *xq);
       recover_add<S>(b, cur, *xq, y);
     } catch (const std::exception&) {
       rethrow_with_context(crossbar_name(blocks_[b]));
     }
+  }
 }
 
 Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {

@@ -29,8 +29,8 @@ bool next_line(std::istream& in, std::string& line, size_t max_bytes, const std:
     if (c == '\n') return true;
     line.push_back(static_cast<char>(c));
     if (line.size() > max_bytes)
-      throw InputError(path + ":" + std::to_string(lineno) + ": a line longer than " +
-                       std::to_string(max_bytes >> 20) + " MiB; not a CSV file of numbers");
+      throw InputError(path + ":" + std::to_string(lineno) + ": a line longer than " + std::to_string(max_bytes >> 20) +
+                       " MiB; not a CSV file of numbers");
   }
 }
 

@@ -67,10 +67,10 @@ std::string read_input_file(const std::string& path, const std::string& role, si
   while (in.read(buf, sizeof buf) || in.gcount() > 0) {
     text.append(buf, static_cast<size_t>(in.gcount()));
     if (text.size() > max_bytes)
-      throw InputError(role + " '" + path + "' holds more than " +
-                       (max_bytes >= (1u << 20) ? std::to_string(max_bytes >> 20) + " MiB"
-                                                : std::to_string(max_bytes) + " bytes") +
-                       ": not a file of this kind (or a device that never ends)");
+      throw InputError(
+          role + " '" + path + "' holds more than " +
+          (max_bytes >= (1u << 20) ? std::to_string(max_bytes >> 20) + " MiB" : std::to_string(max_bytes) + " bytes") +
+          ": not a file of this kind (or a device that never ends)");
   }
   if (in.bad()) throw InputError("cannot read " + role + " '" + path + "'");
   return text;

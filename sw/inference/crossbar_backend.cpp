@@ -85,12 +85,14 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
   const int L = static_cast<int>(model_.linear.size());
   layers_.clear();
   layers_.reserve(L);
-  for (int l = 0; l < L; ++l) try {
+  for (int l = 0; l < L; ++l) {
+    try {
       layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
                            static_cast<uint64_t>(l + 1));
     } catch (const std::exception&) {
       rethrow_with_context("layer " + model_.linear[l].name);
     }
+  }
   // Layers are independent: program them on all threads (largest first), each serially.
   AnalogConfig serial = cfg_;
   serial.solver.threads = 1;

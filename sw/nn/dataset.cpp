@@ -202,8 +202,9 @@ void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, in
     }
   }
   if (!any_nonzero)
-    throw InputError("preprocessing ('preprocessing.scale', 'preprocessing.mean', 'preprocessing.std' or the "
-                     "model's metadata) turns every pixel into 0");
+    throw InputError(
+        "preprocessing ('preprocessing.scale', 'preprocessing.mean', 'preprocessing.std' or the "
+        "model's metadata) turns every pixel into 0");
 }
 
 std::string resolve_models_dir(const ConfigTree& cfg) {
@@ -242,7 +243,9 @@ std::vector<std::string> dataset_files(const std::string& name, const std::strin
 Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
   const std::vector<std::string> files = dataset_files(name, dir, split);
   for (const auto& f : files)
-    if (!exists(f)) throw InputError((name == "mnist" ? "MNIST" : "CIFAR-10") + std::string(" file not found: looked for '") + f + "'");
+    if (!exists(f))
+      throw InputError((name == "mnist" ? "MNIST" : "CIFAR-10") + std::string(" file not found: looked for '") + f +
+                       "'");
   if (name == "cifar10") return load_cifar10(files[0], offset, count);
   // MNIST ships no training images here: its calibration split is test images 9000-9999.
   return load_mnist(files[0], files[1], split == "calib" ? kMnistCalibrationStart + offset : offset, count);

@@ -45,15 +45,15 @@ EvalData load_eval_data(const Model& model, std::string dataset, const std::stri
   const int n = d.test.count();
   const std::string range = "images " + std::to_string(spec.offset) + ".." + std::to_string(spec.offset + n - 1);
   if (spec.images > n)
-    d.note = (mnist ? "MNIST test images 9000-9999 are the calibration set" : "the " + dataset + " test set ends there") +
-             ": using " + range + " (" + std::to_string(n) + " of the " + std::to_string(spec.images) +
-             " images asked for)";
+    d.note =
+        (mnist ? "MNIST test images 9000-9999 are the calibration set" : "the " + dataset + " test set ends there") +
+        ": using " + range + " (" + std::to_string(n) + " of the " + std::to_string(spec.images) + " images asked for)";
   else if (mnist && spec.images < 0)
     d.note = "MNIST test images 9000-9999 are the calibration set: using " + range;
   if (d.calib.count() < spec.calibration_images)
-    d.note += std::string(d.note.empty() ? "" : "; ") + "calibrating on " + std::to_string(d.calib.count()) + " of the " +
-              std::to_string(spec.calibration_images) + " images eval.calibration_images asks for (all the " +
-              dataset + " calibration set has)";
+    d.note += std::string(d.note.empty() ? "" : "; ") + "calibrating on " + std::to_string(d.calib.count()) +
+              " of the " + std::to_string(spec.calibration_images) +
+              " images eval.calibration_images asks for (all the " + dataset + " calibration set has)";
   if (!(d.test.shape == model.input))
     throw InputError("dataset images are " + std::to_string(d.test.shape.c) + "x" + std::to_string(d.test.shape.h) +
                      "x" + std::to_string(d.test.shape.w) + " but the model expects " + std::to_string(model.input.c) +
@@ -106,8 +106,8 @@ std::vector<char> read_journal(const EvalJournal& j, const Model& model, ImageTa
     const nlohmann::json& row = line.row;
     if (row.value("key", std::string()) != j.key) continue;
     const auto bad = [&](const std::string& why) {
-      return InputError(where + ", line " + std::to_string(line.number) + ": a line of this run (key " + j.key +
-                        ") " + why + ": " + excerpt(row.dump(), 120) + "; delete the line");
+      return InputError(where + ", line " + std::to_string(line.number) + ": a line of this run (key " + j.key + ") " +
+                        why + ": " + excerpt(row.dump(), 120) + "; delete the line");
     };
     if (!row.contains("image") || !row["image"].is_number_integer() || !row.contains("layers") ||
         !row["layers"].is_array() || static_cast<int>(row["layers"].size()) != L || !row.contains("sw") ||

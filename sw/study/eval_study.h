@@ -102,7 +102,7 @@ struct EvalJournal {
   std::string key;                      ///< eval_run_key of the run
   int offset = 0;                       ///< dataset index of test image 0 (eval.offset)
   const std::vector<JournalLine>* rows = nullptr;  ///< the journal's lines, read before the run
-                                                  ///< (any key; not owned)
+                                                   ///< (any key; not owned)
 };
 /// The kind of eval's journal (--journal): a line per finished image, with its key and index.
 /// A line of a run is checked when the run reads it: its image's outcome and per-layer error

@@ -260,8 +260,8 @@ std::string explore_row_problem(const nlohmann::json& row) {
   if (!ci.is_array() || ci.size() != 2 || !ci[0].is_number() || !ci[1].is_number() ||
       !(ci[0].get<double>() >= -1 && ci[0].get<double>() <= ci[1].get<double>() && ci[1].get<double>() <= 1))
     return "'accuracy_drop_ci95' is not an interval in [-1, 1]";
-  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "mean_relative_error",
-                        "worst_relative_error"})
+  for (const char* k :
+       {"energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "mean_relative_error", "worst_relative_error"})
     if (!number(k, 0, kHuge)) return "'" + std::string(k) + "' is not a finite number >= 0";
   const auto& w = row.value("warnings", nlohmann::json::array());
   if (!w.is_array() || std::any_of(w.begin(), w.end(), [](const nlohmann::json& x) { return !x.is_string(); }))

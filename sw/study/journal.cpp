@@ -49,7 +49,8 @@ ResultJournal::ResultJournal(std::string path, JournalKind kind) : path_(std::mo
     if (!cut_first_line && (j.is_discarded() || !j.is_object() || !kind_.recognise(j)))
       throw InputError(describe() + " is not an " + kind_.name +
                        ": its first line is not one of ours, so it is left as it is, refusing to cut or append to it "
-                       "(give a new file, or one that " + kind_.flag + " wrote)");
+                       "(give a new file, or one that " +
+                       kind_.flag + " wrote)");
   }
   // Created now, so that a place that refuses files (e.g. /sys) fails before the work, not after.
   const int fd = open(path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);

@@ -93,12 +93,14 @@ TEST_F(Safety, NoOutputFlagCanWriteAFileTheRunReads) {
       {"eval " + by_name + " --images 2", {"--json", "--journal"}, {model()}},
       {"eval " + by_path + " --images 2 --journal", {""}, {path("explore.jsonl")}},
       {"explore " + by_path + " --images 2", {"--out"}, network_inputs},
-      {"explore " + by_path + " --images 2 --out " + path("new.jsonl"), {"--json", "--csv", "--report"},
+      {"explore " + by_path + " --images 2 --out " + path("new.jsonl"),
+       {"--json", "--csv", "--report"},
        network_inputs},
       {"explore " + by_name + " --images 2", {"--out"}, {model()}},
       {"explore " + by_name + " --images 2 --out " + path("new.jsonl"), {"--json"}, {model()}},
       {"explore " + by_path + " --images 2 --out", {""}, {path("eval.jsonl")}},
-      {"simulate " + by_path + " --dataset cifar10 --images 2", {"--json", "--csv", "--report", "--vcd"},
+      {"simulate " + by_path + " --dataset cifar10 --images 2",
+       {"--json", "--csv", "--report", "--vcd"},
        network_inputs},
       {"simulate " + by_name + " --dataset cifar10", {"--json", "--vcd"}, {model()}},
       {"overhead " + by_path, {"--json", "--csv"}, {config(), model(), library()}},
@@ -155,8 +157,8 @@ TEST_F(Safety, Item3_OutputsOntoFilesFoundThroughTheConfiguration) {
 
 TEST_F(Safety, Item4_AVcdFileThatCannotBeCreatedIsAnInputErrorNotASignal) {
   expect_input_error(run("simulate --preset lenet --vcd /proc/xbarsim_x.vcd"), "cannot create it", "/proc");
-  expect_input_error(run("simulate --preset lenet --vcd " + path(std::string(252, 'a') + ".vcd")),
-                     "File name too long", "256 characters");
+  expect_input_error(run("simulate --preset lenet --vcd " + path(std::string(252, 'a') + ".vcd")), "File name too long",
+                     "256 characters");
 }
 
 TEST_F(Safety, Item5And12_SimulateNeverRunsPastTheImagesItHas) {
@@ -170,8 +172,10 @@ TEST_F(Safety, Item5And12_SimulateNeverRunsPastTheImagesItHas) {
 TEST_F(Safety, Item12_MnistSimulatesTheImagesItEvaluatesNotACalibrationImage) {
   if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data not found; test skipped";
   // Images 9000-9999 calibrate: 9001 asked for are the 9000 before them.
-  const Result r = xbarsim_test::run_xbarsim("simulate --model lenet_mnist --dataset mnist --images 9001 --timing ideal "
-                                             "--set eval.calibration_images=4 --json " + path("m.json"));
+  const Result r = xbarsim_test::run_xbarsim(
+      "simulate --model lenet_mnist --dataset mnist --images 9001 --timing ideal "
+      "--set eval.calibration_images=4 --json " +
+      path("m.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("using images 0..8999 (9000 of the 9001 images asked for)"), std::string::npos) << r.out;
   EXPECT_EQ(nlohmann::json::parse(slurp(path("m.json")))["images"], 9000);
@@ -211,13 +215,14 @@ TEST_F(Safety, Item8_WholeNumbersWrittenAsDecimalsAreTheIntegerEverywhere) {
                        " --json " + path("e.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   for (const auto& p : nlohmann::json::parse(slurp(path("e.json")))["points"]) EXPECT_EQ(p["status"], "ok") << p;
-  const Result again = run("explore --model tiny --images 2 --set 'converters.adc_bits=[6e0,8]' --out " +
-                           path("j.jsonl"));
+  const Result again =
+      run("explore --model tiny --images 2 --set 'converters.adc_bits=[6e0,8]' --out " + path("j.jsonl"));
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_NE(again.out.find("2 points, 2 already in"), std::string::npos) << again.out;
   ASSERT_EQ(run(std::string(kEval) + " --set converters.adc_bits=8e0").code, 0);
-  expect_input_error(run("explore --model tiny --images 2 --set 'converters.adc_bits=[8,8.0]' --out " + path("k.jsonl")),
-                     "are one design", "8 and 8.0 in one space");
+  expect_input_error(
+      run("explore --model tiny --images 2 --set 'converters.adc_bits=[8,8.0]' --out " + path("k.jsonl")),
+      "are one design", "8 and 8.0 in one space");
 }
 
 TEST_F(Safety, Item9_AListOverAKeyThatChangesNoResultIsRefused) {
@@ -239,7 +244,8 @@ TEST_F(Safety, Item10_ExploreKnowsTheModelByItsContent) {
 TEST_F(Safety, Item11_ATimeSystemCCannotHoldIsRefused) {
   expect_input_error(run("simulate --preset lenet --set platform.clock_mhz=1e-11"), "2^64 ps", "1e-11 MHz");
   // A slow clock that fits still runs: 642 cycles of 1 s each and more.
-  const Result slow = run("simulate --preset lenet --set platform.clock_mhz=1e-6 --timing ideal --json " + path("s.json"));
+  const Result slow =
+      run("simulate --preset lenet --set platform.clock_mhz=1e-6 --timing ideal --json " + path("s.json"));
   ASSERT_EQ(slow.code, 0) << slow.out;
   EXPECT_GE(nlohmann::json::parse(slurp(path("s.json")))["latency_us"].get<double>(), 642 * 1e6);
 }
@@ -357,13 +363,14 @@ TEST_F(Safety, MessagesNameTheKeyAndComeBeforeTheWork) {
 
 TEST_F(Safety, AnOptionGivenTwiceIsRefusedNotTheLastOneTaken) {
   // Before, `--out a --out b` wrote b and left a unmentioned.
-  expect_input_error(xbarsim_test::run_xbarsim("xbar-study --json a.json --json b.json"), "option --json is given twice",
-                     "twice");
+  expect_input_error(xbarsim_test::run_xbarsim("xbar-study --json a.json --json b.json"),
+                     "option --json is given twice", "twice");
 }
 
 TEST_F(Safety, UnderMpiAnErrorEveryRankHasIsPrintedOnce) {
   if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not found; test skipped";
-  const Result one = xbarsim_test::run_xbarsim("eval --model nosuch", "mpirun --allow-run-as-root --oversubscribe -n 2 ");
+  const Result one =
+      xbarsim_test::run_xbarsim("eval --model nosuch", "mpirun --allow-run-as-root --oversubscribe -n 2 ");
   if (one.out.find("does not share") != std::string::npos || one.out.find("without MPI") != std::string::npos)
     GTEST_SKIP() << "a build without MPI; test skipped";
   EXPECT_NE(one.code, 0) << one.out;

@@ -30,7 +30,8 @@ std::string slurp(const std::string& path) {
 }
 
 std::string models_dir() {
-  for (const std::string& d : {std::string(XBARSIM_SOURCE_DIR) + "/../shared/models", std::string("../shared/models")}) {
+  for (const std::string& d :
+       {std::string(XBARSIM_SOURCE_DIR) + "/../shared/models", std::string("../shared/models")}) {
     struct stat st;
     if (stat((d + "/resnet20_cifar10.onnx").c_str(), &st) == 0) return d;
   }

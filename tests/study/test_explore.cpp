@@ -143,7 +143,8 @@ TEST(ExploreSpec, ChecksNameTheKey) {
 namespace {
 /// A journal kind for these tests: a line is one of its own when it has a text "key".
 JournalKind test_kind() {
-  return {"example journal", "--example", [](const nlohmann::json& r) { return r.contains("key") && r["key"].is_string(); }};
+  return {"example journal", "--example",
+          [](const nlohmann::json& r) { return r.contains("key") && r["key"].is_string(); }};
 }
 }  // namespace
 
@@ -175,7 +176,7 @@ TEST(ResultJournal, AFileThatIsNotOneOfItsKindIsLeftAsItIs) {
   // Before: any file given as a journal lost its last line (repair) and got lines appended.
   const std::string path = ::testing::TempDir() + "xbarsim_not_a_journal.txt";
   for (const std::string& text : {std::string("a\nb"), std::string("a,b\n1,2\n"), std::string("{\"x\": 1}\n"),
-                                 std::string("\x08\x01\x12\x04onnx"), std::string(2u << 20, '{')}) {
+                                  std::string("\x08\x01\x12\x04onnx"), std::string(2u << 20, '{')}) {
     std::ofstream(path, std::ios::binary) << text;
     try {
       ResultJournal j(path, test_kind());
