@@ -7,8 +7,6 @@
 #include <iomanip>
 #include <vector>
 
-#include <sys/stat.h>
-
 #include "sw/common/errors.h"
 #include "sw/common/input_file.h"
 #include "sw/common/parse.h"
@@ -37,11 +35,9 @@ bool next_line(std::istream& in, std::string& line, size_t max_bytes, const std:
 }  // namespace
 
 Eigen::MatrixXd read_csv_matrix(const std::string& path, const std::string& role) {
-  struct stat st;
-  if (stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) throw InputError(role + " '" + path + "' is a directory");
+  open_as_input(path, role);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open '" + path + "'");
-  register_input(path, role);
   std::vector<std::vector<double>> rows;
   std::string line;
   size_t lineno = 0;

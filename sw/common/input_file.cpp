@@ -55,13 +55,17 @@ bool same_file(const std::string& a, const std::string& b) {
   return stat(a.c_str(), &sa) == 0 && stat(b.c_str(), &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
 }
 
-std::string read_input_file(const std::string& path, const std::string& role, size_t max_bytes) {
+void open_as_input(const std::string& path, const std::string& role) {
   struct stat st;
   if (stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
     throw InputError(role + " '" + path + "' is a directory; give a file");
+  register_input(path, role);
+}
+
+std::string read_input_file(const std::string& path, const std::string& role, size_t max_bytes) {
+  open_as_input(path, role);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot open " + role + " '" + path + "': " + std::strerror(errno));
-  register_input(path, role);
   std::string text;
   char buf[1 << 16];
   while (in.read(buf, sizeof buf) || in.gcount() > 0) {

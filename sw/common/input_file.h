@@ -27,6 +27,10 @@ std::optional<InputFile> registered_input(const std::string& path);
 /// Whether `a` and `b` name one existing file (device and inode).
 bool same_file(const std::string& a, const std::string& b);
 
+/// What a reader does as it opens a user's file `path` (its `role` names it in messages):
+/// InputError when it is a directory, and register_input.
+void open_as_input(const std::string& path, const std::string& role);
+
 /// The whole of the input file `path` (its `role` names it in messages), registered as read:
 /// InputError when it cannot be opened, is a directory, cannot be read to its end, or holds
 /// more than `max_bytes` (a device such as /dev/zero never ends).

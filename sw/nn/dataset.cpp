@@ -23,16 +23,10 @@ bool exists(const std::string& p) {
   return stat(p.c_str(), &st) == 0;
 }
 
-bool is_directory(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
-
 std::vector<uint8_t> read_gz_or_plain(const std::string& path) {
-  if (is_directory(path)) throw InputError("the dataset file '" + path + "' is a directory");
+  open_as_input(path, "the dataset file");
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw InputError("cannot open '" + path + "'");
-  register_input(path, "the dataset file");
   std::vector<uint8_t> out;
   uint8_t buf[1 << 16];
   int n;
@@ -87,10 +81,9 @@ Dataset random_dataset(const Shape& s, int count, uint64_t seed) {
 }
 
 Dataset load_cifar10(const std::string& file, int offset, int count) {
-  if (is_directory(file)) throw InputError("the dataset file '" + file + "' is a directory");
+  open_as_input(file, "the dataset file");
   std::ifstream in(file, std::ios::binary | std::ios::ate);
   if (!in) throw InputError("cannot open CIFAR-10 file '" + file + "'");
-  register_input(file, "the dataset file");
   const long long size = in.tellg();
   constexpr int kRecord = 1 + 3072;
   if (size <= 0 || size % kRecord) throw InputError("'" + file + "' is not in the CIFAR-10 binary record format");
