@@ -108,6 +108,7 @@ YAML::Node load_checked(const std::string& text, const std::string& origin) {
 struct NumericRange {
   double lo = 0, hi = 0;
   bool lo_open = false, hi_open = false;
+  bool integer = false;  ///< an integer key: its default is an integer, or a word with whole bounds
   std::string text;
   bool contains(double v) const { return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi); }
 };
@@ -146,7 +147,18 @@ std::map<std::string, NumericRange> parse_documented_ranges(const std::string& t
     const std::string value = line.substr(colon + 1, hash == std::string::npos ? std::string::npos : hash - colon - 1);
     if (value.find_first_not_of(" \t") == std::string::npos) path.emplace_back(indent, name);
     NumericRange r;
-    if (hash != std::string::npos && parse_range(line.substr(hash + 1), r)) out[key] = r;
+    if (hash != std::string::npos && parse_range(line.substr(hash + 1), r)) {
+      // The default's text tells an integer key (max_rows: 144, eval.images: all) from a real one
+      // (r_on: 1000.0); a real key whose default is written as an integer (clock_mhz: 100)
+      // counts as one, which only makes its whole values canonical as integers.
+      const auto b = value.find_first_not_of(" \t"), e = value.find_last_not_of(" \t");
+      const std::string text = b == std::string::npos ? "" : value.substr(b, e - b + 1);
+      long long n = 0;
+      double d = 0;
+      r.integer = parse_int64(text, n) ||
+                  (!parse_finite_double(text, d) && r.lo == std::floor(r.lo) && r.hi == std::floor(r.hi));
+      out[key] = r;
+    }
   }
   return out;
 }
@@ -386,6 +398,11 @@ std::string ConfigTree::get_string(const std::string& key) const {
 }
 
 bool ConfigTree::is_numeric(const std::string& key) { return documented_ranges().count(key) > 0; }
+
+bool ConfigTree::is_integer(const std::string& key) {
+  const auto it = documented_ranges().find(key);
+  return it != documented_ranges().end() && it->second.integer;
+}
 
 bool ConfigTree::is_list(const std::string& key) const {
   const YAML::Node n = find(impl_->root, key);

@@ -59,6 +59,9 @@ class ConfigTree {
   /// True if `key` is a number (it documents its range in configs/default.yaml), though it may
   /// also take a word (e.g. converters.dac_bits: none).
   static bool is_numeric(const std::string& key);
+  /// True if `key` is an integer (its default in configs/default.yaml is an integer, or a word
+  /// such as `all` with whole bounds).
+  static bool is_integer(const std::string& key);
   /// True if the value at `key` is a YAML sequence (a sweep over values).
   bool is_list(const std::string& key) const;
   /// Elements of a sequence value as YAML scalar texts (for sweeps).

@@ -133,18 +133,23 @@ std::string file_id(const std::string& path) {
   return h.hex();
 }
 
-std::string canonical_value(const std::string& text) {
+std::string canonical_value(const std::string& text, bool integer) {
   // A finite decimal number (not hex) as the shortest text that reads back as the same double.
   if (text.empty() || text.find_first_of("xX") != std::string::npos) return text;
   char* end = nullptr;
-  // An integer exactly, whatever its size: seeds up to 9e18 are not all doubles (2^53).
-  errno = 0;
-  const long long n = std::strtoll(text.c_str(), &end, 10);
-  if (end == text.c_str() + text.size() && errno == 0) return std::to_string(n);
+  if (integer) {
+    // An integer exactly, whatever its size: seeds up to 9e18 are not all doubles (2^53).
+    errno = 0;
+    const long long n = std::strtoll(text.c_str(), &end, 10);
+    if (end == text.c_str() + text.size() && errno == 0) return std::to_string(n);
+  }
   const double v = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size() || !std::isfinite(v)) return text;
-  // A whole number as the integer it is (8.0 and 8e0 are 8, as ConfigTree::get_int reads them).
-  if (v == std::floor(v) && std::fabs(v) < kExactIntegerLimit) return std::to_string(static_cast<long long>(v));
+  // A whole number written as a decimal is the integer it is for an integer key (1e6 is
+  // 1000000, as ConfigTree::get_int reads it); a real key's value is the shortest form of its
+  // double however it is written (1000, 1000.0 and 1e3 are 1e+03, the defaults' form).
+  if (integer && v == std::floor(v) && std::fabs(v) < kExactIntegerLimit)
+    return std::to_string(static_cast<long long>(v));
   char buf[32];
   for (int digits = 1; digits <= 17; ++digits) {
     std::snprintf(buf, sizeof buf, "%.*g", digits, v == 0 ? 0.0 : v);  // -0 is 0
@@ -178,7 +183,8 @@ std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& als
   for (const auto& key : cfg.leaf_keys()) {
     if (ignored(key)) continue;
     const std::string value = cfg.get_string(key);
-    h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value) : value) + "\n");
+    h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value, ConfigTree::is_integer(key)) : value) +
+          "\n");
   }
   return h.hex();
 }

@@ -70,10 +70,12 @@ bool point_key_ignores(const std::string& key);
 /// a changed file not) and the dataset by name, as eval_run_key does.
 std::string explore_point_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset);
 
-/// A decimal number as the shortest text that reads back as the same double ("0.40" is "0.4"),
-/// a whole number below 2^53 as its integer ("3.0", "3e0" and "3" are "3", as get_int reads
-/// them), an integer text exactly; any other text unchanged.
-std::string canonical_value(const std::string& text);
+/// A number as one text per value. For a real key: the shortest text that reads back as the
+/// same double ("3.0", "3e0" and "3" are "3"; "0.40" is "0.4"; "1000", "1000.0" and "1e3" are
+/// "1e+03"). For an `integer` key (ConfigTree::is_integer): an integer text exactly, whatever
+/// its size, and a whole number written as a decimal below 2^53 as that integer ("8.0" and
+/// "8e0" are "8", "1e6" is "1000000", as get_int reads them). Any other text unchanged.
+std::string canonical_value(const std::string& text, bool integer);
 
 /// The value of `o` for a result row, as a cost to minimise (accuracy negated); NaN when the
 /// row lacks it (a failed point).

@@ -97,21 +97,36 @@ TEST(EvalJournal, RunKeyIgnoresTheImageRangeAndKnowsTheModelByItsContent) {
 }
 
 TEST(PointKey, NumbersAreCanonicalOtherTextIsKept) {
-  EXPECT_EQ(canonical_value("3.0"), "3");
-  EXPECT_EQ(canonical_value("3e0"), "3");
-  EXPECT_EQ(canonical_value("0.40"), "0.4");
-  EXPECT_EQ(canonical_value("-0"), "0");
-  EXPECT_EQ(canonical_value("1e-300"), "1e-300");
-  EXPECT_EQ(canonical_value("0.1"), "0.1");
-  EXPECT_EQ(canonical_value("08"), "8");
-  EXPECT_EQ(canonical_value("+3"), "3");
+  for (bool integer : {false, true}) {
+    EXPECT_EQ(canonical_value("3.0", integer), "3");
+    EXPECT_EQ(canonical_value("3e0", integer), "3");
+    EXPECT_EQ(canonical_value("-0", integer), "0");
+    EXPECT_EQ(canonical_value("08", integer), "8");
+    EXPECT_EQ(canonical_value("+3", integer), "3");
+    for (const char* kept : {"", "all", "0x10", "1e400", "nan", "1,2", "3 ", "sinh"})
+      EXPECT_EQ(canonical_value(kept, integer), kept);
+  }
+  EXPECT_EQ(canonical_value("0.40", false), "0.4");
+  EXPECT_EQ(canonical_value("1e-300", false), "1e-300");
+  EXPECT_EQ(canonical_value("0.1", false), "0.1");
+  // A real key: one text however the value is written, the defaults' form (r_on: 1000.0) kept.
+  for (const char* r_on : {"1000", "1000.0", "1e3"}) EXPECT_EQ(canonical_value(r_on, false), "1e+03") << r_on;
+  // An integer key: whole decimals are the integer get_int reads (item 8 of issue 23).
+  EXPECT_EQ(canonical_value("1e6", true), "1000000");
+  EXPECT_EQ(canonical_value("1000000", true), "1000000");
+  EXPECT_EQ(canonical_value("8.5", true), "8.5");  // not an integer: refused by get_int, kept apart
   // Integers beyond 2^53 stay exact: two seeds must not share a key.
-  EXPECT_EQ(canonical_value("1000000000000000001"), "1000000000000000001");
+  EXPECT_EQ(canonical_value("1000000000000000001", true), "1000000000000000001");
   EXPECT_NE(point_key(cfg_with({"calibration.seed=1000000000000000000"})),
             point_key(cfg_with({"calibration.seed=1000000000000000001"})));
-  EXPECT_EQ(std::stod(canonical_value("3.3333333333333333e-6")), 3.3333333333333333e-6);  // round-trips
-  for (const char* kept : {"", "all", "0x10", "1e400", "nan", "1,2", "3 ", "sinh"})
-    EXPECT_EQ(canonical_value(kept), kept);
+  EXPECT_EQ(std::stod(canonical_value("3.3333333333333333e-6", false)), 3.3333333333333333e-6);  // round-trips
+  EXPECT_TRUE(ConfigTree::is_integer("mapping.max_rows"));
+  EXPECT_TRUE(ConfigTree::is_integer("eval.images"));  // "all", or a whole number
+  EXPECT_TRUE(ConfigTree::is_integer("calibration.seed"));
+  EXPECT_FALSE(ConfigTree::is_integer("crossbar.transistor.r_on"));
+  EXPECT_FALSE(ConfigTree::is_integer("crossbar.r_wire"));
+  EXPECT_EQ(point_key(cfg_with({"study.vectors=1e6"})), point_key(cfg_with({"study.vectors=1000000"})));
+  EXPECT_EQ(point_key(cfg_with({"crossbar.transistor.r_on=1000"})), point_key(cfg_with({})));
   // explore's point key too: a space written 1.0 finds the points it journaled as 1
   EXPECT_EQ(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=1"})));
   EXPECT_NE(point_key(cfg_with({"crossbar.r_wire=1.0"})), point_key(cfg_with({"crossbar.r_wire=2"})));
