@@ -14,26 +14,6 @@
 
 namespace xbarsim {
 
-namespace {
-
-/// The next line of `in` (without '\n') into `line`, refusing one longer than `max_bytes`: a
-/// device such as /dev/zero has no line end, and a getline would grow without bound.
-bool next_line(std::istream& in, std::string& line, size_t max_bytes, const std::string& path, size_t lineno) {
-  line.clear();
-  std::streambuf* sb = in.rdbuf();
-  for (;;) {
-    const int c = sb->sbumpc();
-    if (c == std::char_traits<char>::eof()) return !line.empty();
-    if (c == '\n') return true;
-    line.push_back(static_cast<char>(c));
-    if (line.size() > max_bytes)
-      throw InputError(path + ":" + std::to_string(lineno) + ": a line longer than " + std::to_string(max_bytes >> 20) +
-                       " MiB; not a CSV file of numbers");
-  }
-}
-
-}  // namespace
-
 Eigen::MatrixXd read_csv_matrix(const std::string& path, const std::string& role) {
   open_as_input(path, role);
   std::ifstream in(path, std::ios::binary);
@@ -41,8 +21,11 @@ Eigen::MatrixXd read_csv_matrix(const std::string& path, const std::string& role
   std::vector<std::vector<double>> rows;
   std::string line;
   size_t lineno = 0;
-  while (next_line(in, line, kMaxCsvLineBytes, path, lineno + 1)) {
+  for (LineRead r; (r = read_line(in, line, kMaxCsvLineBytes)) != LineRead::End;) {
     ++lineno;
+    if (r == LineRead::TooLong)
+      throw InputError(path + ":" + std::to_string(lineno) + ": a line longer than " +
+                       std::to_string(kMaxCsvLineBytes >> 20) + " MiB; not a CSV file of numbers");
     if (lineno == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);  // UTF-8 byte order mark
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto first = line.find_first_not_of(" \t");

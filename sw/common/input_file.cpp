@@ -62,6 +62,18 @@ void open_as_input(const std::string& path, const std::string& role) {
   register_input(path, role);
 }
 
+LineRead read_line(std::istream& in, std::string& line, size_t max_bytes) {
+  line.clear();
+  std::streambuf* sb = in.rdbuf();
+  for (;;) {
+    const int c = sb->sbumpc();
+    if (c == std::char_traits<char>::eof()) return line.empty() ? LineRead::End : LineRead::Unfinished;
+    if (c == '\n') return LineRead::Line;
+    line.push_back(static_cast<char>(c));
+    if (line.size() > max_bytes) return LineRead::TooLong;
+  }
+}
+
 std::string read_input_file(const std::string& path, const std::string& role, size_t max_bytes) {
   open_as_input(path, role);
   std::ifstream in(path, std::ios::binary);

@@ -6,6 +6,7 @@
 /// by device and inode however it is named, so no run can truncate, overwrite or append to a
 /// file it reads.
 #include <cstddef>
+#include <iosfwd>
 #include <optional>
 #include <string>
 
@@ -35,6 +36,17 @@ void open_as_input(const std::string& path, const std::string& role);
 /// InputError when it cannot be opened, is a directory, cannot be read to its end, or holds
 /// more than `max_bytes` (a device such as /dev/zero never ends).
 std::string read_input_file(const std::string& path, const std::string& role, size_t max_bytes);
+
+/// What read_line found.
+enum class LineRead {
+  Line,        ///< a line and its '\n'
+  Unfinished,  ///< the last line, without '\n' (a file cut short, or one that does not end in one)
+  TooLong,     ///< more than the bound before any '\n' (`line` holds the first bytes)
+  End          ///< nothing left
+};
+/// The next line of `in` into `line` (without '\n'), reading at most `max_bytes` + 1 bytes of
+/// it: a device such as /dev/zero has no line end, and std::getline would grow without bound.
+LineRead read_line(std::istream& in, std::string& line, size_t max_bytes);
 
 /// The largest YAML file (configuration, component library) read: far above any real one.
 constexpr size_t kMaxYamlBytes = size_t{16} << 20;

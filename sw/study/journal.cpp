@@ -34,19 +34,11 @@ ResultJournal::ResultJournal(std::string path, JournalKind kind) : path_(std::mo
     // Ours only if its first line is: anything else is a user's file that must stay as it is.
     std::ifstream in(path_, std::ios::binary);
     std::string first;
-    char c;
-    bool ended = false;
-    while (first.size() <= kMaxFirstLine && in.get(c)) {
-      if (c == '\n') {
-        ended = true;
-        break;
-      }
-      first.push_back(c);
-    }
+    const LineRead r = read_line(in, first, kMaxFirstLine);
     const nlohmann::json j = nlohmann::json::parse(first, nullptr, false);
     // A kill can cut the very first line short: a lone unfinished line that starts as ours do.
-    const bool cut_first_line = !ended && first.size() <= kMaxFirstLine && first.rfind("{\"", 0) == 0;
-    if (!cut_first_line && (j.is_discarded() || !j.is_object() || !kind_.recognise(j)))
+    const bool cut_first_line = r == LineRead::Unfinished && first.rfind("{\"", 0) == 0;
+    if (!cut_first_line && (r == LineRead::TooLong || j.is_discarded() || !j.is_object() || !kind_.recognise(j)))
       throw InputError(describe() + " is not an " + kind_.name +
                        ": its first line is not one of ours, so it is left as it is, refusing to cut or append to it "
                        "(give a new file, or one that " +
