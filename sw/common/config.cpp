@@ -369,7 +369,7 @@ long long ConfigTree::get_int(const std::string& key) const {
       throw InputError("configuration key '" + key + "': expected an integer, got '" + excerpt(s) + "'");
     if (!r.contains(d)) throw InputError(out_of_range_message(key, r, s));
     if (std::fabs(d) >= kExactIntegerLimit)
-      throw InputError("configuration key '" + key + "': '" + s +
+      throw InputError("configuration key '" + key + "': '" + excerpt(s) +
                        "' is beyond 2^53, where a decimal number is not exact: write the integer's digits");
     v = static_cast<long long>(d);
   }

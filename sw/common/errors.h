@@ -1,4 +1,5 @@
 #pragma once
+#include <exception>
 #include <stdexcept>
 #include <string>
 
@@ -33,6 +34,16 @@ inline std::string excerpt(const std::string& text, size_t max_chars = 60) {
     throw SolverError(context + ": " + e.what());
   } catch (const InputError& e) {
     throw InputError(context + ": " + e.what());
+  }
+}
+
+/// The exception in flight with `context` added as rethrow_with_context adds it, kept for later
+/// (a worker thread's failure, rethrown once the work is joined). Call it only inside a catch block.
+inline std::exception_ptr current_exception_with_context(const std::string& context) {
+  try {
+    rethrow_with_context(context);
+  } catch (...) {
+    return std::current_exception();
   }
 }
 

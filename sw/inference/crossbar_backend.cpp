@@ -111,12 +111,8 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
     const int l = order[k];
     try {
       layers_[l].program(stats_[l].samples, serial.solver);
-    } catch (const std::exception&) {
-      try {
-        rethrow_with_context("layer " + model_.linear[l].name);
-      } catch (...) {
-        failed[l] = std::current_exception();
-      }
+    } catch (...) {
+      failed[l] = current_exception_with_context("layer " + model_.linear[l].name);
       return;
     }
     std::lock_guard<std::mutex> lock(mu);

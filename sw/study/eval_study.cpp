@@ -196,16 +196,12 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
         Eigen::Index a, b;
         run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
         try {
-          try {
-            run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
-          } catch (const std::exception&) {
-            rethrow_with_context(test.name + " image " + std::to_string(test.first + k));
-          }
+          run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
         } catch (...) {
           std::lock_guard<std::mutex> lock(mu);
           if (k < first_failed) {
             first_failed = k;
-            failure = std::current_exception();
+            failure = current_exception_with_context(test.name + " image " + std::to_string(test.first + k));
           }
           return;
         }

@@ -27,6 +27,14 @@ std::string slurp(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
+/// The lines of a journal, parsed.
+std::vector<nlohmann::json> json_lines(const std::string& path) {
+  std::vector<nlohmann::json> lines;
+  std::ifstream in(path);
+  for (std::string l; std::getline(in, l);) lines.push_back(nlohmann::json::parse(l));
+  return lines;
+}
+
 void spit(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
 /// A folder of its own per test with the tiny network (models/tiny.onnx), its data
@@ -183,13 +191,9 @@ TEST_F(Safety, Item12_MnistSimulatesTheImagesItEvaluatesNotACalibrationImage) {
 
 TEST_F(Safety, Item6_AJournalLineWithMissingOrMistypedFieldsRunsThePointAgain) {
   ASSERT_EQ(run(std::string(kExplore) + " --out " + path("j.jsonl")).code, 0);
-  std::vector<std::string> lines;
-  {
-    std::ifstream in(path("j.jsonl"));
-    for (std::string l; std::getline(in, l);) lines.push_back(l);
-  }
+  const std::vector<nlohmann::json> lines = json_lines(path("j.jsonl"));
   ASSERT_EQ(lines.size(), 2u);
-  nlohmann::json a = nlohmann::json::parse(lines[0]), b = nlohmann::json::parse(lines[1]);
+  nlohmann::json a = lines[0], b = lines[1];
   a.erase("label");
   b["status"] = "failed";  // without a reason
   spit(path("j.jsonl"), a.dump() + "\n" + b.dump() + "\n");
@@ -267,11 +271,7 @@ TEST_F(Safety, Item14_ASimulateSweepTracesEachPointIntoItsOwnFile) {
 TEST_F(Safety, Item15_HandEditedJournalsWithImpossibleValuesAreRefused) {
   ASSERT_EQ(run(std::string(kEval) + " --journal " + path("j.jsonl")).code, 0);
   const std::string good = slurp(path("j.jsonl"));
-  std::vector<nlohmann::json> lines;
-  {
-    std::ifstream in(path("j.jsonl"));
-    for (std::string l; std::getline(in, l);) lines.push_back(nlohmann::json::parse(l));
-  }
+  const std::vector<nlohmann::json> lines = json_lines(path("j.jsonl"));
   ASSERT_EQ(lines.size(), 2u);
   const auto with = [&](const std::function<void(nlohmann::json&)>& edit, bool duplicate = false) {
     nlohmann::json a = lines[0];
@@ -293,11 +293,7 @@ TEST_F(Safety, Item15_HandEditedJournalsWithImpossibleValuesAreRefused) {
 
   // Explore rows: an accuracy that is not a number, a negative energy: not results.
   ASSERT_EQ(run(std::string(kExplore) + " --out " + path("x.jsonl")).code, 0);
-  std::vector<nlohmann::json> rows;
-  {
-    std::ifstream in(path("x.jsonl"));
-    for (std::string l; std::getline(in, l);) rows.push_back(nlohmann::json::parse(l));
-  }
+  std::vector<nlohmann::json> rows = json_lines(path("x.jsonl"));
   ASSERT_EQ(rows.size(), 2u);
   rows[0]["accuracy"] = "high";
   rows[1]["energy_uj_per_image"] = -1;
@@ -308,12 +304,7 @@ TEST_F(Safety, Item15_HandEditedJournalsWithImpossibleValuesAreRefused) {
   EXPECT_NE(r.out.find("'energy_uj_per_image' is not a finite number >= 0"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("2 points, 0 already in"), std::string::npos) << r.out;
   // Two different results for one point: refused, naming both lines.
-  std::vector<nlohmann::json> now;
-  {
-    std::ifstream in(path("x.jsonl"));
-    for (std::string l; std::getline(in, l);) now.push_back(nlohmann::json::parse(l));
-  }
-  nlohmann::json other = now.back();
+  nlohmann::json other = json_lines(path("x.jsonl")).back();
   other["accuracy"] = 0.125;
   spit(path("x.jsonl"), slurp(path("x.jsonl")) + other.dump() + "\n");
   expect_input_error(run(std::string(kExplore) + " --out " + path("x.jsonl")), "give different results for point",
