@@ -27,6 +27,16 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
   c.noise = parse_noise_spec(cfg);
+  if (c.converters.adc_range == AdcRange::Full) {
+    const char* missing = c.mapping.cell_bits == 0 ? "crossbar.cell_bits (a level to count)"
+                          : c.converters.activation_bits() == 0 ? "converters.dac_bits or input_bits (a read step)"
+                          : !c.converters.adc_offset_subtraction ? "converters.adc_offset_subtraction: true (a range from zero)"
+                                                                 : nullptr;
+    if (missing)
+      throw InputError(std::string("configuration key 'converters.adc_range' (full): the full range counts cell levels "
+                                   "times DAC steps, so it needs ") +
+                       missing);
+  }
   if (c.dac_predistorts() && c.mitigation.conversion() == ConversionKind::Matrix)
     throw InputError("configuration key 'converters.dac_predistortion': not combinable with the matrix conversion (" +
                      std::string(c.mitigation.name()) +
@@ -44,8 +54,9 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   if (cfg.dac_predistorts())
     alpha_ = MemristorDevice(cfg.xbar.memristor).current_per_siemens(cfg.xbar.v_in_max_v) / x_max;
   // Signed inputs: sign-magnitude, so that 0 is exactly a DAC level.
-  const int bits = cfg.converters.dac_bits;
+  const int bits = cfg.converters.activation_bits();
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};
+  slicing_ = make_input_slicing(bits, cfg.converters.dac_bits, signed_inputs, x_max);
   blocks_ = crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), cfg.mapping);
 }
 
@@ -100,7 +111,8 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   if (calib_in.size() > 0 && calib_in.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
   const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
-  const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
+  const Eigen::MatrixXd cal_s = sliced(cal);
+  const Eigen::MatrixXd range_s = sliced(range_vectors(calib_in, cal));
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
   xbars_.clear();
   reports_.clear();
@@ -114,14 +126,14 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
       const ProgrammingInputs in{
           cal.middleCols(blk.row0, blk.rows),
-          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
+          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal, cal_s,
           cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
       add_programming_noise(*xb, static_cast<int>(b));
-      set_adc_ranges(*xb, range_x);
+      set_adc_ranges(*xb, range_s);
       calibrate(*xb, in);
       xbars_.push_back(std::move(xb));
       reports_.push_back(rep);
@@ -162,6 +174,41 @@ void AnalogLayer::dac_values(S* d, Eigen::Index n) const {
   }
 }
 
+Eigen::MatrixXd AnalogLayer::sliced(const Eigen::MatrixXd& xq) const {
+  if (!slicing_.serial()) return xq;
+  const RowMat<double> in = xq;
+  RowMat<double> out;
+  slice_inputs<double>(in, out);
+  return out;
+}
+
+template <typename S>
+void AnalogLayer::slice_inputs(const RowMat<S>& xq, RowMat<S>& xs) const {
+  const InputSlicing& sl = slicing_;
+  const Eigen::Index n = xq.rows(), k = xq.cols(), size = n * k;
+  xs.resize(n * sl.slices, k);
+  // The (m+1)-bit two's complement pattern of each code (the code itself when unsigned).
+  thread_local std::vector<int32_t> pattern;
+  pattern.resize(static_cast<size_t>(size));
+  const int32_t m = sl.magnitude_bits, digit_max = static_cast<int32_t>(sl.digit_max());
+  const int32_t pattern_mask = static_cast<int32_t>((1L << (m + 1)) - 1), low_mask = static_cast<int32_t>((1L << m) - 1);
+  const S* in = xq.data();
+  for (Eigen::Index i = 0; i < size; ++i)
+    pattern[i] = static_cast<int32_t>(std::floor(static_cast<double>(in[i]) / sl.step + 0.5)) & pattern_mask;
+  const int magnitude_slices = sl.slices - (sl.sign_slice ? 1 : 0);
+  const S unit = static_cast<S>(sl.x_max / static_cast<double>(digit_max)), full = static_cast<S>(sl.x_max);
+  const int32_t* p = pattern.data();
+  for (int s = 0; s < magnitude_slices; ++s) {
+    S* out = xs.data() + s * size;
+    const int shift = s * sl.dac_bits;
+    for (Eigen::Index i = 0; i < size; ++i) out[i] = static_cast<S>(((p[i] & low_mask) >> shift) & digit_max) * unit;
+  }
+  if (sl.sign_slice) {
+    S* out = xs.data() + (sl.slices - 1) * size;
+    for (Eigen::Index i = 0; i < size; ++i) out[i] = static_cast<S>((p[i] >> m) & 1) * full;
+  }
+}
+
 Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
   Mat<double> cur;
   analog_of<double>(x, xq, cur);
@@ -170,7 +217,7 @@ Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixX
 
 Eigen::MatrixXd AnalogLayer::raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq,
                                             const Eigen::MatrixXd& xq) const {
-  Mat<double> y = Mat<double>::Zero(iq.rows(), x.blk.cols);
+  Mat<double> y = Mat<double>::Zero(iq.rows() / slicing_.slices, x.blk.cols);
   recover_of<double>(x, iq, xq, y, 0, false);
   return y;
 }
@@ -178,6 +225,55 @@ Eigen::MatrixXd AnalogLayer::raw_partial_of(const Crossbar& x, const Eigen::Matr
 template <typename S, typename XQ>
 static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, int rows) {
   return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
+}
+
+/// currents = xq.middleCols(row0, g.rows()) * g for reads whose digits are mostly zero (bit
+/// planes): every non-zero input adds its row of g, in row order. Reads go in tiles of
+/// kTile rows accumulated by rows, then written into the column-major currents.
+template <typename S>
+static void accumulate_reads(const AnalogLayer::RowMat<S>& g, const AnalogLayer::RowMat<S>& xq, int row0,
+                             AnalogLayer::Mat<S>& currents) {
+  constexpr Eigen::Index kTile = 16;
+  constexpr int kChunk = 64 / sizeof(S) * 4;  // four vector registers of 512 bits
+  const Eigen::Index reads = xq.rows(), rows = g.rows(), cols = g.cols();
+  currents.resize(reads, cols);
+  thread_local std::vector<S> tile;
+  thread_local std::vector<int> nonzero;
+  tile.resize(static_cast<size_t>(kTile * cols));
+  nonzero.resize(static_cast<size_t>(rows));
+  for (Eigen::Index i0 = 0; i0 < reads; i0 += kTile) {
+    const Eigen::Index n = std::min(kTile, reads - i0);
+    std::fill(tile.begin(), tile.begin() + n * cols, S(0));  // the columns past the last chunk
+    for (Eigen::Index t = 0; t < n; ++t) {
+      const S* in = xq.row(i0 + t).data() + row0;
+      int count = 0;
+      for (Eigen::Index k0 = 0; k0 < rows; k0 += 64) {  // a bit mask per 64 inputs, then its set bits
+        const int w = static_cast<int>(std::min<Eigen::Index>(64, rows - k0));
+        uint64_t mask = 0;
+        for (int k = 0; k < w; ++k) mask |= static_cast<uint64_t>(in[k0 + k] != S(0)) << k;
+        for (; mask; mask &= mask - 1) nonzero[count++] = static_cast<int>(k0) + __builtin_ctzll(mask);
+      }
+      S* a = tile.data() + t * cols;
+      // Columns in chunks of kChunk, accumulated in registers.
+      Eigen::Index c0 = 0;
+      for (; c0 + kChunk <= cols; c0 += kChunk) {
+        using Chunk = Eigen::Array<S, kChunk, 1>;
+        Chunk sum = Chunk::Zero();
+        for (int q = 0; q < count; ++q)
+          sum += in[nonzero[q]] * Eigen::Map<const Chunk, Eigen::Unaligned>(g.row(nonzero[q]).data() + c0);
+        Eigen::Map<Chunk, Eigen::Unaligned>(a + c0) = sum;
+      }
+      for (int q = 0; q < count; ++q) {
+        const S v = in[nonzero[q]];
+        const S* gr = g.row(nonzero[q]).data();
+        for (Eigen::Index c = c0; c < cols; ++c) a[c] += v * gr[c];
+      }
+    }
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      S* out = currents.col(c).data() + i0;
+      for (Eigen::Index t = 0; t < n; ++t) out[t] = tile[t * cols + c];
+    }
+  }
 }
 
 template <typename S>
@@ -194,6 +290,13 @@ template <typename S>
 void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const {
   if (cfg_.xbar.is_linear()) {
     // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
+    if (slicing_.serial()) {
+      if constexpr (std::is_same_v<S, float>)
+        accumulate_reads<S>(x.geff_rows_f, xq, x.blk.row0, currents);
+      else
+        accumulate_reads<S>(x.geff_rows_d, xq, x.blk.row0, currents);
+      return;
+    }
     if constexpr (std::is_same_v<S, float>)
       currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_f;
     else
@@ -212,15 +315,18 @@ void AnalogLayer::adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) cons
 template <typename S, typename XQ>
 void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const {
   if (cfg_.converters.adc_bits <= 0) return;
-  const Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
+  using Col = Eigen::Array<S, Eigen::Dynamic, 1>;
+  const Col sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows).array();
+  Col offset(currents.rows());
+  Eigen::ArrayXd v(currents.rows());
   for (Eigen::Index c = 0; c < currents.cols(); ++c) {
+    // FastQuantizer::apply on the offset-subtracted current, vectorised (the same operations).
     const FastQuantizer q(Quantizer{cfg_.converters.adc_bits, x.adc_lo(c), x.adc_hi(c)});
-    const S k = static_cast<S>(x.adc_offset(c));
-    S* col = currents.col(c).data();
-    for (Eigen::Index a = 0; a < currents.rows(); ++a) {
-      const S offset = k * sum_x(a);
-      col[a] = static_cast<S>(q.apply(col[a] - offset)) + offset;
-    }
+    offset = static_cast<S>(x.adc_offset(c)) * sum_x;
+    auto col = currents.col(c).array();
+    v = (col - offset).template cast<double>();
+    if (q.on) v = ((v.max(q.lo).min(q.hi) - q.lo) / q.step + 0.5).floor() * q.step + q.lo;
+    col = v.template cast<S>() + offset;
   }
 }
 template void AnalogLayer::adc_of<double, Eigen::MatrixXd>(const Crossbar&, Mat<double>&, const Eigen::MatrixXd&) const;
@@ -234,36 +340,69 @@ void AnalogLayer::recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<
 template <typename S>
 void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
                              bool calibrated) const {
-  const Eigen::Index n = iq.rows();
+  const Eigen::Index n = y.rows();  // iq and xq: slices x n rows
+  const int slices = slicing_.slices;
   const S gmin = static_cast<S>(cfg_.xbar.g_min_s);
   const S inv_alpha = static_cast<S>(1.0 / alpha_);
   Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x;
   if (cfg_.mapping.analog_sum()) {  // I_sum / alpha = (g_min + beta s a_sum) * sum(X)
     const int c = x.pcols - 1;
-    sum_x = iq.col(c) * static_cast<S>(1.0 / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s * x.a_sum)));
+    sum_x = iq.col(c) * static_cast<S>(1.0 / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s(c) * x.a_sum)));
   } else {
     sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
   }
-  const S* sx = sum_x.data();
+  // Per physical column: sign / (beta s), so (I / alpha - g_min sum(X)) times it is the
+  // column's signed share of its weight column's product (its slice's place included).
+  Eigen::Matrix<S, Eigen::Dynamic, 1> k(x.pcols);
+  for (int c = 0; c < x.pcols; ++c) k(c) = static_cast<S>(x.sign(c) / (x.beta(c) * x.s(c)));
   const S w_lo = static_cast<S>(x.w_lo);
+  const int per = x.per_weight;
+  Eigen::Matrix<S, Eigen::Dynamic, 1> acc(n), part(n);
   for (int j = 0; j < x.blk.cols; ++j) {
     const S gain = calibrated ? static_cast<S>(x.fit.gain(j)) : S(1);
     const S off = calibrated ? static_cast<S>(x.fit.offset(j)) : S(0);
     S* out = y.col(y_col0 + j).data();
-    if (cfg_.mapping.differential()) {
-      const S kp = static_cast<S>(1.0 / (x.beta(2 * j) * x.s)), km = static_cast<S>(1.0 / (x.beta(2 * j + 1) * x.s));
-      const S* ip = iq.col(2 * j).data();
-      const S* im = iq.col(2 * j + 1).data();
-      for (Eigen::Index r = 0; r < n; ++r) {
-        const S p = (ip[r] * inv_alpha - gmin * sx[r]) * kp - (im[r] * inv_alpha - gmin * sx[r]) * km;
-        out[r] += gain * p + off;
+    if (slices == 1 && per <= 2) {  // one read, one column or a pair: in one pass
+      const S* i0 = iq.col(j * per).data();
+      const S* sx = sum_x.data();
+      const S k0 = k(j * per);
+      if (per == 1) {
+        for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ((i0[r] * inv_alpha - gmin * sx[r]) * k0 + w_lo * sx[r]) + off;
+      } else {
+        const S* i1 = iq.col(j * per + 1).data();
+        const S k1 = -k(j * per + 1);
+        for (Eigen::Index r = 0; r < n; ++r) {
+          const S p = (i0[r] * inv_alpha - gmin * sx[r]) * k0 - (i1[r] * inv_alpha - gmin * sx[r]) * k1;
+          out[r] += gain * (p + w_lo * sx[r]) + off;
+        }
       }
-    } else {
-      const S k = static_cast<S>(1.0 / (x.beta(j) * x.s));
-      const S* ic = iq.col(j).data();
-      for (Eigen::Index r = 0; r < n; ++r)
-        out[r] += gain * ((ic[r] * inv_alpha - gmin * sx[r]) * k + w_lo * sx[r]) + off;
+      continue;
     }
+    S* ac = acc.data();
+    S* pa = slices == 1 ? ac : part.data();  // one read: its product is the output
+    for (int s = 0; s < slices; ++s) {
+      const S* sx = sum_x.data() + s * n;
+      // Shift-and-add of the weight's columns for read s.
+      for (int q = 0; q < per; ++q) {
+        const int c = j * per + q;
+        const S kc = k(c);
+        const S* ic = iq.col(c).data() + s * n;
+        if (q == 0)
+          for (Eigen::Index r = 0; r < n; ++r) pa[r] = (ic[r] * inv_alpha - gmin * sx[r]) * kc;
+        else
+          for (Eigen::Index r = 0; r < n; ++r) pa[r] += (ic[r] * inv_alpha - gmin * sx[r]) * kc;
+      }
+      for (Eigen::Index r = 0; r < n; ++r) pa[r] += w_lo * sx[r];
+      // Shift-and-add of the input slices.
+      if (slices > 1) {
+        const S ws = static_cast<S>(slicing_.weight[s]);
+        if (s == 0)
+          for (Eigen::Index r = 0; r < n; ++r) ac[r] = ws * pa[r];
+        else
+          for (Eigen::Index r = 0; r < n; ++r) ac[r] += ws * pa[r];
+      }
+    }
+    for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ac[r] + off;
   }
 }
 
@@ -275,12 +414,16 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
     throw InputError(os.str());
   }
   if (xbars_.empty()) throw InputError("analog layer used before program()");
-  RowMat<S> xq_buf;
+  RowMat<S> xq_buf, xs_buf;
   const RowMat<S>* xq = &x;
   if (dac_q_.enabled() && !quantized) {
     xq_buf = x;
     dac_inplace<S>(xq_buf);
     xq = &xq_buf;
+  }
+  if (slicing_.serial()) {
+    slice_inputs<S>(*xq, xs_buf);
+    xq = &xs_buf;
   }
   y.setZero(x.rows(), w_.cols());
   Mat<S> cur;
@@ -305,6 +448,7 @@ Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
 Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   RowMat<double> xq = x;
   dac_inplace<double>(xq);
+  if (slicing_.serial()) xq = sliced(xq);
   Mat<double> cur;
   analog<double>(b, xq, cur);
   adc_inplace<double>(b, cur, xq);
@@ -317,6 +461,7 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
   template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
+  template void AnalogLayer::slice_inputs<S>(const RowMat<S>&, RowMat<S>&) const;  \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;

@@ -15,6 +15,7 @@
 
 #include "sw/analog/analog_spec.h"
 #include "sw/analog/calibration.h"
+#include "sw/analog/input_slicing.h"
 #include "sw/analog/partition.h"
 #include "sw/analog/quantizer.h"
 #include "sw/analog/weight_mapping.h"
@@ -88,7 +89,9 @@ class AnalogLayer {
 
   // The stages of forward(), in order; float (network inference) and double (studies).
   // forward() is exactly their composition, so callers composing them (the SystemC
-  // modules) compute bit-identical results.
+  // modules) compute bit-identical results. With bit-serial inputs (input_slicing()) the
+  // DAC values are expanded into slices (slice_inputs: slice s of vector r is row
+  // s * vectors + r) and the array, ADC and recovery stages take the slices.
   /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
   template <typename S>
   void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
@@ -101,12 +104,17 @@ class AnalogLayer {
   void dac_values(S* data, Eigen::Index n) const;
   template <typename S>
   void dac_inplace(RowMat<S>& x) const;  ///< DAC quantization (input units)
+  /// The bit-serial reads of quantized inputs xq (vectors x K): slices x vectors rows of the
+  /// values each read applies (input units). Only for input_slicing().serial().
+  template <typename S>
+  void slice_inputs(const RowMat<S>& xq, RowMat<S>& xs) const;
   template <typename S>
   void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
   template <typename S>
   void adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) const;  ///< ADC quantization
-  /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), then
-  /// calibration when `calibrated`) into columns [col0, col0 + cols) of y.
+  /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), the
+  /// shift-and-add of weight slices and input slices, then calibration when `calibrated`)
+  /// into columns [col0, col0 + cols) of y; iq and xq hold input_slicing().slices x y.rows() rows.
   template <typename S>
   void recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated = true) const;
 
@@ -121,6 +129,10 @@ class AnalogLayer {
   /// The DAC's output voltages for quantized inputs x (pre-distorted when configured).
   Eigen::MatrixXd volts(const Eigen::MatrixXd& x) const;
   const AnalogConfig& config() const { return cfg_; }
+  /// How inputs are streamed (one slice unless bit-serial).
+  const InputSlicing& input_slicing() const { return slicing_; }
+  /// The DAC stage quantizes (activation bits are set).
+  bool quantizes_inputs() const { return dac_q_.enabled(); }
 
  private:
   struct Crossbar;
@@ -133,6 +145,7 @@ class AnalogLayer {
   void convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
   void add_programming_noise(Crossbar& x, int b) const;
   void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
+  void set_full_adc_ranges(Crossbar& x) const;
   void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
   template <typename S>
   void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
@@ -141,8 +154,10 @@ class AnalogLayer {
   template <typename S>
   void recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
                   bool calibrated) const;
-  /// Double-precision helpers used while programming.
+  /// Double-precision helpers used while programming (xq: reads, see sliced()).
   Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;
+  /// slice_inputs in double; x itself with one slice.
+  Eigen::MatrixXd sliced(const Eigen::MatrixXd& xq) const;
   Eigen::MatrixXd currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
   Eigen::MatrixXd raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
 
@@ -153,6 +168,7 @@ class AnalogLayer {
   uint64_t salt_;
   double alpha_;  ///< A/S per input unit (see volts_per_unit)
   Quantizer dac_q_;
+  InputSlicing slicing_;
   std::vector<Block> blocks_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;
   std::vector<CrossbarReport> reports_;

@@ -14,6 +14,9 @@ struct AnalogLayer::Crossbar : MappedWeights {
   std::unique_ptr<CrossbarSolver> solver;
   Eigen::MatrixXd geff_d;          ///< alpha * G_eff (A per input unit), linear devices
   Eigen::MatrixXf geff_f;          ///< the same in float for network inference
+  /// Bit-serial reads (mostly zero digits): the same by rows, for sparse accumulation.
+  AnalogLayer::RowMat<double> geff_rows_d;
+  AnalogLayer::RowMat<float> geff_rows_f;
   Eigen::VectorXd adc_lo, adc_hi;  ///< A, per physical column
   Eigen::VectorXd adc_offset;      ///< per physical column: offset current per unit sum(X) removed before the ADC
   ColumnFit fit;
@@ -24,6 +27,7 @@ struct AnalogLayer::ProgrammingInputs {
   Eigen::MatrixXd cal_b;          ///< calibration vectors (DAC values), this crossbar's rows
   Eigen::MatrixXd calib_b;        ///< real inputs (DAC values), this crossbar's rows; may be empty
   Eigen::MatrixXd cal;            ///< calibration vectors, all rows of the layer
+  Eigen::MatrixXd cal_s;          ///< the reads of cal (sliced(cal)), all rows of the layer
   Eigen::MatrixXd ideal_partial;  ///< cal_b * W_block: the partial output calibration aims at
 };
 

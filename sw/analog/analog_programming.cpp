@@ -37,6 +37,10 @@ void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
   if (cfg_.xbar.is_linear()) {
     x.geff_d = alpha_ * x.solver->effective_matrix();
     x.geff_f = x.geff_d.cast<float>();
+    if (slicing_.serial()) {
+      x.geff_rows_d = x.geff_d;
+      x.geff_rows_f = x.geff_f;
+    }
   }
 }
 
@@ -66,7 +70,7 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
     if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
       install(x, r.g_prime);
       const double e =
-          relative_error(raw_partial_of(x, currents_of(x, in.cal), in.cal), in.ideal_partial).mean_relative_error;
+          relative_error(raw_partial_of(x, currents_of(x, in.cal_s), in.cal_s), in.ideal_partial).mean_relative_error;
       if (!(e < best)) continue;
       best = e;
     }
@@ -90,8 +94,13 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
       mo.column_scaling = cfg_.conversion.column_scaling;
       mo.max_iterations = cfg_.conversion.max_iterations;
       mo.tolerance = cfg_.conversion.tolerance;
+      // The mean applied voltage of each row over the calibration reads.
       const Eigen::VectorXd v_op =
-          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * in.cal_b.cwiseAbs().colwise().mean().transpose())
+          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * in.cal_s.middleCols(x.blk.row0, x.blk.rows)
+                                                          .cwiseAbs()
+                                                          .colwise()
+                                                          .mean()
+                                                          .transpose())
                           : Eigen::VectorXd::Constant(
                                 x.blk.rows, ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
       const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
@@ -118,18 +127,22 @@ void AnalogLayer::add_programming_noise(Crossbar& x, int b) const {
 
 void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const {
   // Offset subtraction before the ADC: the shift current (g_min - beta s w_lo) sum(X) of each
-  // column, mirrored from the sum(X) reference, so the ADC range spans the weight part only.
-  const bool differential = cfg_.mapping.differential();
+  // column (g_min sum(X) with differential pairs or multi-level cells), mirrored from the
+  // sum(X) reference, so the ADC range spans the weight part only.
   x.adc_offset = Eigen::VectorXd::Zero(x.pcols);
   if (cfg_.converters.adc_offset_subtraction)
     for (int c = 0; c < x.pcols; ++c) {
       if (cfg_.mapping.analog_sum() && c == x.pcols - 1) continue;  // the reference column itself
-      x.adc_offset(c) = alpha_ * (cfg_.xbar.g_min_s - (differential ? 0.0 : x.beta(c) * x.s * x.w_lo));
+      x.adc_offset(c) = alpha_ * (cfg_.xbar.g_min_s - (x.offset_has_w_lo ? x.beta(c) * x.s(c) * x.w_lo : 0.0));
     }
-  // ADC ranges from the (offset-subtracted) currents of the range-estimation vectors.
   x.adc_lo = Eigen::VectorXd::Zero(x.pcols);
   x.adc_hi = Eigen::VectorXd::Zero(x.pcols);
   if (cfg_.converters.adc_bits <= 0) return;
+  if (cfg_.converters.adc_range == AdcRange::Full) {
+    set_full_adc_ranges(x);
+    return;
+  }
+  // ADC ranges from the (offset-subtracted) currents of the range-estimation reads.
   Eigen::MatrixXd cur = currents_of(x, range_x);
   const Eigen::VectorXd sx = range_x.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
   for (int c = 0; c < x.pcols; ++c) {
@@ -142,12 +155,33 @@ void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) co
   }
 }
 
+void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
+  // One level: a cell one conductance level above g_min read at one DAC step.
+  const int bits = cfg_.converters.adc_bits;
+  const bool bipolar = !slicing_.serial() && signed_;  // one signed read applies negative voltages
+  const double read_max = slicing_.serial() ? static_cast<double>(slicing_.digit_max()) : std::ldexp(1.0, dac_q_.bits) - 1;
+  const double g_span = cfg_.xbar.g_max_s * (1 - cfg_.mapping.g_headroom) - cfg_.xbar.g_min_s;
+  const double cell_max = std::ldexp(1.0, cfg_.mapping.cell_bits) - 1;
+  const double unit = cfg_.xbar.v_in_max_v / read_max * g_span / cell_max;
+  const double levels = x.blk.rows * cell_max * read_max;
+  for (int c = 0; c < x.pcols; ++c) {
+    const bool reference = cfg_.mapping.analog_sum() && c == x.pcols - 1;
+    // The sum(X) column spans rows x its conductance at full scale; weight columns their levels.
+    const double span = reference ? x.blk.rows * cfg_.xbar.v_in_max_v * (cfg_.xbar.g_min_s + x.s(c) * x.a_sum)
+                                  : levels * unit;
+    const int need = static_cast<int>(std::ceil(std::log2(span / unit + 1) - 1e-12)) + (bipolar ? 1 : 0);
+    const double lsb = reference ? span / (std::ldexp(1.0, bits) - 1) : std::ldexp(unit, std::max(0, need - bits));
+    x.adc_lo(c) = bipolar && !reference ? -std::ldexp(lsb, bits - 1) : 0.0;
+    x.adc_hi(c) = x.adc_lo(c) + (std::ldexp(1.0, bits) - 1) * lsb;
+  }
+}
+
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;
-  Mat<double> cur = currents_of(x, in.cal);
-  adc_of<double, Eigen::MatrixXd>(x, cur, in.cal);
-  x.fit = fit_columns(raw_partial_of(x, cur, in.cal), in.ideal_partial);
+  Mat<double> cur = currents_of(x, in.cal_s);
+  adc_of<double, Eigen::MatrixXd>(x, cur, in.cal_s);
+  x.fit = fit_columns(raw_partial_of(x, cur, in.cal_s), in.ideal_partial);
 }
 
 }  // namespace xbarsim

@@ -55,10 +55,12 @@ MitigationSpec mitigation_from_name(const std::string& name, const std::string& 
 
 int MappingSpec::logical_columns_per_crossbar() const {
   if (max_cols == 0) return 0;
-  const int n = (max_cols - (analog_sum() ? 1 : 0)) / (differential() ? 2 : 1);
+  const int n = (max_cols - (analog_sum() ? 1 : 0)) / columns_per_weight();
   if (n < 1)
     throw InputError("configuration key 'mapping.max_cols' (" + std::to_string(max_cols) +
-                     ") cannot hold one weight column with this mapping.negative/sum_x");
+                     ") cannot hold one weight column (" + std::to_string(columns_per_weight()) +
+                     " cells with this mapping.negative, weight_bits and crossbar.cell_bits" +
+                     (analog_sum() ? ", plus the sum(X) column" : "") + ")");
   return n;
 }
 
@@ -75,6 +77,12 @@ MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar
         "configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");
   m.scheme = require_enum<MappingScheme>(cfg, "mapping.scheme",
                                          {{"dense", MappingScheme::Dense}, {"sparse", MappingScheme::Sparse}});
+  m.cell_bits = parse_bits(cfg, "crossbar.cell_bits");
+  m.weight_bits = parse_bits(cfg, "mapping.weight_bits");
+  if (m.differential() && m.weight_bits == 1)
+    throw InputError(
+        "configuration key 'mapping.weight_bits' (1): differential weights need a sign and at least one magnitude "
+        "bit (2 or more), or mapping.negative: shift");
   m.logical_columns_per_crossbar();  // validates max_cols against the column layout
   return m;
 }
@@ -112,7 +120,10 @@ CalibrationSpec parse_calibration_spec(const ConfigTree& cfg) {
 
 ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   ConvertersSpec c;
+  c.input_bits = parse_bits(cfg, "converters.input_bits");
   c.dac_bits = parse_bits(cfg, "converters.dac_bits");
+  c.adc_range = require_enum<AdcRange>(cfg, "converters.adc_range",
+                                       {{"calibrated", AdcRange::Calibrated}, {"full", AdcRange::Full}});
   c.adc_bits = parse_bits(cfg, "converters.adc_bits");
   c.adc_margin = cfg.get_double("converters.adc_margin");
   c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");

@@ -21,11 +21,29 @@ struct MappingSpec {
   SumX sum_x = SumX::Digital;
   double g_headroom = 0;  ///< weights map to [g_min, g_max (1 - headroom)]
   MappingScheme scheme = MappingScheme::Dense;
+  /// crossbar.cell_bits: a cell holds one of 2^cell_bits conductance levels evenly spaced on
+  /// [g_min, g_max (1 - headroom)]; 0 = an analog cell (any conductance in that range).
+  int cell_bits = 0;
+  /// mapping.weight_bits: weights are quantized to this many bits (shift: an unsigned code of
+  /// W - w_lo; differential: a sign and weight_bits - 1 magnitude bits per column of the pair);
+  /// 0 = unquantized, or cell_bits when cells have levels (one cell per weight).
+  int weight_bits = 0;
   bool differential() const { return negative == NegativeWeights::Differential; }
   bool analog_sum() const { return sum_x == SumX::Analog; }
-  /// Physical columns holding `logical` weight columns: a pair per column (differential),
-  /// plus the sum(X) reference column (analog sum).
-  int physical_columns(int logical) const { return logical * (differential() ? 2 : 1) + (analog_sum() ? 1 : 0); }
+  /// Columns of one polarity: 2 (differential pair) or 1 (shift).
+  int polarities() const { return differential() ? 2 : 1; }
+  /// Bits of one polarity's weight code (0 = unquantized).
+  int code_bits() const {
+    const int w = weight_bits ? weight_bits : cell_bits;
+    return differential() && weight_bits ? w - 1 : w;
+  }
+  /// Cells (adjacent columns) one polarity of a weight occupies: ceil(code bits / cell_bits).
+  int weight_slices() const { return cell_bits && code_bits() > cell_bits ? (code_bits() + cell_bits - 1) / cell_bits : 1; }
+  /// Physical columns of one weight column: its polarities times its slices.
+  int columns_per_weight() const { return polarities() * weight_slices(); }
+  /// Physical columns holding `logical` weight columns: every weight's slices of each polarity
+  /// (differential pairs), plus the sum(X) reference column (analog sum).
+  int physical_columns(int logical) const { return logical * columns_per_weight() + (analog_sum() ? 1 : 0); }
   /// Weight columns one crossbar of max_cols physical columns holds (0 = unbounded).
   /// InputError when max_cols cannot hold one column.
   int logical_columns_per_crossbar() const;
@@ -73,10 +91,21 @@ struct CalibrationSpec {
   uint64_t seed = 7;
 };
 
+enum class AdcRange { Calibrated, Full };
+
 /// Section `converters.`: one key per converter property, serving function and cost alike.
 struct ConvertersSpec {
-  int dac_bits = 0;  ///< 0 = none (ideal analog forwarding; priced at the library's reference bits)
+  /// Activation precision: inputs are quantized to input_bits and streamed in slices of
+  /// dac_bits (see InputSlicing); 0 = none: the DAC's resolution, one slice (the seed paper).
+  int input_bits = 0;
+  int dac_bits = 0;  ///< bits per input slice; 0 = none (ideal DAC; priced at the library's reference bits)
   int adc_bits = 0;
+  /// Bits of an activation code: input_bits, or dac_bits when input_bits is none (0 = analog).
+  int activation_bits() const { return input_bits ? input_bits : dac_bits; }
+  /// calibrated: each column's range from calibration currents (+ adc_margin); full: the
+  /// physical full range of a slice column, rows x (2^cell_bits - 1) x (2^dac_bits - 1) levels,
+  /// one level per code while adc_bits suffice (else 2^k levels per code).
+  AdcRange adc_range = AdcRange::Calibrated;
   double adc_margin = 0.05;
   bool adc_offset_subtraction = true;
   int adc_columns_per_adc = 0;  ///< crossbar columns sharing one ADC; 0 = the component library's

@@ -2,7 +2,13 @@
 /// Weight mapping: one block of a weight matrix as target conductances of one crossbar
 /// (section mapping.): the shift method (A = W - w_lo >= 0, removed digitally with sum(X))
 /// or differential column pairs, an optional sum(X) reference column of equal conductance,
-/// and the conductance headroom left above the weights for conversion.
+/// and the conductance headroom left above the weights for conversion. With quantized
+/// weights on multi-level cells (mapping.weight_bits, crossbar.cell_bits) each polarity of a
+/// weight is an integer code whose cell_bits-wide digits sit in adjacent columns, digit t
+/// (place 2^(t cell_bits)) as a level of its cell; shift-and-add recombines them.
+///
+/// Physical column layout: weight column j, polarity p (0 = positive / shift, 1 = negative),
+/// slice t is column (j * polarities + p) * slices + t; the sum(X) column is the last.
 #include <Eigen/Dense>
 
 #include "sw/analog/analog_spec.h"
@@ -14,11 +20,16 @@ namespace xbarsim {
 struct MappedWeights {
   Block blk;
   int pcols = 0;             ///< physical columns (MappingSpec::physical_columns(blk.cols))
-  double s = 1;              ///< S per weight unit
-  double w_lo = 0;           ///< shift: A = W - w_lo
+  int per_weight = 1;        ///< physical columns of one weight column (polarities x slices)
+  double w_lo = 0;           ///< shift: A = W - w_lo (0 for differential)
   double a_sum = 0;          ///< analog sum column: its constant A
-  Eigen::MatrixXd a;         ///< non-negative mapped matrix, rows x pcols
-  Eigen::MatrixXd g_target;  ///< S, g_min + s * a
+  /// The ADC's offset subtraction also removes the shift w_lo (analog cells with the shift
+  /// method: the ADC converts the signed product); otherwise it removes only g_min sum(X).
+  bool offset_has_w_lo = false;
+  Eigen::MatrixXd a;         ///< non-negative mapped matrix, rows x pcols, in weight units
+  Eigen::VectorXd s;         ///< per physical column: S per weight unit (g = g_min + s a)
+  Eigen::VectorXd sign;      ///< per physical column: +1, or -1 for the negative column of a pair
+  Eigen::MatrixXd g_target;  ///< S, g_min + a diag(s)
 };
 
 /// Maps `wb` (the weights of block `blk`) onto [g_min, g_max (1 - g_headroom)].

@@ -125,7 +125,7 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
 void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
                                           Eigen::MatrixXf& out) const try {
   const AnalogLayer& a = layers_.at(layer);
-  if (a.config().converters.dac_bits <= 0) {
+  if (!a.quantizes_inputs()) {
     im2col(L, chw, scratch);
     a.forward<float>(scratch, out);
     return;
