@@ -1,8 +1,9 @@
 #pragma once
 /// Column ADCs of a tile: currents -> codes (converters.adc_bits over ranges set at
 /// calibration). One ADC serves up to `columns_per_adc` columns of a crossbar (the
-/// inventory's rule, adcs_for_columns), so one iteration takes ceil(columns / adcs)
-/// conversions at `rate_gsps` each; partitions convert in parallel.
+/// inventory's rule, adcs_for_columns) through a sample-and-hold per column, so one read takes
+/// ceil(columns / adcs) conversions at `rate_gsps` each (an iteration: its input slices'
+/// reads); partitions convert in parallel. Sliced reads: every conversion is shifted and added.
 #include <algorithm>
 #include <cmath>
 #include <systemc>
@@ -26,6 +27,7 @@ class Adc : public sc_core::sc_module {
     xbar2adc.register_b_transport(this, &Adc::b_transport);
   }
   long long conversions() const { return conversions_; }
+  long long shift_adds() const { return shift_adds_; }
 
   /// ADCs serving a crossbar of `columns` columns.
   int adcs_for(int columns) const { return static_cast<int>(adcs_for_columns(columns, columns_per_adc_)); }
@@ -43,20 +45,25 @@ class Adc : public sc_core::sc_module {
       return;
     }
     double slowest = 0;
+    const long long reads = job->reads().rows();
     for (int b = 0; b < job->analog->crossbars(); ++b) {
-      job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
+      job->analog->adc_inplace<float>(b, job->currents[b], job->reads());
       const int cols = static_cast<int>(job->currents[b].cols());
       slowest = std::max(slowest, iteration_ns(cols));
-      job->adc_conversions += static_cast<long long>(job->iterations()) * cols;
-      conversions_ += static_cast<long long>(job->iterations()) * cols;
+      job->adc_conversions += reads * cols;
+      conversions_ += reads * cols;
+      if (job->sliced()) {
+        job->shift_adds += reads * cols;
+        shift_adds_ += reads * cols;
+      }
     }
-    job->stage_ns[kAdc].assign(job->iterations(), slowest);
+    job->stage_ns[kAdc].assign(job->iterations(), slowest * job->slices());
     if (job->detailed) delay += sim_delay(slowest, delay);
     adc2acc->b_transport(p, delay);
   }
   int columns_per_adc_;
   double rate_gsps_;
-  long long conversions_ = 0;
+  long long conversions_ = 0, shift_adds_ = 0;
 };
 
 }  // namespace xbarsim

@@ -2,7 +2,8 @@
 /// The crossbar arrays of a tile (all partitions of one layer, operated in parallel):
 /// programmed conductances G' and their column currents for each iteration's input
 /// voltages, from the circuit solver (exact effective matrix for linear devices, a Newton
-/// solve per vector for nonlinear ones). `settle_ns` per iteration.
+/// solve per vector for nonlinear ones), for every read (input slice) of every iteration.
+/// `settle_ns` per read.
 #include <systemc>
 #include <tlm>
 #include <tlm_utils/simple_initiator_socket.h>
@@ -33,12 +34,13 @@ class CrossbarArray : public sc_core::sc_module {
     }
     const int nb = job->analog->crossbars();
     job->currents.resize(nb);
+    const long long reads = job->reads().rows();
     for (int b = 0; b < nb; ++b) {
-      job->analog->analog<float>(b, job->xq, job->currents[b]);
-      cell_reads_ += static_cast<long long>(job->iterations()) * job->analog->block(b).rows * job->currents[b].cols();
+      job->analog->analog<float>(b, job->reads(), job->currents[b]);
+      cell_reads_ += reads * job->analog->block(b).rows * job->currents[b].cols();
     }
-    evaluations_ += static_cast<long long>(job->iterations()) * nb;
-    job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_);
+    evaluations_ += reads * nb;
+    job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_ * job->slices());
     if (job->detailed) delay += sim_delay(settle_ns_, delay);
     xbar2adc->b_transport(p, delay);
   }

@@ -1,8 +1,8 @@
 #pragma once
 /// Row DACs of a tile: input codes -> voltages. Functionally the AnalogLayer's DAC stage
-/// (quantization to converters.dac_bits over the layer's input range); every crossbar has
-/// its own row DACs, so each iteration converts every row of every crossbar; `latency_ns`
-/// per iteration.
+/// (quantization of the activations over the layer's input range, then, with bit-serial
+/// inputs, their slices of dac_bits); every crossbar has its own row DACs, so each read
+/// (input slices per iteration) converts every row of every crossbar; `latency_ns` per read.
 #include <systemc>
 #include <tlm>
 #include <tlm_utils/simple_initiator_socket.h>
@@ -31,12 +31,14 @@ class Dac : public sc_core::sc_module {
       return;
     }
     job->analog->dac_inplace<float>(job->xq);
+    if (job->analog->input_slicing().serial()) job->analog->slice_inputs<float>(job->xq, job->xs);
     long long rows = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) rows += job->analog->block(b).rows;
-    const long long n = static_cast<long long>(job->xq.rows()) * rows;
+    const long long n = static_cast<long long>(job->reads().rows()) * rows;
     job->dac_conversions += n;
     conversions_ += n;
-    job->stage_ns[kDac].assign(job->iterations(), latency_ns_);
+    // One conversion per read; an iteration's reads follow one another.
+    job->stage_ns[kDac].assign(job->iterations(), latency_ns_ * job->slices());
     if (job->detailed) delay += sim_delay(latency_ns_, delay);
     dac2xbar->b_transport(p, delay);
   }

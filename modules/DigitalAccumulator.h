@@ -29,7 +29,7 @@ class DigitalAccumulator : public sc_core::sc_module {
     }
     job->y.setZero(job->iterations(), job->analog->outputs());
     for (int b = 0; b < job->analog->crossbars(); ++b)
-      job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
+      job->analog->recover_add<float>(b, job->currents[b], job->reads(), job->y);
     // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
     long long per_iteration = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;

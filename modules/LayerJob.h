@@ -22,13 +22,21 @@ struct LayerJob {
   int replication = 1;
 
   AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC codes
-  std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: iterations x physical columns
+  AnalogLayer::RowMat<float> xs;          ///< bit-serial reads: slices x iterations rows (AnalogLayer::slice_inputs)
+  std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: reads x physical columns
   Eigen::MatrixXf y;                      ///< iterations x c_out (without bias)
 
   std::vector<double> stage_ns[kStages];  ///< per-iteration latency of each stage (detailed mode)
   long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
+  long long shift_adds = 0;
 
   int iterations() const { return layer->out.h * layer->out.w; }
+  /// Crossbar reads per iteration (input slices).
+  int slices() const { return analog->input_slicing().slices; }
+  /// What the DACs apply, one row per crossbar read: the slices, or the codes themselves.
+  const AnalogLayer::RowMat<float>& reads() const { return analog->input_slicing().serial() ? xs : xq; }
+  /// Reads are combined by shift-and-add (input or weight slices).
+  bool sliced() const { return slices() > 1 || analog->config().mapping.weight_slices() > 1; }
 };
 
 /// Points a generic payload at a job (write command, the job as data).

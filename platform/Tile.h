@@ -27,7 +27,9 @@ namespace xbarsim {
 /// Timing of a layer's iterations from the stage latencies its modules recorded (detailed):
 /// each iteration's initiation interval is its slowest stage in whole clock cycles, and the
 /// first iteration's full datapath latency (the pipeline fill) is rounded up to whole cycles
-/// too. Ideal timing: one cycle per iteration, no fill beyond it.
+/// too. Ideal timing: one cycle per read (an iteration's input slices), no fill beyond it.
+/// Bit-serial reads: each stage records an iteration's reads back to back (slices x its
+/// per-read latency), so the interval is slices x the slowest stage's read.
 struct IterationTiming {
   std::vector<double> ii_ns;  ///< per iteration
   double fill_ns = 0;         ///< latency of the first iteration (>= ii_ns[0])
@@ -35,8 +37,8 @@ struct IterationTiming {
 inline IterationTiming iteration_timing(const LayerJob& job, double clock_ns, bool detailed) {
   const int n = job.iterations();
   IterationTiming t;
-  t.ii_ns.assign(n, clock_ns);
-  t.fill_ns = clock_ns;
+  t.ii_ns.assign(n, clock_ns * job.slices());  // ideal: one read per cycle
+  t.fill_ns = t.ii_ns.empty() ? clock_ns : t.ii_ns[0];
   if (!detailed || n == 0) return t;
   auto whole_cycles = [&](double ns) { return std::ceil(ns / clock_ns - 1e-9) * clock_ns; };
   double first = 0;
@@ -79,6 +81,8 @@ class Tile : public sc_core::sc_module {
     ActionCounts a;
     a.dac_conversions = static_cast<double>(dac_.conversions());
     a.adc_conversions = static_cast<double>(adc_.conversions());
+    a.samples = a.adc_conversions;  // every conversion is of a sampled column
+    a.shift_adds = static_cast<double>(adc_.shift_adds());
     a.cell_reads = static_cast<double>(xbar_.cell_reads());
     a.accumulates = static_cast<double>(acc_.accumulations());
     a.shifts = static_cast<double>(sr_.shifted_entries());
@@ -116,7 +120,7 @@ class Tile : public sc_core::sc_module {
       steady_ns = sum / r;
       delay = start + sim_delay(t.fill_ns, start);
     } else {
-      steady_ns = static_cast<double>((n + r - 1) / r) * clk;
+      steady_ns = static_cast<double>((n + r - 1) / r) * job->slices() * clk;  // a read per cycle
     }
     delay += sim_delay(steady_ns, delay);
     iterations_ += n;

@@ -29,7 +29,8 @@ namespace {
 LayerInventory replicated(LayerInventory v, int r) {
   for (auto f :
        {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
-        &LayerInventory::cells_present, &LayerInventory::shift_register_entries})
+        &LayerInventory::cells_present, &LayerInventory::shift_register_entries, &LayerInventory::sample_holds,
+        &LayerInventory::output_register_bytes})
     v.*f *= r;
   return v;
 }
@@ -41,7 +42,8 @@ std::string kernel_name(const LinearLayer& L) {
 
 /// Per-layer JSON and the network's cost from the simulation's counters.
 nlohmann::json report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
-                      const std::vector<int>& replication, const Pipeline& pipe, bool print) {
+                      const std::vector<int>& replication, const std::vector<bool>& signed_inputs,
+                      const Pipeline& pipe, bool print) {
   const PlatformConfig& pc = hw.platform;
   const double images = std::max<size_t>(r.logits.size(), 1), clk = pc.clock_ns();
   const Table table({{"layer", -30},
@@ -69,15 +71,15 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     }
     const LinearLayer& L = model.linear[st.linear];
     const bool sparse = hw.mapping.scheme == MappingScheme::Sparse;
-    const LayerInventory v = replicated(layer_inventory(L, hw.mapping.scheme, hw.mapping, hw.columns_per_adc),
-                                        sparse ? 1 : replication[st.linear]);
+    const LayerInventory v =
+        replicated(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear]), sparse ? 1 : replication[st.linear]);
     ActionCounts a;
     if (sparse) {
       a = layer_actions_per_image(v, 0);  // counted from the Toeplitz inventory (one iteration)
     } else {
       a = pipe.tile(st.linear).actions();
       for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts,
-                        &a.buffer_read_bytes, &a.buffer_write_bytes})
+                        &a.samples, &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes})
         *x /= images;
     }
     add_layer_cost(cost, hw, v, a);
@@ -166,12 +168,14 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   }
   const CrossbarBackend& programmed = given ? *given : *own;
   const std::vector<int> replication = resolve_replication(model, programmed, pc);
+  std::vector<bool> signed_inputs;  // as the programmed layers stream them
+  for (size_t l = 0; l < model.linear.size(); ++l)
+    signed_inputs.push_back(programmed.statistics(static_cast<int>(l)).signed_inputs);
   // Sparse (Toeplitz) layers: one iteration per image on their own crossbars and converters.
   std::vector<double> sparse_ns;
   if (hw.mapping.scheme == MappingScheme::Sparse)
     for (const LinearLayer& L : model.linear)
-      sparse_ns.push_back(
-          sparse_iteration_ns(layer_inventory(L, MappingScheme::Sparse, hw.mapping, hw.columns_per_adc), pc));
+      sparse_ns.push_back(sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()]), pc));
   const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(data.test.count(), "simulating ");
   Pipeline pipe(
@@ -186,7 +190,7 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
     throw InputError(
         "the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
         "for the schedule (deadlock)");
-  nlohmann::json j = report(model, hw, r, replication, pipe, print);
+  nlohmann::json j = report(model, hw, r, replication, signed_inputs, pipe, print);
   j["model"] = model.path;
   j["clock_mhz"] = pc.clock_mhz;
   j["timing"] = pc.detailed ? "detailed" : "ideal";

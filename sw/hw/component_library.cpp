@@ -14,7 +14,7 @@
 
 namespace xbarsim {
 
-const char* builtin_component_library_yaml();  // generated from configs/components/isaac_paper.yaml
+const char* builtin_component_library_yaml(const char* name);  // configs/components/<name>.yaml, compiled in
 
 double scale_by_bits(double value, int ref, int bits, Scaling rule) {
   switch (rule) {
@@ -117,19 +117,24 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     throw InputError(origin + ": YAML syntax error: " + e.what());
   }
   if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
-  static const char* kSections[] = {"adc",    "dac",          "dac_lut", "cell",  "accumulator", "shift_register",
-                                    "buffer", "interconnect", "digital", "memory"};
+  static const char* kSections[] = {"adc",         "dac",       "dac_lut",         "cell",   "accumulator",
+                                    "shift_register", "sample_hold", "shift_add", "output_register", "buffer",
+                                    "interconnect", "digital",   "memory"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string k = it->first.as<std::string>();
     if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
         std::end(kSections))
-      throw InputError(origin + ": unknown section '" + k +
-                       "' (adc, dac, cell, accumulator, shift_register, buffer, interconnect, digital, memory)");
+    {
+      std::string list;
+      for (const char* n : kSections) list += (list.empty() ? "" : ", ") + std::string(n);
+      throw InputError(origin + ": unknown section '" + k + "' (" + list + ")");
+    }
   }
   ComponentLibrary lib;
   lib.source = origin;
   Section adc(root, "adc", origin), dac(root, "dac", origin), lut(root, "dac_lut", origin), cell(root, "cell", origin),
-      acc(root, "accumulator", origin), sr(root, "shift_register", origin), buf(root, "buffer", origin),
+      acc(root, "accumulator", origin), sr(root, "shift_register", origin), sh(root, "sample_hold", origin),
+      sa(root, "shift_add", origin), outr(root, "output_register", origin), buf(root, "buffer", origin),
       noc(root, "interconnect", origin), dig(root, "digital", origin), mem(root, "memory", origin);
   lib.adc = converter(adc);
   lib.adc_columns_per_unit = adc.integer("columns_per_unit");
@@ -138,20 +143,30 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   lib.dac_lut = {lut.number("area_mm2"), lut.number("leakage_mw"), lut.number("read_pj")};
   lib.cell = {cell.number("area_mm2", true), cell.number("leakage_mw"), cell.number("read_pj")};
   lib.accumulator = {acc.number("area_mm2"), acc.number("leakage_mw"), acc.number("accumulate_pj")};
-  lib.shift_register = {sr.number("area_mm2_per_entry"), sr.number("leakage_mw_per_entry"), sr.number("shift_pj")};
+  lib.shift_register = {sr.number("area_mm2_per_entry"), sr.number("leakage_mw_per_entry"), sr.number("shift_pj"),
+                        sr.number("read_pj")};
+  lib.sample_hold = {sh.number("area_mm2"), sh.number("leakage_mw"), sh.number("sample_pj")};
+  lib.shift_add.adcs_per_unit = sa.integer("adcs_per_unit");
+  lib.shift_add.area_mm2 = sa.number("area_mm2");
+  lib.shift_add.leakage_mw = sa.number("leakage_mw");
+  lib.shift_add.op_pj = sa.number("op_pj");
+  lib.output_register = {outr.number("area_mm2_per_byte"), outr.number("leakage_mw_per_byte"),
+                         outr.number("write_pj")};
   lib.buffer = {buf.number("area_mm2_per_kib"), buf.number("leakage_mw_per_kib"), buf.number("read_pj_per_byte"),
                 buf.number("write_pj_per_byte")};
   lib.interconnect = {noc.number("area_mm2"), noc.number("leakage_mw"), noc.number("transfer_pj_per_byte")};
   lib.digital = {dig.number("area_mm2"), dig.number("leakage_mw"), dig.number("op_pj")};
   lib.memory = {mem.number("transfer_pj_per_byte")};
-  for (const Section* s : {&adc, &dac, &lut, &cell, &acc, &sr, &buf, &noc, &dig, &mem}) s->finish();
+  for (const Section* s : {&adc, &dac, &lut, &cell, &acc, &sr, &sh, &sa, &outr, &buf, &noc, &dig, &mem}) s->finish();
   return lib;
 }
 
 ComponentLibrary load_component_library(const ConfigTree& cfg) {
   const std::string path = cfg.get_string("components.library");
-  if (path.empty())
-    return parse_component_library(builtin_component_library_yaml(), "built-in configs/components/isaac_paper.yaml");
+  // A built-in library by name (a file of that name must be written as ./isaac etc.).
+  const std::string name = path.empty() ? "isaac_paper" : path;
+  if (const char* text = builtin_component_library_yaml(name.c_str()))
+    return parse_component_library(text, "built-in configs/components/" + name + ".yaml");
   return parse_component_library(read_input_file(path, "the component library (components.library)", kMaxYamlBytes),
                                  path);
 }

@@ -41,9 +41,21 @@ struct ComponentLibrary {
   struct Accumulator {
     double area_mm2 = 0, leakage_mw = 0, accumulate_pj = 0;  ///< one per crossbar; per output value
   } accumulator;
-  struct ShiftRegister {
-    double area_mm2_per_entry = 0, leakage_mw_per_entry = 0, shift_pj = 0;  ///< per entry shifted in
+  struct ShiftRegister {  ///< the input register (shift register) of a layer, per 8-bit entry
+    double area_mm2_per_entry = 0, leakage_mw_per_entry = 0;
+    double shift_pj = 0;  ///< per entry shifted in
+    double read_pj = 0;   ///< per entry read into a DAC (every DAC conversion)
   } shift_register;
+  struct SampleHold {  ///< one per physical column: holds the column's read for its (shared) ADC
+    double area_mm2 = 0, leakage_mw = 0, sample_pj = 0;
+  } sample_hold;
+  struct ShiftAdd {  ///< shift-and-add of sliced reads (bit-serial inputs, bit-sliced weights)
+    int adcs_per_unit = 1;  ///< ADCs whose results one unit combines
+    double area_mm2 = 0, leakage_mw = 0, op_pj = 0;  ///< one unit; one converted value shifted and added
+  } shift_add;
+  struct OutputRegister {  ///< holds the shift-and-add results: 2 bytes per weight column of a crossbar
+    double area_mm2_per_byte = 0, leakage_mw_per_byte = 0, write_pj = 0;  ///< write: one shift-and-add result
+  } output_register;
   struct Buffer {
     double area_mm2_per_kib = 0, leakage_mw_per_kib = 0, read_pj_per_byte = 0, write_pj_per_byte = 0;
   } buffer;
@@ -66,7 +78,8 @@ double scale_by_bits(double value, int ref, int bits, Scaling rule);
 /// duplicate keys).
 ComponentLibrary parse_component_library(const std::string& yaml_text, const std::string& origin);
 
-/// The library named by `components.library` ("" = the built-in configs/components/isaac_paper.yaml).
+/// The library named by `components.library`: a YAML file, or a built-in by name (isaac_paper,
+/// the default, or isaac: configs/components/<name>.yaml compiled in).
 ComponentLibrary load_component_library(const ConfigTree& cfg);
 
 }  // namespace xbarsim

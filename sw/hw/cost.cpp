@@ -13,6 +13,9 @@ ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) 
   accumulator += o.accumulator;
   shift_register += o.shift_register;
   buffer += o.buffer;
+  sample_hold += o.sample_hold;
+  shift_add += o.shift_add;
+  output_register += o.output_register;
   interconnect += o.interconnect;
   digital += o.digital;
   memory += o.memory;
@@ -20,8 +23,20 @@ ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) 
 }
 
 ComponentBreakdown ComponentBreakdown::operator*(double k) const {
-  return {crossbar * k, adc * k,          dac * k,     accumulator * k, shift_register * k,
-          buffer * k,   interconnect * k, digital * k, memory * k};
+  ComponentBreakdown r;
+  r.crossbar = crossbar * k;
+  r.adc = adc * k;
+  r.dac = dac * k;
+  r.accumulator = accumulator * k;
+  r.shift_register = shift_register * k;
+  r.buffer = buffer * k;
+  r.sample_hold = sample_hold * k;
+  r.shift_add = shift_add * k;
+  r.output_register = output_register * k;
+  r.interconnect = interconnect * k;
+  r.digital = digital * k;
+  r.memory = memory * k;
+  return r;
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
@@ -31,6 +46,9 @@ nlohmann::json ComponentBreakdown::to_json() const {
           {"accumulator", accumulator},
           {"shift_register", shift_register},
           {"buffer", buffer},
+          {"sample_hold", sample_hold},
+          {"shift_add", shift_add},
+          {"output_register", output_register},
           {"interconnect", interconnect},
           {"digital", digital},
           {"memory", memory},
@@ -43,6 +61,8 @@ ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
   cell_reads += o.cell_reads;
   accumulates += o.accumulates;
   shifts += o.shifts;
+  samples += o.samples;
+  shift_adds += o.shift_adds;
   buffer_read_bytes += o.buffer_read_bytes;
   buffer_write_bytes += o.buffer_write_bytes;
   bus_bytes += o.bus_bytes;
@@ -57,8 +77,11 @@ ComponentBreakdown CostModel::area_mm2(const LayerInventory& v) const {
   a.adc = v.adcs * lib.adc.area_at(adc_bits_priced());
   a.dac = v.dacs * (lib.dac.area_at(dac_bits_priced()) + (dac_lut ? lib.dac_lut.area_mm2 : 0.0));
   a.accumulator = v.accumulators * lib.accumulator.area_mm2;
-  a.shift_register = v.shift_register_entries * lib.shift_register.area_mm2_per_entry;
+  a.shift_register = v.shift_register_entries * v.input_bytes * lib.shift_register.area_mm2_per_entry;
   a.buffer = v.buffer_bytes / kKiB * lib.buffer.area_mm2_per_kib;
+  a.sample_hold = v.sample_holds * lib.sample_hold.area_mm2;
+  a.shift_add = shift_add_units(v) * lib.shift_add.area_mm2;
+  a.output_register = v.output_register_bytes * lib.output_register.area_mm2_per_byte;
   return a;
 }
 
@@ -68,8 +91,11 @@ ComponentBreakdown CostModel::leakage_mw(const LayerInventory& v) const {
   p.adc = v.adcs * lib.adc.leakage_mw;
   p.dac = v.dacs * (lib.dac.leakage_mw + (dac_lut ? lib.dac_lut.leakage_mw : 0.0));
   p.accumulator = v.accumulators * lib.accumulator.leakage_mw;
-  p.shift_register = v.shift_register_entries * lib.shift_register.leakage_mw_per_entry;
+  p.shift_register = v.shift_register_entries * v.input_bytes * lib.shift_register.leakage_mw_per_entry;
   p.buffer = v.buffer_bytes / kKiB * lib.buffer.leakage_mw_per_kib;
+  p.sample_hold = v.sample_holds * lib.sample_hold.leakage_mw;
+  p.shift_add = shift_add_units(v) * lib.shift_add.leakage_mw;
+  p.output_register = v.output_register_bytes * lib.output_register.leakage_mw_per_byte;
   return p;
 }
 
@@ -82,6 +108,15 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
   p.adc += v.adcs * lib.adc.conversion_pj_at(adc_bits_priced()) * lib.adc_sample_rate_gsps;
   p.dac += v.dacs * dac_conversion_pj() * clock_ghz;
   p.accumulator += v.accumulators * lib.accumulator.accumulate_pj * clock_ghz;
+  // One read per cycle: every DAC reads its input register entry, every column is sampled;
+  // every conversion is shifted, added and written to the output register (sliced reads).
+  p.shift_register += v.dacs * lib.shift_register.read_pj * clock_ghz;
+  p.sample_hold += v.sample_holds * lib.sample_hold.sample_pj * clock_ghz;
+  if (v.sliced()) {
+    const double conversions_per_ns = v.adcs * lib.adc_sample_rate_gsps;
+    p.shift_add += conversions_per_ns * lib.shift_add.op_pj;
+    p.output_register += conversions_per_ns * lib.output_register.write_pj;
+  }
   return p;
 }
 
@@ -91,7 +126,10 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   e.adc = a.adc_conversions * lib.adc.conversion_pj_at(adc_bits_priced());
   e.dac = a.dac_conversions * dac_conversion_pj();
   e.accumulator = a.accumulates * lib.accumulator.accumulate_pj;
-  e.shift_register = a.shifts * lib.shift_register.shift_pj;
+  e.shift_register = a.shifts * lib.shift_register.shift_pj + a.dac_conversions * lib.shift_register.read_pj;
+  e.sample_hold = a.samples * lib.sample_hold.sample_pj;
+  e.shift_add = a.shift_adds * lib.shift_add.op_pj;
+  e.output_register = a.shift_adds * lib.output_register.write_pj;
   e.buffer = a.buffer_read_bytes * lib.buffer.read_pj_per_byte + a.buffer_write_bytes * lib.buffer.write_pj_per_byte;
   e.interconnect = a.bus_bytes * lib.interconnect.transfer_pj_per_byte;
   e.digital = a.digital_ops * lib.digital.op_pj;
@@ -113,12 +151,18 @@ ComponentBreakdown CostModel::platform_leakage_mw(int digital_units) const {
   return p;
 }
 
+long long CostModel::shift_add_units(const LayerInventory& v) const {
+  return v.sliced() ? (v.adcs + lib.shift_add.adcs_per_unit - 1) / lib.shift_add.adcs_per_unit : 0;
+}
+
 ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries) {
-  const double n = static_cast<double>(v.iterations);
+  const double n = static_cast<double>(v.iterations), reads = static_cast<double>(v.reads());
   ActionCounts a;
-  a.dac_conversions = n * v.dacs;
-  a.cell_reads = n * v.cells_used;
-  a.adc_conversions = n * v.row_blocks * v.physical_cols;
+  a.dac_conversions = reads * v.dacs;
+  a.cell_reads = reads * v.cells_used;
+  a.adc_conversions = reads * v.row_blocks * v.physical_cols;
+  a.samples = a.adc_conversions;
+  a.shift_adds = v.sliced() ? a.adc_conversions : 0.0;
   a.accumulates = n * v.row_blocks * v.cols;
   a.shifts = static_cast<double>(shifted_entries);
   // Inputs come from the layer's buffer (into the shift register, or straight to the DACs

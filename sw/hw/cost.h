@@ -14,9 +14,11 @@ namespace xbarsim {
 /// One figure per component class (mm2, mW, pJ, ... as the name of the variable says).
 struct ComponentBreakdown {
   double crossbar = 0, adc = 0, dac = 0, accumulator = 0, shift_register = 0, buffer = 0;
+  double sample_hold = 0, shift_add = 0, output_register = 0;
   double interconnect = 0, digital = 0, memory = 0;  ///< platform-level components
   double total() const {
-    return crossbar + adc + dac + accumulator + shift_register + buffer + interconnect + digital + memory;
+    return crossbar + adc + dac + accumulator + shift_register + buffer + sample_hold + shift_add + output_register +
+           interconnect + digital + memory;
   }
   /// The paper's scope (Table "Overhead comparison"): arrays, converters, accumulators.
   double arrays_and_converters() const { return crossbar + adc + dac + accumulator; }
@@ -32,6 +34,8 @@ struct ComponentBreakdown {
 /// Actions of the units of one layer (or a network), counted by a command or a simulation.
 struct ActionCounts {
   double dac_conversions = 0, adc_conversions = 0, cell_reads = 0, accumulates = 0, shifts = 0;
+  double samples = 0;     ///< sample-and-hold captures (one per converted column read)
+  double shift_adds = 0;  ///< converted values shifted and added (sliced reads), each written to the output register
   double buffer_read_bytes = 0, buffer_write_bytes = 0;
   double bus_bytes = 0, digital_ops = 0, memory_bytes = 0;  ///< platform-level actions
   ActionCounts& operator+=(const ActionCounts& o);
@@ -52,6 +56,8 @@ struct CostModel {
   int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.dac.reference_bits; }
   int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.adc.reference_bits; }
 
+  /// Shift-and-add units of a layer with sliced reads: ceil(ADCs / shift_add.adcs_per_unit).
+  long long shift_add_units(const LayerInventory& v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;
   ComponentBreakdown peak_power_mw(const LayerInventory& v) const;
@@ -66,9 +72,11 @@ struct CostModel {
   }
 };
 
-/// Actions of one image through a layer, counted from its inventory: every iteration converts
-/// on every DAC, reads every used cell, converts every physical column and accumulates every
-/// crossbar's outputs; a dense layer shifts `shifted_entries` inputs in from its buffer.
+/// Actions of one image through a layer, counted from its inventory: every read (input slices
+/// x iterations) converts on every DAC (each fed by an input register entry), reads every used
+/// cell, samples and converts every physical column (and shifts and adds each when reads are
+/// sliced); every iteration accumulates every crossbar's outputs; a dense layer shifts
+/// `shifted_entries` inputs in from its buffer.
 ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries);
 
 }  // namespace xbarsim

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "sw/analog/input_slicing.h"
 #include "sw/common/errors.h"
 
 namespace xbarsim {
@@ -26,7 +27,8 @@ LayerInventory& LayerInventory::operator+=(const LayerInventory& o) {
        {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks, &LayerInventory::col_blocks,
         &LayerInventory::physical_cols, &LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
         &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::cells_used,
-        &LayerInventory::iterations, &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes})
+        &LayerInventory::iterations, &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes,
+        &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
     this->*f = add(this->*f, o.*f);
   return *this;
 }
@@ -63,6 +65,9 @@ LayerInventory matrix_inventory(long long rows, long long cols, long long iterat
   v.array_cols = mapping.max_cols ? mapping.max_cols : v.physical_cols;
   v.cells_present = mul(mul(v.crossbars, v.array_rows), v.array_cols);
   v.cells_used = mul(rows, v.physical_cols);
+  v.sample_holds = mul(v.row_blocks, v.physical_cols);
+  v.weight_slices = mapping.weight_slices();
+  v.output_register_bytes = v.sliced() ? mul(mul(v.row_blocks, cols), 2) : 0;
   return v;
 }
 
@@ -89,7 +94,7 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
     const long long ow = L.is_conv ? (L.in.w - L.k_w) / L.stride_w + 1 : 1;
     v = matrix_inventory(mul(mul(L.in.h, L.in.w), L.c_in), mul(mul(oh, ow), L.c_out), 1, mapping, columns_per_adc);
     // Only the K weights of each column's window are programmed (the rest are zeros).
-    v.cells_used = add(mul(mul(v.cols, L.rows()), mapping.differential() ? 2 : 1),
+    v.cells_used = add(mul(mul(v.cols, L.rows()), mapping.columns_per_weight()),
                        mapping.analog_sum() ? mul(v.rows, v.col_blocks) : 0);
   }
   v.name = L.name;
@@ -104,10 +109,12 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
   return v;
 }
 
-std::vector<LayerInventory> network_inventory(const Model& m, const MappingSpec& mapping, int columns_per_adc) {
-  std::vector<LayerInventory> out;
-  for (const LinearLayer& L : m.linear) out.push_back(layer_inventory(L, mapping.scheme, mapping, columns_per_adc));
-  return out;
+LayerInventory& stream_inputs(LayerInventory& v, const ConvertersSpec& converters, bool signed_inputs) {
+  const int bits = converters.activation_bits();
+  v.input_slices = make_input_slicing(bits, converters.dac_bits, signed_inputs, 1.0).slices;
+  v.input_bytes = std::max(1, (bits + 7) / 8);
+  v.output_register_bytes = v.sliced() ? mul(mul(v.row_blocks, v.cols), 2) : 0;
+  return v;
 }
 
 }  // namespace xbarsim

@@ -12,10 +12,13 @@
 namespace xbarsim {
 
 /// Counting rules: crossbars = ceil(rows / R) x ceil(cols / C') with balanced blocks, where
-/// C' is the weight columns one array of max_cols physical columns holds; one DAC per used
-/// row of every crossbar; ceil(physical columns / columns_per_adc) ADCs per crossbar; one
-/// accumulator per crossbar; cells present = R x C physical arrays (rows x physical columns
-/// when unbounded); one shift register of `rows` entries per dense layer.
+/// C' is the weight columns one array of max_cols physical columns holds (a weight's slices
+/// and polarities stay on one array); one DAC per used row of every crossbar;
+/// ceil(physical columns / columns_per_adc) ADCs per crossbar; one sample-and-hold per physical
+/// column; one accumulator per crossbar; cells present = R x C physical arrays (rows x
+/// physical columns when unbounded); one shift register (input register) of `rows` entries of
+/// input_bytes per dense layer; with sliced reads (input slices or weight slices > 1) an
+/// output register of 2 bytes per weight column of every crossbar.
 struct LayerInventory {
   std::string name;
   int k_h = 1, k_w = 1, c_in = 0, c_out = 0;
@@ -27,10 +30,18 @@ struct LayerInventory {
   long long array_rows = 0, array_cols = 0;  ///< one physical array
   long long crossbars = 0, dacs = 0, adcs = 0, accumulators = 0;
   long long cells_present = 0, cells_used = 0;
-  long long iterations = 0;              ///< crossbar reads per image
+  long long iterations = 0;              ///< input vectors per image (dense: output pixels)
+  int input_slices = 1;                  ///< crossbar reads per iteration (bit-serial inputs)
+  int weight_slices = 1;                 ///< cells of one polarity of a weight (adjacent columns)
+  int input_bytes = 1;                   ///< bytes of one input register entry (activation bits / 8)
+  long long sample_holds = 0;            ///< one per physical column of every crossbar
+  long long output_register_bytes = 0;   ///< sliced reads: 2 bytes per weight column of every crossbar
   long long shift_register_entries = 0;  ///< dense: the unrolled window; sparse: none
   long long buffer_bytes = 0;            ///< the layer's input activations (one byte per value)
   int columns_per_adc = 128;
+  /// Reads are combined by shift-and-add (input or weight slices).
+  bool sliced() const { return input_slices > 1 || weight_slices > 1; }
+  long long reads() const { return iterations * input_slices; }  ///< crossbar reads per image
   double utilization() const { return cells_present ? static_cast<double>(cells_used) / cells_present : 0.0; }
   /// Sums the counts of `o` (names and shapes are kept).
   LayerInventory& operator+=(const LayerInventory& o);
@@ -53,8 +64,9 @@ inline long long adcs_for_columns(long long physical_cols, int columns_per_adc) 
 LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const MappingSpec& mapping,
                                int columns_per_adc);
 
-/// Every linear layer of `m` under the configured mapping scheme.
-std::vector<LayerInventory> network_inventory(const Model& m, const MappingSpec& mapping, int columns_per_adc);
+/// Sets the input streaming of `v`: reads per iteration (InputSlicing of the converters for
+/// signed or unsigned inputs), the input register's entry bytes, and the output register.
+LayerInventory& stream_inputs(LayerInventory& v, const ConvertersSpec& converters, bool signed_inputs);
 
 /// Entries shifted into a dense layer's input register per image: a whole window (K entries)
 /// at the start of each output row, then stride x k_h x c_in per step (K when the stride is

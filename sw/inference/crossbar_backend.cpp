@@ -62,6 +62,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     }
   });
   stats_.assign(L, LayerStatistics{});
+  const std::vector<bool> may_be_negative = linear_inputs_signed(model_);
   for (int l = 0; l < L; ++l) {
     LayerStatistics& st = stats_[l];
     st.out_lo = tally[0].lo[l];
@@ -77,6 +78,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       for (int s = 0; s < per_image && k * per_image + s < n; ++s)
         st.samples.row(k * per_image + s) = ty.rows[l].row(s);
     }
+    // Signedness is the network's (the same reads in every command); the data can only add it.
+    st.signed_inputs = st.signed_inputs || may_be_negative[l];
     if (!(st.x_max > 0)) st.x_max = 1.0;  // a layer that only ever sees zeros
   }
 }

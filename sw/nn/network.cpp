@@ -165,4 +165,42 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
   return Eigen::Map<const Eigen::VectorXf>(o.data(), static_cast<Eigen::Index>(o.size()));
 }
 
+std::vector<bool> linear_inputs_signed(const Model& m) {
+  std::vector<char> nonnegative(m.values.size(), 0);
+  bool input_nonnegative = m.pre.scale >= 0;
+  for (size_t c = 0; c < m.pre.mean.size(); ++c)
+    input_nonnegative = input_nonnegative && m.pre.mean[c] <= 0 && (c >= m.pre.std.size() || m.pre.std[c] > 0);
+  if (!nonnegative.empty()) nonnegative[0] = input_nonnegative;
+  std::vector<bool> out(m.linear.size(), true);
+  for (const Op& op : m.ops) {
+    auto in_nonneg = [&](size_t k) { return k < op.in.size() && nonnegative.at(op.in[k]) != 0; };
+    bool result = false;
+    switch (op.kind) {
+      case OpKind::Linear:
+        out.at(op.linear) = !in_nonneg(0);
+        break;
+      case OpKind::Relu:
+        result = true;
+        break;
+      case OpKind::Add:
+        result = in_nonneg(0) && in_nonneg(1);
+        break;
+      case OpKind::MaxPool:
+      case OpKind::AvgPool:
+      case OpKind::GlobalAvgPool:
+      case OpKind::Flatten:
+      case OpKind::Slice:
+        result = in_nonneg(0);
+        break;
+      case OpKind::Pad:
+        result = in_nonneg(0) && op.pad_value >= 0;
+        break;
+      case OpKind::Affine:
+        break;
+    }
+    if (op.out >= 0) nonnegative.at(op.out) = result;
+  }
+  return out;
+}
+
 }  // namespace xbarsim

@@ -55,6 +55,13 @@ struct LayerTrace {
 void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x,
                 const std::vector<float>* x2, std::vector<float>& y);
 
+/// Per linear layer: its inputs may be negative. Static: the network input is non-negative
+/// when every preprocessing mean is <= 0; a ReLU's output is non-negative, and pooling,
+/// flatten, slice, pad (with a value >= 0) and Add keep non-negative inputs so; everything else
+/// may be negative. The crossbars quantize and stream a layer's inputs by it (signed inputs
+/// take a sign), so every command counts the same reads.
+std::vector<bool> linear_inputs_signed(const Model& m);
+
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend,
                           LayerTrace* trace = nullptr);
 

@@ -321,7 +321,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     EvalLayer el;
     el.layer = &model.linear[l];
     el.name = model.linear[l].name;
-    el.inventory = layer_inventory(model.linear[l], MappingScheme::Dense, ac.mapping, point.hw.columns_per_adc);
+    el.inventory = point.hw.inventory(model.linear[l], MappingScheme::Dense, xb.statistics(l).signed_inputs);
     ErrorTally sum;
     for (int k = 0; k < r.images; ++k) sum += t.layer[static_cast<size_t>(k) * L + l];
     el.mean_relative_error = sum.mean();
@@ -335,7 +335,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     }
     add_layer_cost(r.cost, point.hw, el.inventory,
                    layer_actions_per_image(el.inventory, dense_shifted_entries(model.linear[l])));
-    r.cost.time_ns += el.inventory.iterations * clock_ns;
+    r.cost.time_ns += el.inventory.reads() * clock_ns;
     r.layers.push_back(el);
   }
   return r;

@@ -15,6 +15,12 @@ struct HardwareContext {
   PlatformConfig platform;
   int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library
   CostModel cost;
+  /// The inventory of layer L under `scheme`, its inputs streamed as the converters say
+  /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's).
+  LayerInventory inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs) const {
+    LayerInventory v = layer_inventory(L, scheme, mapping, columns_per_adc);
+    return stream_inputs(v, converters, signed_inputs);
+  }
 };
 
 /// Reads components.library and platform.*; mapping and converters come from `ac`.

@@ -1,5 +1,7 @@
 #include "sw/study/overhead_study.h"
 
+#include "sw/nn/network.h"
+
 namespace xbarsim {
 
 nlohmann::json MappingOverhead::to_json() const {
@@ -39,7 +41,9 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
   auto priced = [&](const LayerInventory& v) {
     return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)};
   };
-  for (const LinearLayer& L : m.linear) {
+  const std::vector<bool> signed_inputs = linear_inputs_signed(m);
+  for (size_t l = 0; l < m.linear.size(); ++l) {
+    const LinearLayer& L = m.linear[l];
     LayerOverhead o;
     o.name = L.name;
     o.k_h = L.k_h;
@@ -47,8 +51,8 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
     o.c_in = L.c_in;
     o.c_out = L.c_out;
     o.input = L.in;
-    o.dense = priced(layer_inventory(L, MappingScheme::Dense, hw.mapping, hw.columns_per_adc));
-    o.sparse = priced(layer_inventory(L, MappingScheme::Sparse, hw.mapping, hw.columns_per_adc));
+    o.dense = priced(hw.inventory(L, MappingScheme::Dense, signed_inputs[l]));
+    o.sparse = priced(hw.inventory(L, MappingScheme::Sparse, signed_inputs[l]));
     for (auto [total, part] : {std::pair{&r.dense_total, &o.dense}, std::pair{&r.sparse_total, &o.sparse}}) {
       total->inv += part->inv;
       total->area_mm2 += part->area_mm2;

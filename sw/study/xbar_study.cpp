@@ -101,6 +101,7 @@ XbarStudyResult run_xbar_study(const XbarStudySpec& spec, const HardwareContext&
   r.program_time_s = std::chrono::duration<double>(t1 - t0).count();
   r.error = relative_error(r.actual, r.ideal);
   r.inventory = matrix_inventory(spec.rows, spec.cols, spec.vectors, ac.mapping, hw.columns_per_adc);
+  stream_inputs(r.inventory, ac.converters, layer.input_slicing().sign_slice);
   r.area_mm2 = hw.cost.area_mm2(r.inventory);
   for (int b = 0; b < layer.crossbars(); ++b) {
     const CrossbarReport& rep = layer.reports()[b];

@@ -204,7 +204,10 @@ std::string library(const std::string& adc, const std::string& dac) {
 dac_lut: {area_mm2: 5e-5, leakage_mw: 0, read_pj: 0.05}
 cell: {area_mm2: 1e-8, leakage_mw: 0, read_pj: 1e-3}
 accumulator: {area_mm2: 6e-5, leakage_mw: 0, accumulate_pj: 0.5}
-shift_register: {area_mm2_per_entry: 1e-6, leakage_mw_per_entry: 0, shift_pj: 0.03}
+shift_register: {area_mm2_per_entry: 1e-6, leakage_mw_per_entry: 0, shift_pj: 0.03, read_pj: 0}
+sample_hold: {area_mm2: 0, leakage_mw: 0, sample_pj: 0}
+shift_add: {adcs_per_unit: 2, area_mm2: 0, leakage_mw: 0, op_pj: 0}
+output_register: {area_mm2_per_byte: 0, leakage_mw_per_byte: 0, write_pj: 0}
 buffer: {area_mm2_per_kib: 1e-3, leakage_mw_per_kib: 0, read_pj_per_byte: 0.5, write_pj_per_byte: 0.5}
 interconnect: {area_mm2: 0.03, leakage_mw: 0, transfer_pj_per_byte: 1}
 digital: {area_mm2: 2e-4, leakage_mw: 0, op_pj: 0.3}

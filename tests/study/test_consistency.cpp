@@ -137,9 +137,11 @@ TEST(Consistency, SmallLayerEnergyByHand) {
   EXPECT_EQ(a.cell_reads, 25 * 18 * 4);
   EXPECT_EQ(a.adc_conversions, 25 * 4);
   EXPECT_EQ(a.shifts, 5 * (18 + 4 * 6));  // a full window per output row, then 3 x 2 entries per step
+  EXPECT_EQ(a.samples, 25 * 4);
+  EXPECT_EQ(a.shift_adds, 0);  // one read of one cell per weight: nothing to shift and add
   // Library figures (configs/components/isaac_paper.yaml) in pJ per action.
-  const double hand =
-      450 * 10.0 + 1800 * 1.46484375e-3 + 100 * 1.5625 + 100 * 0.0 + 210 * 0.0323 + 210 * 0.539 + 100 * 0.539;
+  const double hand = 450 * 10.0 + 1800 * 1.46484375e-3 + 100 * 1.5625 + 100 * 0.0 + 210 * 0.0323 + 210 * 0.539 +
+                      100 * 0.539 + 100 * 9.765625e-4;
   const ComponentBreakdown e = p.hw.cost.dynamic_energy_pj(a);
   EXPECT_NEAR(e.total(), hand, 1e-9 * hand);
   EXPECT_NEAR(e.dac, 4500.0, 1e-9);
