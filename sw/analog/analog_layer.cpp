@@ -1,5 +1,8 @@
 #include "sw/analog/analog_layer.h"
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -227,6 +230,24 @@ static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, in
   return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
 }
 
+/// Bit k set when in[k] != 0, for w <= 64 values.
+template <typename S>
+static inline uint64_t nonzero_mask(const S* in, int w) {
+  uint64_t mask = 0;
+#if defined(__AVX512F__)
+  if constexpr (std::is_same_v<S, float>) {
+    for (int k = 0; k < w; k += 16) {
+      const __mmask16 live = w - k >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (w - k)) - 1);
+      const __m512 v = _mm512_maskz_loadu_ps(live, in + k);
+      mask |= static_cast<uint64_t>(_mm512_mask_cmpneq_ps_mask(live, v, _mm512_setzero_ps())) << k;
+    }
+    return mask;
+  }
+#endif
+  for (int k = 0; k < w; ++k) mask |= static_cast<uint64_t>(in[k] != S(0)) << k;
+  return mask;
+}
+
 /// currents = xq.middleCols(row0, g.rows()) * g for reads whose digits are mostly zero (bit
 /// planes): every non-zero input adds its row of g, in row order. Reads go in tiles of
 /// kTile rows accumulated by rows, then written into the column-major currents.
@@ -249,8 +270,7 @@ static void accumulate_reads(const AnalogLayer::RowMat<S>& g, const AnalogLayer:
       int count = 0;
       for (Eigen::Index k0 = 0; k0 < rows; k0 += 64) {  // a bit mask per 64 inputs, then its set bits
         const int w = static_cast<int>(std::min<Eigen::Index>(64, rows - k0));
-        uint64_t mask = 0;
-        for (int k = 0; k < w; ++k) mask |= static_cast<uint64_t>(in[k0 + k] != S(0)) << k;
+        uint64_t mask = nonzero_mask(in + k0, w);
         for (; mask; mask &= mask - 1) nonzero[count++] = static_cast<int>(k0) + __builtin_ctzll(mask);
       }
       S* a = tile.data() + t * cols;
@@ -319,13 +339,18 @@ void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) cons
   const Col sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows).array();
   Col offset(currents.rows());
   Eigen::ArrayXd v(currents.rows());
+  const Eigen::Index ranges = x.adc_lo.cols(), per_range = currents.rows() / ranges;
   for (Eigen::Index c = 0; c < currents.cols(); ++c) {
-    // FastQuantizer::apply on the offset-subtracted current, vectorised (the same operations).
-    const FastQuantizer q(Quantizer{cfg_.converters.adc_bits, x.adc_lo(c), x.adc_hi(c)});
     offset = static_cast<S>(x.adc_offset(c)) * sum_x;
     auto col = currents.col(c).array();
     v = (col - offset).template cast<double>();
-    if (q.on) v = ((v.max(q.lo).min(q.hi) - q.lo) / q.step + 0.5).floor() * q.step + q.lo;
+    // FastQuantizer::apply on the offset-subtracted current, vectorised, over each read's range
+    // (the code by multiplying with 1 / step).
+    for (Eigen::Index g = 0; g < ranges; ++g) {
+      const FastQuantizer q(Quantizer{cfg_.converters.adc_bits, x.adc_lo(c, g), x.adc_hi(c, g)});
+      auto seg = v.segment(g * per_range, ranges == 1 ? v.size() : per_range);
+      if (q.on) seg = ((seg.max(q.lo).min(q.hi) - q.lo) * (1.0 / q.step) + 0.5).floor() * q.step + q.lo;
+    }
     col = v.template cast<S>() + offset;
   }
 }

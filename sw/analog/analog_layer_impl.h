@@ -17,7 +17,9 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// Bit-serial reads (mostly zero digits): the same by rows, for sparse accumulation.
   AnalogLayer::RowMat<double> geff_rows_d;
   AnalogLayer::RowMat<float> geff_rows_f;
-  Eigen::VectorXd adc_lo, adc_hi;  ///< A, per physical column
+  /// A, per physical column (rows) and per read of an input vector (columns: one, or the
+  /// input slices with converters.adc_range: per_read).
+  Eigen::MatrixXd adc_lo, adc_hi;
   Eigen::VectorXd adc_offset;      ///< per physical column: offset current per unit sum(X) removed before the ADC
   ColumnFit fit;
 };

@@ -135,23 +135,29 @@ void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) co
       if (cfg_.mapping.analog_sum() && c == x.pcols - 1) continue;  // the reference column itself
       x.adc_offset(c) = alpha_ * (cfg_.xbar.g_min_s - (x.offset_has_w_lo ? x.beta(c) * x.s(c) * x.w_lo : 0.0));
     }
-  x.adc_lo = Eigen::VectorXd::Zero(x.pcols);
-  x.adc_hi = Eigen::VectorXd::Zero(x.pcols);
+  const int ranges = cfg_.converters.adc_range == AdcRange::PerRead ? slicing_.slices : 1;
+  x.adc_lo = Eigen::MatrixXd::Zero(x.pcols, ranges);
+  x.adc_hi = Eigen::MatrixXd::Zero(x.pcols, ranges);
   if (cfg_.converters.adc_bits <= 0) return;
   if (cfg_.converters.adc_range == AdcRange::Full) {
     set_full_adc_ranges(x);
     return;
   }
-  // ADC ranges from the (offset-subtracted) currents of the range-estimation reads.
+  // ADC ranges from the (offset-subtracted) currents of the range-estimation reads (per read
+  // of a vector: its rows of the slice-major reads).
   Eigen::MatrixXd cur = currents_of(x, range_x);
   const Eigen::VectorXd sx = range_x.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
+  const Eigen::Index per_range = cur.rows() / ranges;
   for (int c = 0; c < x.pcols; ++c) {
     cur.col(c) -= x.adc_offset(c) * sx;
-    const double lo = cur.col(c).minCoeff(), hi = cur.col(c).maxCoeff();
-    const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
-                                ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
-    x.adc_lo(c) = lo - pad;
-    x.adc_hi(c) = hi + pad;
+    for (int g = 0; g < ranges; ++g) {
+      const auto seg = cur.col(c).segment(g * per_range, ranges == 1 ? cur.rows() : per_range);
+      const double lo = seg.minCoeff(), hi = seg.maxCoeff();
+      const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
+                                  ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
+      x.adc_lo(c, g) = lo - pad;
+      x.adc_hi(c, g) = hi + pad;
+    }
   }
 }
 
@@ -171,8 +177,8 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
                                   : levels * unit;
     const int need = static_cast<int>(std::ceil(std::log2(span / unit + 1) - 1e-12)) + (bipolar ? 1 : 0);
     const double lsb = reference ? span / (std::ldexp(1.0, bits) - 1) : std::ldexp(unit, std::max(0, need - bits));
-    x.adc_lo(c) = bipolar && !reference ? -std::ldexp(lsb, bits - 1) : 0.0;
-    x.adc_hi(c) = x.adc_lo(c) + (std::ldexp(1.0, bits) - 1) * lsb;
+    x.adc_lo(c, 0) = bipolar && !reference ? -std::ldexp(lsb, bits - 1) : 0.0;
+    x.adc_hi(c, 0) = x.adc_lo(c, 0) + (std::ldexp(1.0, bits) - 1) * lsb;
   }
 }
 

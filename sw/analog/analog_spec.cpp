@@ -123,7 +123,7 @@ ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   c.input_bits = parse_bits(cfg, "converters.input_bits");
   c.dac_bits = parse_bits(cfg, "converters.dac_bits");
   c.adc_range = require_enum<AdcRange>(cfg, "converters.adc_range",
-                                       {{"calibrated", AdcRange::Calibrated}, {"full", AdcRange::Full}});
+                                       {{"calibrated", AdcRange::Calibrated}, {"per_read", AdcRange::PerRead}, {"full", AdcRange::Full}});
   c.adc_bits = parse_bits(cfg, "converters.adc_bits");
   c.adc_margin = cfg.get_double("converters.adc_margin");
   c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");

@@ -91,7 +91,7 @@ struct CalibrationSpec {
   uint64_t seed = 7;
 };
 
-enum class AdcRange { Calibrated, Full };
+enum class AdcRange { Calibrated, PerRead, Full };
 
 /// Section `converters.`: one key per converter property, serving function and cost alike.
 struct ConvertersSpec {
@@ -102,7 +102,8 @@ struct ConvertersSpec {
   int adc_bits = 0;
   /// Bits of an activation code: input_bits, or dac_bits when input_bits is none (0 = analog).
   int activation_bits() const { return input_bits ? input_bits : dac_bits; }
-  /// calibrated: each column's range from calibration currents (+ adc_margin); full: the
+  /// calibrated: each column's range from calibration currents (+ adc_margin); per_read: the
+  /// same for each read (input slice) of a vector, the ADC's reference set per read; full: the
   /// physical full range of a slice column, rows x (2^cell_bits - 1) x (2^dac_bits - 1) levels,
   /// one level per code while adc_bits suffice (else 2^k levels per code).
   AdcRange adc_range = AdcRange::Calibrated;

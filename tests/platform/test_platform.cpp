@@ -150,6 +150,64 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   EXPECT_NEAR(driver.delay.to_seconds() * 1e9, fill + steady, 1e-6);
 }
 
+// Bit-serial inputs on bit-sliced weights: the modules stream every read and the tile counts
+// what the inventory's closed form says.
+TEST(Tile, BitSerialReadsOfSlicedWeights) {
+  ONE_SIMULATION_PER_PROCESS();
+  const LinearLayer L = conv_layer(4, 6, 3, 1, 1, 5, 5);  // 36 rows x 6 weight columns
+  AnalogConfig ac = quantized_partitioned();
+  ac.converters.input_bits = 8;
+  ac.converters.dac_bits = 2;  // 4 reads per iteration
+  ac.mapping.cell_bits = 2;
+  ac.mapping.weight_bits = 8;  // 4 cells per weight: 24 physical columns, one 32-column crossbar wide
+  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
+  analog.program(Eigen::MatrixXd());
+  PlatformConfig pc;
+  pc.detailed = false;
+  struct Driver : sc_core::sc_module {
+    tlm_utils::simple_initiator_socket<Driver> out{"out"};
+    LayerJob* job = nullptr;
+    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+    SC_HAS_PROCESS(Driver);
+    explicit Driver(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
+    void run() {
+      tlm::tlm_generic_payload p;
+      attach(p, *job, 0);
+      out->b_transport(p, delay);
+    }
+  } driver("driver");
+  Tile tile("tile", pc);
+  driver.out.bind(tile.noc2tile);
+  const auto act = random_activation(L.in, 7);
+  LayerJob job;
+  job.layer = &L;
+  job.analog = &analog;
+  job.activation = act.data();
+  job.detailed = false;
+  driver.job = &job;
+  sc_core::sc_start();
+  RowMatrixXf cols;
+  im2col(L, act.data(), cols);
+  Eigen::MatrixXf expect;
+  analog.forward<float>(cols, expect);
+  EXPECT_EQ(job.y, expect);
+  const int n = L.out.h * L.out.w;
+  LayerInventory inv = layer_inventory(L, MappingScheme::Dense, ac.mapping, pc.adc_columns_per_unit);
+  stream_inputs(inv, ac.converters, false);
+  ASSERT_EQ(inv.input_slices, 4);
+  const ActionCounts closed = layer_actions_per_image(inv, dense_shifted_entries(L)), counted = tile.actions();
+  EXPECT_EQ(counted.dac_conversions, 4.0 * n * 36);
+  EXPECT_EQ(counted.dac_conversions, closed.dac_conversions);
+  EXPECT_EQ(counted.adc_conversions, 4.0 * n * 24);
+  EXPECT_EQ(counted.adc_conversions, closed.adc_conversions);
+  EXPECT_EQ(counted.cell_reads, closed.cell_reads);
+  EXPECT_EQ(counted.shift_adds, closed.shift_adds);
+  EXPECT_EQ(counted.samples, closed.samples);
+  EXPECT_EQ(counted.accumulates, closed.accumulates);
+  // Ideal timing: one read per cycle.
+  EXPECT_NEAR(driver.delay.to_seconds() * 1e9, 4.0 * n * pc.clock_ns(), 1e-6);
+}
+
 namespace {
 
 /// A pipeline over `m` with `images` random images; returns its result after the run.
