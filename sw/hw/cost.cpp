@@ -6,36 +6,23 @@ namespace {
 constexpr double kKiB = 1024.0;
 }
 
+namespace {
+/// Every figure of a breakdown, for the element-wise operations.
+constexpr double ComponentBreakdown::*kParts[] = {
+    &ComponentBreakdown::crossbar,        &ComponentBreakdown::adc,          &ComponentBreakdown::dac,
+    &ComponentBreakdown::accumulator,     &ComponentBreakdown::shift_register, &ComponentBreakdown::buffer,
+    &ComponentBreakdown::sample_hold,     &ComponentBreakdown::shift_add,    &ComponentBreakdown::output_register,
+    &ComponentBreakdown::interconnect,    &ComponentBreakdown::digital,      &ComponentBreakdown::memory};
+}  // namespace
+
 ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) {
-  crossbar += o.crossbar;
-  adc += o.adc;
-  dac += o.dac;
-  accumulator += o.accumulator;
-  shift_register += o.shift_register;
-  buffer += o.buffer;
-  sample_hold += o.sample_hold;
-  shift_add += o.shift_add;
-  output_register += o.output_register;
-  interconnect += o.interconnect;
-  digital += o.digital;
-  memory += o.memory;
+  for (auto f : kParts) this->*f += o.*f;
   return *this;
 }
 
 ComponentBreakdown ComponentBreakdown::operator*(double k) const {
-  ComponentBreakdown r;
-  r.crossbar = crossbar * k;
-  r.adc = adc * k;
-  r.dac = dac * k;
-  r.accumulator = accumulator * k;
-  r.shift_register = shift_register * k;
-  r.buffer = buffer * k;
-  r.sample_hold = sample_hold * k;
-  r.shift_add = shift_add * k;
-  r.output_register = output_register * k;
-  r.interconnect = interconnect * k;
-  r.digital = digital * k;
-  r.memory = memory * k;
+  ComponentBreakdown r = *this;
+  for (auto f : kParts) r.*f *= k;
   return r;
 }
 

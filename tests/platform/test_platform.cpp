@@ -49,6 +49,48 @@ AnalogConfig quantized_partitioned() {
   return c;
 }
 
+/// Sends one job to a tile and keeps the annotated delay and the response.
+struct Driver : sc_core::sc_module {
+  tlm_utils::simple_initiator_socket<Driver> out{"out"};
+  LayerJob* job = nullptr;
+  sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+  tlm::tlm_response_status status = tlm::TLM_INCOMPLETE_RESPONSE;
+  SC_HAS_PROCESS(Driver);
+  explicit Driver(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
+  void run() {
+    tlm::tlm_generic_payload p;
+    attach(p, *job, 0);
+    out->b_transport(p, delay);
+    status = p.get_response_status();
+  }
+};
+
+/// One job of layer L on `analog` through a tile, simulated.
+struct TileRun {
+  TileRun(const LinearLayer& L, const AnalogLayer& analog, const PlatformConfig& pc, const std::vector<float>& act,
+          bool detailed)
+      : driver("driver"), tile("tile", pc) {
+    driver.out.bind(tile.noc2tile);
+    job.layer = &L;
+    job.analog = &analog;
+    job.activation = act.data();
+    job.detailed = detailed;
+    driver.job = &job;
+    sc_core::sc_start();
+  }
+  /// Values: exactly the analog layer's forward pass on the im2col rows.
+  void expect_forward_of(const AnalogLayer& analog) const {
+    RowMatrixXf cols;
+    im2col(*job.layer, job.activation, cols);
+    Eigen::MatrixXf expect;
+    analog.forward<float>(cols, expect);
+    EXPECT_EQ(job.y, expect);
+  }
+  Driver driver;
+  Tile tile;
+  LayerJob job;
+};
+
 }  // namespace
 
 TEST(ShiftRegisterBuffer, ContentsEqualIm2colAndShiftsAreCounted) {
@@ -82,36 +124,12 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   analog.program(Eigen::MatrixXd());
   PlatformConfig pc;
   pc.adc_columns_per_unit = 10;  // 2 ADCs shared by a crossbar's 20 columns
-  struct Driver : sc_core::sc_module {
-    tlm_utils::simple_initiator_socket<Driver> out{"out"};
-    LayerJob* job = nullptr;
-    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
-    tlm::tlm_response_status status = tlm::TLM_INCOMPLETE_RESPONSE;
-    SC_HAS_PROCESS(Driver);
-    explicit Driver(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
-    void run() {
-      tlm::tlm_generic_payload p;
-      attach(p, *job, 0);
-      out->b_transport(p, delay);
-      status = p.get_response_status();
-    }
-  } driver("driver");
-  Tile tile("tile", pc);
-  driver.out.bind(tile.noc2tile);
   const auto act = random_activation(L.in, 5);
-  LayerJob job;
-  job.layer = &L;
-  job.analog = &analog;
-  job.activation = act.data();
-  driver.job = &job;
-  sc_core::sc_start();
+  TileRun run(L, analog, pc, act, true);
+  Driver& driver = run.driver;
+  Tile& tile = run.tile;
   ASSERT_EQ(driver.status, tlm::TLM_OK_RESPONSE);
-  // Values: exactly the analog layer's forward pass on the im2col rows.
-  RowMatrixXf cols;
-  im2col(L, act.data(), cols);
-  Eigen::MatrixXf expect;
-  analog.forward<float>(cols, expect);
-  EXPECT_EQ(job.y, expect);
+  run.expect_forward_of(analog);
   // Counters.
   const int n = L.out.h * L.out.w;
   EXPECT_EQ(tile.iterations(), n);
@@ -164,33 +182,11 @@ TEST(Tile, BitSerialReadsOfSlicedWeights) {
   analog.program(Eigen::MatrixXd());
   PlatformConfig pc;
   pc.detailed = false;
-  struct Driver : sc_core::sc_module {
-    tlm_utils::simple_initiator_socket<Driver> out{"out"};
-    LayerJob* job = nullptr;
-    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
-    SC_HAS_PROCESS(Driver);
-    explicit Driver(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
-    void run() {
-      tlm::tlm_generic_payload p;
-      attach(p, *job, 0);
-      out->b_transport(p, delay);
-    }
-  } driver("driver");
-  Tile tile("tile", pc);
-  driver.out.bind(tile.noc2tile);
   const auto act = random_activation(L.in, 7);
-  LayerJob job;
-  job.layer = &L;
-  job.analog = &analog;
-  job.activation = act.data();
-  job.detailed = false;
-  driver.job = &job;
-  sc_core::sc_start();
-  RowMatrixXf cols;
-  im2col(L, act.data(), cols);
-  Eigen::MatrixXf expect;
-  analog.forward<float>(cols, expect);
-  EXPECT_EQ(job.y, expect);
+  TileRun run(L, analog, pc, act, false);
+  Driver& driver = run.driver;
+  Tile& tile = run.tile;
+  run.expect_forward_of(analog);
   const int n = L.out.h * L.out.w;
   LayerInventory inv = layer_inventory(L, MappingScheme::Dense, ac.mapping, pc.adc_columns_per_unit);
   stream_inputs(inv, ac.converters, false);
