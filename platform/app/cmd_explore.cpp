@@ -58,7 +58,9 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
                         "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
                         "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "tiles", "iterations_total"})
     row[k] = pf[k];
-  for (const char* k : {"adc_bits", "dac_bits", "method", "max_rows", "max_cols", "out_of_range_cells"}) row[k] = ev[k];
+  for (const char* k : {"adc_bits", "dac_bits", "input_bits", "cell_bits", "weight_bits", "adc_range", "method",
+                        "max_rows", "max_cols", "out_of_range_cells"})
+    row[k] = ev[k];
   row["layers"] = layers;
   // Timing of this run (not results: they differ between runs and ranks).
   row["program_time_s"] = ev["program_time_s"];

@@ -118,12 +118,26 @@ CalibrationSpec parse_calibration_spec(const ConfigTree& cfg) {
   return c;
 }
 
+const char* to_string(AdcRange r) {
+  switch (r) {
+    case AdcRange::Calibrated:
+      return "calibrated";
+    case AdcRange::PerRead:
+      return "per_read";
+    case AdcRange::Full:
+      return "full";
+  }
+  return "?";
+}
+
 ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   ConvertersSpec c;
   c.input_bits = parse_bits(cfg, "converters.input_bits");
   c.dac_bits = parse_bits(cfg, "converters.dac_bits");
   c.adc_range = require_enum<AdcRange>(cfg, "converters.adc_range",
-                                       {{"calibrated", AdcRange::Calibrated}, {"per_read", AdcRange::PerRead}, {"full", AdcRange::Full}});
+                                       {{to_string(AdcRange::Calibrated), AdcRange::Calibrated},
+                                        {to_string(AdcRange::PerRead), AdcRange::PerRead},
+                                        {to_string(AdcRange::Full), AdcRange::Full}});
   c.adc_bits = parse_bits(cfg, "converters.adc_bits");
   c.adc_margin = cfg.get_double("converters.adc_margin");
   c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");

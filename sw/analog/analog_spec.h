@@ -92,6 +92,7 @@ struct CalibrationSpec {
 };
 
 enum class AdcRange { Calibrated, PerRead, Full };
+const char* to_string(AdcRange r);  ///< its name in converters.adc_range
 
 /// Section `converters.`: one key per converter property, serving function and cost alike.
 struct ConvertersSpec {

@@ -394,6 +394,10 @@ nlohmann::json EvalResult::to_json() const {
   j["method"] = ac->mitigation.name();
   j["dac_bits"] = bits(ac->converters.dac_bits);
   j["adc_bits"] = bits(ac->converters.adc_bits);
+  j["input_bits"] = bits(ac->converters.input_bits);
+  j["cell_bits"] = bits(ac->mapping.cell_bits);
+  j["weight_bits"] = bits(ac->mapping.weight_bits);
+  j["adc_range"] = to_string(ac->converters.adc_range);
   j["sigma_us"] = ac->noise.sigma_s * 1e6;
   j["memristor_model"] = to_string(ac->xbar.memristor.model);
   if (ac->xbar.memristor.model == MemristorModel::Sinh) j["memristor_k_per_v"] = ac->xbar.memristor.k_per_v;
