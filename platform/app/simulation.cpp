@@ -27,10 +27,9 @@ namespace {
 
 /// Units of one layer times its replication (the buffer holds one copy of the activations).
 LayerInventory replicated(LayerInventory v, int r) {
-  for (auto f :
-       {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs, &LayerInventory::accumulators,
-        &LayerInventory::cells_present, &LayerInventory::shift_register_entries, &LayerInventory::sample_holds,
-        &LayerInventory::output_register_bytes})
+  for (auto f : {&LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
+                 &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::shift_register_entries,
+                 &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
     v.*f *= r;
   return v;
 }
@@ -42,8 +41,8 @@ std::string kernel_name(const LinearLayer& L) {
 
 /// Per-layer JSON and the network's cost from the simulation's counters.
 nlohmann::json report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
-                      const std::vector<int>& replication, const std::vector<bool>& signed_inputs,
-                      const Pipeline& pipe, bool print) {
+                      const std::vector<int>& replication, const std::vector<bool>& signed_inputs, const Pipeline& pipe,
+                      bool print) {
   const PlatformConfig& pc = hw.platform;
   const double images = std::max<size_t>(r.logits.size(), 1), clk = pc.clock_ns();
   const Table table({{"layer", -30},
@@ -78,8 +77,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
       a = layer_actions_per_image(v, 0);  // counted from the Toeplitz inventory (one iteration)
     } else {
       a = pipe.tile(st.linear).actions();
-      for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts,
-                        &a.samples, &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes})
+      for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts, &a.samples,
+                        &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes})
         *x /= images;
     }
     add_layer_cost(cost, hw, v, a);
@@ -175,7 +174,8 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   std::vector<double> sparse_ns;
   if (hw.mapping.scheme == MappingScheme::Sparse)
     for (const LinearLayer& L : model.linear)
-      sparse_ns.push_back(sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()]), pc));
+      sparse_ns.push_back(
+          sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()]), pc));
   const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(data.test.count(), "simulating ");
   Pipeline pipe(

@@ -31,10 +31,11 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.converters = parse_converters_spec(cfg);
   c.noise = parse_noise_spec(cfg);
   if (c.converters.adc_range == AdcRange::Full) {
-    const char* missing = c.mapping.cell_bits == 0 ? "crossbar.cell_bits (a level to count)"
+    const char* missing = c.mapping.cell_bits == 0              ? "crossbar.cell_bits (a level to count)"
                           : c.converters.activation_bits() == 0 ? "converters.dac_bits or input_bits (a read step)"
-                          : !c.converters.adc_offset_subtraction ? "converters.adc_offset_subtraction: true (a range from zero)"
-                                                                 : nullptr;
+                          : !c.converters.adc_offset_subtraction
+                              ? "converters.adc_offset_subtraction: true (a range from zero)"
+                              : nullptr;
     if (missing)
       throw InputError(std::string("configuration key 'converters.adc_range' (full): the full range counts cell levels "
                                    "times DAC steps, so it needs ") +
@@ -194,7 +195,8 @@ void AnalogLayer::slice_inputs(const RowMat<S>& xq, RowMat<S>& xs) const {
   thread_local std::vector<int32_t> pattern;
   pattern.resize(static_cast<size_t>(size));
   const int32_t m = sl.magnitude_bits, digit_max = static_cast<int32_t>(sl.digit_max());
-  const int32_t pattern_mask = static_cast<int32_t>((1L << (m + 1)) - 1), low_mask = static_cast<int32_t>((1L << m) - 1);
+  const int32_t pattern_mask = static_cast<int32_t>((1L << (m + 1)) - 1),
+                low_mask = static_cast<int32_t>((1L << m) - 1);
   const S* in = xq.data();
   for (Eigen::Index i = 0; i < size; ++i)
     pattern[i] = static_cast<int32_t>(std::floor(static_cast<double>(in[i]) / sl.step + 0.5)) & pattern_mask;
@@ -392,7 +394,8 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
       const S* sx = sum_x.data();
       const S k0 = k(j * per);
       if (per == 1) {
-        for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ((i0[r] * inv_alpha - gmin * sx[r]) * k0 + w_lo * sx[r]) + off;
+        for (Eigen::Index r = 0; r < n; ++r)
+          out[r] += gain * ((i0[r] * inv_alpha - gmin * sx[r]) * k0 + w_lo * sx[r]) + off;
       } else {
         const S* i1 = iq.col(j * per + 1).data();
         const S k1 = -k(j * per + 1);

@@ -96,13 +96,11 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
       mo.tolerance = cfg_.conversion.tolerance;
       // The mean applied voltage of each row over the calibration reads.
       const Eigen::VectorXd v_op =
-          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * in.cal_s.middleCols(x.blk.row0, x.blk.rows)
-                                                          .cwiseAbs()
-                                                          .colwise()
-                                                          .mean()
-                                                          .transpose())
-                          : Eigen::VectorXd::Constant(
-                                x.blk.rows, ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
+          in.cal_b.rows()
+              ? Eigen::VectorXd(alpha_ *
+                                in.cal_s.middleCols(x.blk.row0, x.blk.rows).cwiseAbs().colwise().mean().transpose())
+              : Eigen::VectorXd::Constant(x.blk.rows,
+                                          ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
       const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
       x.beta = r.column_gain;
       rep.out_of_range_cells = r.out_of_range();
@@ -165,7 +163,8 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
   // One level: a cell one conductance level above g_min read at one DAC step.
   const int bits = cfg_.converters.adc_bits;
   const bool bipolar = !slicing_.serial() && signed_;  // one signed read applies negative voltages
-  const double read_max = slicing_.serial() ? static_cast<double>(slicing_.digit_max()) : std::ldexp(1.0, dac_q_.bits) - 1;
+  const double read_max =
+      slicing_.serial() ? static_cast<double>(slicing_.digit_max()) : std::ldexp(1.0, dac_q_.bits) - 1;
   const double g_span = cfg_.xbar.g_max_s * (1 - cfg_.mapping.g_headroom) - cfg_.xbar.g_min_s;
   const double cell_max = std::ldexp(1.0, cfg_.mapping.cell_bits) - 1;
   const double unit = cfg_.xbar.v_in_max_v / read_max * g_span / cell_max;
@@ -173,8 +172,8 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
   for (int c = 0; c < x.pcols; ++c) {
     const bool reference = cfg_.mapping.analog_sum() && c == x.pcols - 1;
     // The sum(X) column spans rows x its conductance at full scale; weight columns their levels.
-    const double span = reference ? x.blk.rows * cfg_.xbar.v_in_max_v * (cfg_.xbar.g_min_s + x.s(c) * x.a_sum)
-                                  : levels * unit;
+    const double span =
+        reference ? x.blk.rows * cfg_.xbar.v_in_max_v * (cfg_.xbar.g_min_s + x.s(c) * x.a_sum) : levels * unit;
     const int need = static_cast<int>(std::ceil(std::log2(span / unit + 1) - 1e-12)) + (bipolar ? 1 : 0);
     const double lsb = reference ? span / (std::ldexp(1.0, bits) - 1) : std::ldexp(unit, std::max(0, need - bits));
     x.adc_lo(c, 0) = bipolar && !reference ? -std::ldexp(lsb, bits - 1) : 0.0;

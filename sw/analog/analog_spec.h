@@ -38,7 +38,9 @@ struct MappingSpec {
     return differential() && weight_bits ? w - 1 : w;
   }
   /// Cells (adjacent columns) one polarity of a weight occupies: ceil(code bits / cell_bits).
-  int weight_slices() const { return cell_bits && code_bits() > cell_bits ? (code_bits() + cell_bits - 1) / cell_bits : 1; }
+  int weight_slices() const {
+    return cell_bits && code_bits() > cell_bits ? (code_bits() + cell_bits - 1) / cell_bits : 1;
+  }
   /// Physical columns of one weight column: its polarities times its slices.
   int columns_per_weight() const { return polarities() * weight_slices(); }
   /// Physical columns holding `logical` weight columns: every weight's slices of each polarity

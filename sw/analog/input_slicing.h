@@ -19,11 +19,11 @@ namespace xbarsim {
 
 struct InputSlicing {
   int slices = 1;
-  int dac_bits = 0;        ///< bits of one digit
-  int magnitude_bits = 0;  ///< m: bits of the code's magnitude (B unsigned, B - 1 signed)
-  bool sign_slice = false; ///< the last slice is the two's complement sign bit
-  double step = 1;         ///< input units per code
-  double x_max = 1;        ///< the DAC's full scale (input units)
+  int dac_bits = 0;            ///< bits of one digit
+  int magnitude_bits = 0;      ///< m: bits of the code's magnitude (B unsigned, B - 1 signed)
+  bool sign_slice = false;     ///< the last slice is the two's complement sign bit
+  double step = 1;             ///< input units per code
+  double x_max = 1;            ///< the DAC's full scale (input units)
   std::vector<double> weight;  ///< per slice: shift-and-add weight of its recovered output
 
   bool serial() const { return slices > 1; }

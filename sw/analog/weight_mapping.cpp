@@ -60,9 +60,8 @@ MappedWeights map_weights(const Eigen::MatrixXd& wb, const Block& blk, const Map
   if (mapping.analog_sum()) {
     const int c = m.pcols - 1;
     // Mid-range conductance; with multi-level cells the level 2^(cell_bits - 1).
-    const double fraction = mapping.cell_bits ? std::ldexp(1.0, mapping.cell_bits - 1) /
-                                                    (std::ldexp(1.0, mapping.cell_bits) - 1)
-                                              : 0.5;
+    const double fraction =
+        mapping.cell_bits ? std::ldexp(1.0, mapping.cell_bits - 1) / (std::ldexp(1.0, mapping.cell_bits) - 1) : 0.5;
     m.a_sum = fraction * g_span / m.s(c);
     m.a.col(c).setConstant(m.a_sum);
   }

@@ -117,14 +117,14 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     throw InputError(origin + ": YAML syntax error: " + e.what());
   }
   if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
-  static const char* kSections[] = {"adc",         "dac",       "dac_lut",         "cell",   "accumulator",
-                                    "shift_register", "sample_hold", "shift_add", "output_register", "buffer",
-                                    "interconnect", "digital",   "memory"};
+  static const char* kSections[] = {
+      "adc",         "dac",       "dac_lut",         "cell",   "accumulator",  "shift_register",
+      "sample_hold", "shift_add", "output_register", "buffer", "interconnect", "digital",
+      "memory"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string k = it->first.as<std::string>();
     if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
-        std::end(kSections))
-    {
+        std::end(kSections)) {
       std::string list;
       for (const char* n : kSections) list += (list.empty() ? "" : ", ") + std::string(n);
       throw InputError(origin + ": unknown section '" + k + "' (" + list + ")");
@@ -150,8 +150,7 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   lib.shift_add.area_mm2 = sa.number("area_mm2");
   lib.shift_add.leakage_mw = sa.number("leakage_mw");
   lib.shift_add.op_pj = sa.number("op_pj");
-  lib.output_register = {outr.number("area_mm2_per_byte"), outr.number("leakage_mw_per_byte"),
-                         outr.number("write_pj")};
+  lib.output_register = {outr.number("area_mm2_per_byte"), outr.number("leakage_mw_per_byte"), outr.number("write_pj")};
   lib.buffer = {buf.number("area_mm2_per_kib"), buf.number("leakage_mw_per_kib"), buf.number("read_pj_per_byte"),
                 buf.number("write_pj_per_byte")};
   lib.interconnect = {noc.number("area_mm2"), noc.number("leakage_mw"), noc.number("transfer_pj_per_byte")};

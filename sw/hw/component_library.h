@@ -49,7 +49,7 @@ struct ComponentLibrary {
   struct SampleHold {  ///< one per physical column: holds the column's read for its (shared) ADC
     double area_mm2 = 0, leakage_mw = 0, sample_pj = 0;
   } sample_hold;
-  struct ShiftAdd {  ///< shift-and-add of sliced reads (bit-serial inputs, bit-sliced weights)
+  struct ShiftAdd {         ///< shift-and-add of sliced reads (bit-serial inputs, bit-sliced weights)
     int adcs_per_unit = 1;  ///< ADCs whose results one unit combines
     double area_mm2 = 0, leakage_mw = 0, op_pj = 0;  ///< one unit; one converted value shifted and added
   } shift_add;

@@ -8,11 +8,18 @@ constexpr double kKiB = 1024.0;
 
 namespace {
 /// Every figure of a breakdown, for the element-wise operations.
-constexpr double ComponentBreakdown::*kParts[] = {
-    &ComponentBreakdown::crossbar,        &ComponentBreakdown::adc,          &ComponentBreakdown::dac,
-    &ComponentBreakdown::accumulator,     &ComponentBreakdown::shift_register, &ComponentBreakdown::buffer,
-    &ComponentBreakdown::sample_hold,     &ComponentBreakdown::shift_add,    &ComponentBreakdown::output_register,
-    &ComponentBreakdown::interconnect,    &ComponentBreakdown::digital,      &ComponentBreakdown::memory};
+constexpr double ComponentBreakdown::*kParts[] = {&ComponentBreakdown::crossbar,
+                                                  &ComponentBreakdown::adc,
+                                                  &ComponentBreakdown::dac,
+                                                  &ComponentBreakdown::accumulator,
+                                                  &ComponentBreakdown::shift_register,
+                                                  &ComponentBreakdown::buffer,
+                                                  &ComponentBreakdown::sample_hold,
+                                                  &ComponentBreakdown::shift_add,
+                                                  &ComponentBreakdown::output_register,
+                                                  &ComponentBreakdown::interconnect,
+                                                  &ComponentBreakdown::digital,
+                                                  &ComponentBreakdown::memory};
 }  // namespace
 
 ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) {

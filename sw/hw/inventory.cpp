@@ -23,12 +23,11 @@ long long add(long long a, long long b) {
 }  // namespace
 
 LayerInventory& LayerInventory::operator+=(const LayerInventory& o) {
-  for (auto f :
-       {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks, &LayerInventory::col_blocks,
-        &LayerInventory::physical_cols, &LayerInventory::crossbars, &LayerInventory::dacs, &LayerInventory::adcs,
-        &LayerInventory::accumulators, &LayerInventory::cells_present, &LayerInventory::cells_used,
-        &LayerInventory::iterations, &LayerInventory::shift_register_entries, &LayerInventory::buffer_bytes,
-        &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
+  for (auto f : {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::row_blocks, &LayerInventory::col_blocks,
+                 &LayerInventory::physical_cols, &LayerInventory::crossbars, &LayerInventory::dacs,
+                 &LayerInventory::adcs, &LayerInventory::accumulators, &LayerInventory::cells_present,
+                 &LayerInventory::cells_used, &LayerInventory::iterations, &LayerInventory::shift_register_entries,
+                 &LayerInventory::buffer_bytes, &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
     this->*f = add(this->*f, o.*f);
   return *this;
 }

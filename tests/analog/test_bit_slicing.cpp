@@ -125,8 +125,8 @@ TEST_P(SlicedProduct, EqualsTheIntegerProductBeforeTheAdc) {
     for (int b = 0; b < layer.crossbars(); ++b) {
       const Block& blk = layer.block(b);
       double dw = 0;
-      const Eigen::MatrixXd wq = quantize_weights(w.block(blk.row0, blk.col0, blk.rows, blk.cols), weight_bits,
-                                                  differential, dw);
+      const Eigen::MatrixXd wq =
+          quantize_weights(w.block(blk.row0, blk.col0, blk.rows, blk.cols), weight_bits, differential, dw);
       ref.middleCols(blk.col0, blk.cols) += xq.middleCols(blk.row0, blk.rows) * wq;
       unit = std::max(unit, step * dw);
     }

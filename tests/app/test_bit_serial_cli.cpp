@@ -16,8 +16,8 @@ namespace {
 class BitSerialCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = ::testing::TempDir() + "xbarsim_bitserial_" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    dir_ =
+        ::testing::TempDir() + "xbarsim_bitserial_" + ::testing::UnitTest::GetInstance()->current_test_info()->name();
     std::system(("rm -rf '" + dir_ + "' && mkdir -p '" + dir_ + "/models'").c_str());
     xbarsim_test::write_tiny_cifar(dir_ + "/data", 8);
     xbarsim_test::write_tiny_model(dir_ + "/models/tiny.onnx");
@@ -62,9 +62,10 @@ TEST_F(BitSerialCli, EveryCommandAcceptsTheKeys) {
 }
 
 TEST_F(BitSerialCli, ExploreSweepsDacBitsAndCellBits) {
-  const auto r = run("explore", "--model tiny --images 2 --set 'converters.dac_bits=[1,8]' --set "
-                                "'crossbar.cell_bits=[2,4]' --out " +
-                                    path("x.jsonl") + " --json " + path("x.json"));
+  const auto r = run("explore",
+                     "--model tiny --images 2 --set 'converters.dac_bits=[1,8]' --set "
+                     "'crossbar.cell_bits=[2,4]' --out " +
+                         path("x.jsonl") + " --json " + path("x.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = json(path("x.json"));
   ASSERT_EQ(j["points"].size(), 4u) << j.dump(1).substr(0, 2000);
