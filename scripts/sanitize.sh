@@ -11,7 +11,7 @@
 #                     SystemC simulations: SystemC's user-level threads switch stacks behind
 #                     AddressSanitizer's back, which then reports false stack overflows and
 #                     crashes LeakSanitizer (google/sanitizers#189), explore among them (its platform
-#                     runs), and the data-safety cases that simulate or explore; they run in the
+#                     runs), and the data-safety and bit-serial CLI cases that simulate or explore; they run in the
 #                     regular build)
 #   SANITIZE_EXCLUDE_LABEL  ctest -LE regex (default: ^slow$)
 #   JOBS=2            parallel build and test jobs
@@ -22,7 +22,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=build-asan
 JOBS=${JOBS:-2}
-EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)'}
+EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)|^BitSerialCli\.(Simulate|Explore)'}
 EXCLUDE_LABEL=${SANITIZE_EXCLUDE_LABEL:-^slow\$}
 FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 
