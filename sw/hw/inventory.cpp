@@ -15,6 +15,10 @@ long long mul(long long a, long long b) {
   if (__builtin_mul_overflow(a, b, &r)) throw InputError("the mapping is too large to count (over 9.2e18)");
   return r;
 }
+/// The output register of sliced reads: 2 bytes per weight column of every crossbar.
+long long output_register_bytes(const LayerInventory& v) {
+  return v.sliced() ? mul(mul(v.row_blocks, v.cols), 2) : 0;
+}
 long long add(long long a, long long b) {
   long long r = 0;
   if (__builtin_add_overflow(a, b, &r)) throw InputError("the mapping is too large to count (a total exceeds 9.2e18)");
@@ -66,7 +70,7 @@ LayerInventory matrix_inventory(long long rows, long long cols, long long iterat
   v.cells_used = mul(rows, v.physical_cols);
   v.sample_holds = mul(v.row_blocks, v.physical_cols);
   v.weight_slices = mapping.weight_slices();
-  v.output_register_bytes = v.sliced() ? mul(mul(v.row_blocks, cols), 2) : 0;
+  v.output_register_bytes = output_register_bytes(v);
   return v;
 }
 
@@ -112,7 +116,7 @@ LayerInventory& stream_inputs(LayerInventory& v, const ConvertersSpec& converter
   const int bits = converters.activation_bits();
   v.input_slices = make_input_slicing(bits, converters.dac_bits, signed_inputs, 1.0).slices;
   v.input_bytes = std::max(1, (bits + 7) / 8);
-  v.output_register_bytes = v.sliced() ? mul(mul(v.row_blocks, v.cols), 2) : 0;
+  v.output_register_bytes = output_register_bytes(v);
   return v;
 }
 
