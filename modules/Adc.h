@@ -40,15 +40,18 @@ class Adc : public sc_core::sc_module {
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
-    if (!job || static_cast<int>(job->currents.size()) != job->analog->crossbars()) {
+    if (!job || !job->has_currents()) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
     double slowest = 0;
-    const long long reads = job->reads().rows();
+    const long long reads = job->reads();
     for (int b = 0; b < job->analog->crossbars(); ++b) {
-      job->analog->adc_inplace<float>(b, job->currents[b], job->reads());
-      const int cols = static_cast<int>(job->currents[b].cols());
+      if (job->serial())
+        job->analog->adc_inplace<float>(b, job->read_currents[b]);
+      else
+        job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
+      const int cols = job->physical_columns(b);
       slowest = std::max(slowest, iteration_ns(cols));
       job->adc_conversions += reads * cols;
       conversions_ += reads * cols;

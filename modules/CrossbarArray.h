@@ -33,11 +33,17 @@ class CrossbarArray : public sc_core::sc_module {
       return;
     }
     const int nb = job->analog->crossbars();
-    job->currents.resize(nb);
-    const long long reads = job->reads().rows();
+    const long long reads = job->reads();
+    if (job->serial())
+      job->read_currents.resize(nb);
+    else
+      job->currents.resize(nb);
     for (int b = 0; b < nb; ++b) {
-      job->analog->analog<float>(b, job->reads(), job->currents[b]);
-      cell_reads_ += reads * job->analog->block(b).rows * job->currents[b].cols();
+      if (job->serial())
+        job->analog->analog<float>(b, job->codes, 0, job->iterations(), job->read_currents[b]);
+      else
+        job->analog->analog<float>(b, job->xq, job->currents[b]);
+      cell_reads_ += reads * job->analog->block(b).rows * job->physical_columns(b);
     }
     evaluations_ += reads * nb;
     job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_ * job->slices());

@@ -31,10 +31,10 @@ class Dac : public sc_core::sc_module {
       return;
     }
     job->analog->dac_inplace<float>(job->xq);
-    if (job->analog->input_slicing().serial()) job->analog->slice_inputs<float>(job->xq, job->xs);
+    if (job->serial()) job->analog->slice_inputs<float>(job->xq, job->codes);
     long long rows = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) rows += job->analog->block(b).rows;
-    const long long n = static_cast<long long>(job->reads().rows()) * rows;
+    const long long n = job->reads() * rows;
     job->dac_conversions += n;
     conversions_ += n;
     // One conversion per read; an iteration's reads follow one another.

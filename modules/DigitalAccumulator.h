@@ -23,13 +23,16 @@ class DigitalAccumulator : public sc_core::sc_module {
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
-    if (!job || static_cast<int>(job->currents.size()) != job->analog->crossbars()) {
+    if (!job || !job->has_currents()) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
     job->y.setZero(job->iterations(), job->analog->outputs());
     for (int b = 0; b < job->analog->crossbars(); ++b)
-      job->analog->recover_add<float>(b, job->currents[b], job->reads(), job->y);
+      if (job->serial())
+        job->analog->recover_add<float>(b, job->read_currents[b], job->y);
+      else
+        job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
     // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
     long long per_iteration = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;

@@ -21,10 +21,13 @@ struct LayerJob {
   bool detailed = true;               ///< timing mode
   int replication = 1;
 
-  AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC codes
-  AnalogLayer::RowMat<float> xs;          ///< bit-serial reads: slices x iterations rows (AnalogLayer::slice_inputs)
-  std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: reads x physical columns
-  Eigen::MatrixXf y;                      ///< iterations x c_out (without bias)
+  AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC values
+  std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: iterations x physical columns (one read each)
+  /// Bit-serial reads (serial()): the DAC codes (AnalogLayer::slice_inputs) and per crossbar
+  /// the currents of every read of every iteration.
+  AnalogLayer::Codes codes;
+  std::vector<AnalogLayer::ReadCurrents<float>> read_currents;
+  Eigen::MatrixXf y;  ///< iterations x c_out (without bias)
 
   std::vector<double> stage_ns[kStages];  ///< per-iteration latency of each stage (detailed mode)
   long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
@@ -33,8 +36,19 @@ struct LayerJob {
   int iterations() const { return layer->out.h * layer->out.w; }
   /// Crossbar reads per iteration (input slices).
   int slices() const { return analog->input_slicing().slices; }
-  /// What the DACs apply, one row per crossbar read: the slices, or the codes themselves.
-  const AnalogLayer::RowMat<float>& reads() const { return analog->input_slicing().serial() ? xs : xq; }
+  /// Inputs are streamed bit-serially, several reads per iteration.
+  bool serial() const { return analog->input_slicing().serial(); }
+  /// Crossbar reads of this pass: input slices x iterations.
+  long long reads() const { return static_cast<long long>(slices()) * iterations(); }
+  /// Whether the previous stages produced what a stage reads, for every crossbar.
+  bool has_currents() const {
+    const size_t nb = static_cast<size_t>(analog->crossbars());
+    return serial() ? read_currents.size() == nb : currents.size() == nb;
+  }
+  /// Physical columns of crossbar b.
+  int physical_columns(int b) const {
+    return static_cast<int>(serial() ? read_currents[b].i.cols() : currents[b].cols());
+  }
   /// Reads are combined by shift-and-add (input or weight slices).
   bool sliced() const { return slices() > 1 || analog->config().mapping.weight_slices() > 1; }
 };

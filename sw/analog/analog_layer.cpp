@@ -1,8 +1,5 @@
 #include "sw/analog/analog_layer.h"
 
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -115,8 +112,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   if (calib_in.size() > 0 && calib_in.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
   const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
-  const Eigen::MatrixXd cal_s = sliced(cal);
-  const Eigen::MatrixXd range_s = sliced(range_vectors(calib_in, cal));
+  const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
   xbars_.clear();
   reports_.clear();
@@ -130,14 +126,14 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
       const ProgrammingInputs in{
           cal.middleCols(blk.row0, blk.rows),
-          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal, cal_s,
+          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
           cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
       add_programming_noise(*xb, static_cast<int>(b));
-      set_adc_ranges(*xb, range_s);
+      set_adc_ranges(*xb, range_x);
       calibrate(*xb, in);
       xbars_.push_back(std::move(xb));
       reports_.push_back(rep);
@@ -178,124 +174,15 @@ void AnalogLayer::dac_values(S* d, Eigen::Index n) const {
   }
 }
 
-Eigen::MatrixXd AnalogLayer::sliced(const Eigen::MatrixXd& xq) const {
-  if (!slicing_.serial()) return xq;
-  const RowMat<double> in = xq;
-  RowMat<double> out;
-  slice_inputs<double>(in, out);
-  return out;
-}
-
-template <typename S>
-void AnalogLayer::slice_inputs(const RowMat<S>& xq, RowMat<S>& xs) const {
-  const InputSlicing& sl = slicing_;
-  const Eigen::Index n = xq.rows(), k = xq.cols(), size = n * k;
-  xs.resize(n * sl.slices, k);
-  // The (m+1)-bit two's complement pattern of each code (the code itself when unsigned).
-  thread_local std::vector<int32_t> pattern;
-  pattern.resize(static_cast<size_t>(size));
-  const int32_t m = sl.magnitude_bits, digit_max = static_cast<int32_t>(sl.digit_max());
-  const int32_t pattern_mask = static_cast<int32_t>((1L << (m + 1)) - 1),
-                low_mask = static_cast<int32_t>((1L << m) - 1);
-  const S* in = xq.data();
-  for (Eigen::Index i = 0; i < size; ++i)
-    pattern[i] = static_cast<int32_t>(std::floor(static_cast<double>(in[i]) / sl.step + 0.5)) & pattern_mask;
-  const int magnitude_slices = sl.slices - (sl.sign_slice ? 1 : 0);
-  const S unit = static_cast<S>(sl.x_max / static_cast<double>(digit_max)), full = static_cast<S>(sl.x_max);
-  const int32_t* p = pattern.data();
-  for (int s = 0; s < magnitude_slices; ++s) {
-    S* out = xs.data() + s * size;
-    const int shift = s * sl.dac_bits;
-    for (Eigen::Index i = 0; i < size; ++i) out[i] = static_cast<S>(((p[i] & low_mask) >> shift) & digit_max) * unit;
-  }
-  if (sl.sign_slice) {
-    S* out = xs.data() + (sl.slices - 1) * size;
-    for (Eigen::Index i = 0; i < size; ++i) out[i] = static_cast<S>((p[i] >> m) & 1) * full;
-  }
-}
-
 Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
   Mat<double> cur;
   analog_of<double>(x, xq, cur);
   return cur;
 }
 
-Eigen::MatrixXd AnalogLayer::raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq,
-                                            const Eigen::MatrixXd& xq) const {
-  Mat<double> y = Mat<double>::Zero(iq.rows() / slicing_.slices, x.blk.cols);
-  recover_of<double>(x, iq, xq, y, 0, false);
-  return y;
-}
-
 template <typename S, typename XQ>
 static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, int rows) {
   return xq.middleCols(row0, rows).rowwise().sum().template cast<S>();
-}
-
-/// Bit k set when in[k] != 0, for w <= 64 values.
-template <typename S>
-static inline uint64_t nonzero_mask(const S* in, int w) {
-  uint64_t mask = 0;
-#if defined(__AVX512F__)
-  if constexpr (std::is_same_v<S, float>) {
-    for (int k = 0; k < w; k += 16) {
-      const __mmask16 live = w - k >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (w - k)) - 1);
-      const __m512 v = _mm512_maskz_loadu_ps(live, in + k);
-      mask |= static_cast<uint64_t>(_mm512_mask_cmpneq_ps_mask(live, v, _mm512_setzero_ps())) << k;
-    }
-    return mask;
-  }
-#endif
-  for (int k = 0; k < w; ++k) mask |= static_cast<uint64_t>(in[k] != S(0)) << k;
-  return mask;
-}
-
-/// currents = xq.middleCols(row0, g.rows()) * g for reads whose digits are mostly zero (bit
-/// planes): every non-zero input adds its row of g, in row order. Reads go in tiles of
-/// kTile rows accumulated by rows, then written into the column-major currents.
-template <typename S>
-static void accumulate_reads(const AnalogLayer::RowMat<S>& g, const AnalogLayer::RowMat<S>& xq, int row0,
-                             AnalogLayer::Mat<S>& currents) {
-  constexpr Eigen::Index kTile = 16;
-  constexpr int kChunk = 64 / sizeof(S) * 4;  // four vector registers of 512 bits
-  const Eigen::Index reads = xq.rows(), rows = g.rows(), cols = g.cols();
-  currents.resize(reads, cols);
-  thread_local std::vector<S> tile;
-  thread_local std::vector<int> nonzero;
-  tile.resize(static_cast<size_t>(kTile * cols));
-  nonzero.resize(static_cast<size_t>(rows));
-  for (Eigen::Index i0 = 0; i0 < reads; i0 += kTile) {
-    const Eigen::Index n = std::min(kTile, reads - i0);
-    std::fill(tile.begin(), tile.begin() + n * cols, S(0));  // the columns past the last chunk
-    for (Eigen::Index t = 0; t < n; ++t) {
-      const S* in = xq.row(i0 + t).data() + row0;
-      int count = 0;
-      for (Eigen::Index k0 = 0; k0 < rows; k0 += 64) {  // a bit mask per 64 inputs, then its set bits
-        const int w = static_cast<int>(std::min<Eigen::Index>(64, rows - k0));
-        uint64_t mask = nonzero_mask(in + k0, w);
-        for (; mask; mask &= mask - 1) nonzero[count++] = static_cast<int>(k0) + __builtin_ctzll(mask);
-      }
-      S* a = tile.data() + t * cols;
-      // Columns in chunks of kChunk, accumulated in registers.
-      Eigen::Index c0 = 0;
-      for (; c0 + kChunk <= cols; c0 += kChunk) {
-        using Chunk = Eigen::Array<S, kChunk, 1>;
-        Chunk sum = Chunk::Zero();
-        for (int q = 0; q < count; ++q)
-          sum += in[nonzero[q]] * Eigen::Map<const Chunk, Eigen::Unaligned>(g.row(nonzero[q]).data() + c0);
-        Eigen::Map<Chunk, Eigen::Unaligned>(a + c0) = sum;
-      }
-      for (int q = 0; q < count; ++q) {
-        const S v = in[nonzero[q]];
-        const S* gr = g.row(nonzero[q]).data();
-        for (Eigen::Index c = c0; c < cols; ++c) a[c] += v * gr[c];
-      }
-    }
-    for (Eigen::Index c = 0; c < cols; ++c) {
-      S* out = currents.col(c).data() + i0;
-      for (Eigen::Index t = 0; t < n; ++t) out[t] = tile[t * cols + c];
-    }
-  }
 }
 
 template <typename S>
@@ -312,13 +199,6 @@ template <typename S>
 void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const {
   if (cfg_.xbar.is_linear()) {
     // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
-    if (slicing_.serial()) {
-      if constexpr (std::is_same_v<S, float>)
-        accumulate_reads<S>(x.geff_rows_f, xq, x.blk.row0, currents);
-      else
-        accumulate_reads<S>(x.geff_rows_d, xq, x.blk.row0, currents);
-      return;
-    }
     if constexpr (std::is_same_v<S, float>)
       currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_f;
     else
@@ -356,7 +236,6 @@ void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) cons
     col = v.template cast<S>() + offset;
   }
 }
-template void AnalogLayer::adc_of<double, Eigen::MatrixXd>(const Crossbar&, Mat<double>&, const Eigen::MatrixXd&) const;
 
 template <typename S>
 void AnalogLayer::recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated) const {
@@ -367,8 +246,7 @@ void AnalogLayer::recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<
 template <typename S>
 void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
                              bool calibrated) const {
-  const Eigen::Index n = y.rows();  // iq and xq: slices x n rows
-  const int slices = slicing_.slices;
+  const Eigen::Index n = y.rows();  // iq and xq: n rows
   const S gmin = static_cast<S>(cfg_.xbar.g_min_s);
   const S inv_alpha = static_cast<S>(1.0 / alpha_);
   Eigen::Matrix<S, Eigen::Dynamic, 1> sum_x;
@@ -384,12 +262,12 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
   for (int c = 0; c < x.pcols; ++c) k(c) = static_cast<S>(x.sign(c) / (x.beta(c) * x.s(c)));
   const S w_lo = static_cast<S>(x.w_lo);
   const int per = x.per_weight;
-  Eigen::Matrix<S, Eigen::Dynamic, 1> acc(n), part(n);
+  Eigen::Matrix<S, Eigen::Dynamic, 1> acc(n);
   for (int j = 0; j < x.blk.cols; ++j) {
     const S gain = calibrated ? static_cast<S>(x.fit.gain(j)) : S(1);
     const S off = calibrated ? static_cast<S>(x.fit.offset(j)) : S(0);
     S* out = y.col(y_col0 + j).data();
-    if (slices == 1 && per <= 2) {  // one read, one column or a pair: in one pass
+    if (per <= 2) {  // one column or a pair: in one pass
       const S* i0 = iq.col(j * per).data();
       const S* sx = sum_x.data();
       const S k0 = k(j * per);
@@ -406,30 +284,19 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
       }
       continue;
     }
+    // Shift-and-add of the weight's columns (weight slices).
     S* ac = acc.data();
-    S* pa = slices == 1 ? ac : part.data();  // one read: its product is the output
-    for (int s = 0; s < slices; ++s) {
-      const S* sx = sum_x.data() + s * n;
-      // Shift-and-add of the weight's columns for read s.
-      for (int q = 0; q < per; ++q) {
-        const int c = j * per + q;
-        const S kc = k(c);
-        const S* ic = iq.col(c).data() + s * n;
-        if (q == 0)
-          for (Eigen::Index r = 0; r < n; ++r) pa[r] = (ic[r] * inv_alpha - gmin * sx[r]) * kc;
-        else
-          for (Eigen::Index r = 0; r < n; ++r) pa[r] += (ic[r] * inv_alpha - gmin * sx[r]) * kc;
-      }
-      for (Eigen::Index r = 0; r < n; ++r) pa[r] += w_lo * sx[r];
-      // Shift-and-add of the input slices.
-      if (slices > 1) {
-        const S ws = static_cast<S>(slicing_.weight[s]);
-        if (s == 0)
-          for (Eigen::Index r = 0; r < n; ++r) ac[r] = ws * pa[r];
-        else
-          for (Eigen::Index r = 0; r < n; ++r) ac[r] += ws * pa[r];
-      }
+    for (int q = 0; q < per; ++q) {
+      const int c = j * per + q;
+      const S kc = k(c);
+      const S* ic = iq.col(c).data();
+      const S* sx = sum_x.data();
+      if (q == 0)
+        for (Eigen::Index r = 0; r < n; ++r) ac[r] = (ic[r] * inv_alpha - gmin * sx[r]) * kc;
+      else
+        for (Eigen::Index r = 0; r < n; ++r) ac[r] += (ic[r] * inv_alpha - gmin * sx[r]) * kc;
     }
+    for (Eigen::Index r = 0; r < n; ++r) ac[r] += w_lo * sum_x(r);
     for (Eigen::Index r = 0; r < n; ++r) out[r] += gain * ac[r] + off;
   }
 }
@@ -442,18 +309,18 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
     throw InputError(os.str());
   }
   if (xbars_.empty()) throw InputError("analog layer used before program()");
-  RowMat<S> xq_buf, xs_buf;
+  RowMat<S> xq_buf;
   const RowMat<S>* xq = &x;
   if (dac_q_.enabled() && !quantized) {
     xq_buf = x;
     dac_inplace<S>(xq_buf);
     xq = &xq_buf;
   }
-  if (slicing_.serial()) {
-    slice_inputs<S>(*xq, xs_buf);
-    xq = &xs_buf;
-  }
   y.setZero(x.rows(), w_.cols());
+  if (slicing_.serial()) {
+    forward_serial<S>(*xq, y);
+    return;
+  }
   Mat<S> cur;
   for (int b = 0; b < crossbars(); ++b) {
     try {
@@ -474,14 +341,23 @@ Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
 }
 
 Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
-  RowMat<double> xq = x;
-  dac_inplace<double>(xq);
-  if (slicing_.serial()) xq = sliced(xq);
-  Mat<double> cur;
-  analog<double>(b, xq, cur);
-  adc_inplace<double>(b, cur, xq);
-  Mat<double> y = Mat<double>::Zero(x.rows(), blocks_.at(b).cols);
-  recover_of<double>(*xbars_.at(b), cur, xq, y, 0, true);
+  return partial_of(*xbars_.at(b), dac(x), /*adc=*/true, /*calibrated=*/true);
+}
+
+Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const {
+  Mat<double> y = Mat<double>::Zero(xq.rows(), x.blk.cols);
+  if (slicing_.serial()) {
+    Codes codes;
+    slice_inputs<double>(xq, codes);
+    ReadCurrents<double> cur;
+    analog_of<double>(x, codes, 0, xq.rows(), cur);
+    if (adc) adc_of<double>(x, cur);
+    recover_of<double>(x, cur, y, 0, calibrated);
+    return y;
+  }
+  Mat<double> cur = currents_of(x, xq);
+  if (adc) adc_of<double, Eigen::MatrixXd>(x, cur, xq);
+  recover_of<double>(x, cur, xq, y, 0, calibrated);
   return y;
 }
 
@@ -489,7 +365,6 @@ Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
   template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
-  template void AnalogLayer::slice_inputs<S>(const RowMat<S>&, RowMat<S>&) const;  \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;

@@ -89,9 +89,14 @@ class AnalogLayer {
 
   // The stages of forward(), in order; float (network inference) and double (studies).
   // forward() is exactly their composition, so callers composing them (the SystemC
-  // modules) compute bit-identical results. With bit-serial inputs (input_slicing()) the
-  // DAC values are expanded into slices (slice_inputs: slice s of vector r is row
-  // s * vectors + r) and the array, ADC and recovery stages take the slices.
+  // modules) compute bit-identical results. Two forms:
+  //  - one read per vector (not input_slicing().serial()): dac_inplace, then analog,
+  //    adc_inplace and recover_add on xq (vectors x K DAC values) and currents (vectors x
+  //    physical columns);
+  //  - bit-serial reads: dac_inplace, slice_inputs (the DAC codes whose digits the reads
+  //    apply), then the same three stages on the reads of a range of vectors (ReadCurrents).
+  //    forward() runs them on a few vectors at a time; every read's result is independent of
+  //    the range it is computed in.
   /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
   template <typename S>
   void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
@@ -104,19 +109,70 @@ class AnalogLayer {
   void dac_values(S* data, Eigen::Index n) const;
   template <typename S>
   void dac_inplace(RowMat<S>& x) const;  ///< DAC quantization (input units)
-  /// The bit-serial reads of quantized inputs xq (vectors x K): slices x vectors rows of the
-  /// values each read applies (input units). Only for input_slicing().serial().
-  template <typename S>
-  void slice_inputs(const RowMat<S>& xq, RowMat<S>& xs) const;
   template <typename S>
   void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
   template <typename S>
   void adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) const;  ///< ADC quantization
   /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), the
-  /// shift-and-add of weight slices and input slices, then calibration when `calibrated`)
-  /// into columns [col0, col0 + cols) of y; iq and xq hold input_slicing().slices x y.rows() rows.
+  /// shift-and-add of weight slices, then calibration when `calibrated`) into columns
+  /// [col0, col0 + cols) of y; iq and xq hold y.rows() rows.
   template <typename S>
   void recover_add(int b, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, bool calibrated = true) const;
+
+  /// A row-major matrix whose storage only grows: a buffer reshaped for every layer and
+  /// crossbar allocates (and touches its pages) once.
+  template <typename T>
+  class Rows {
+   public:
+    void resize(Eigen::Index rows, Eigen::Index cols) {
+      rows_ = rows;
+      cols_ = cols;
+      data_.resize(static_cast<size_t>(rows * cols));
+    }
+    Eigen::Index rows() const { return rows_; }
+    Eigen::Index cols() const { return cols_; }
+    T* row(Eigen::Index r) { return data_.data() + r * cols_; }
+    const T* row(Eigen::Index r) const { return data_.data() + r * cols_; }
+    T& operator()(Eigen::Index r, Eigen::Index c) { return data_[static_cast<size_t>(r * cols_ + c)]; }
+    T operator()(Eigen::Index r, Eigen::Index c) const { return data_[static_cast<size_t>(r * cols_ + c)]; }
+    T* data() { return data_.data(); }
+    Eigen::Map<RowMat<T>> matrix() { return {data_.data(), rows_, cols_}; }
+    Eigen::Map<const RowMat<T>> matrix() const { return {data_.data(), rows_, cols_}; }
+
+   private:
+    std::vector<T> data_;
+    Eigen::Index rows_ = 0, cols_ = 0;
+  };
+  /// Bit-serial reads of a batch of vectors (vectors x K): each vector's DAC code per input,
+  /// as its (m+1)-bit two's complement pattern (InputSlicing::pattern); read s of a vector
+  /// applies digit s of its codes (InputSlicing::digit).
+  using Codes = Rows<int32_t>;
+  /// One crossbar's bit-serial reads of the vectors [first, first + vectors): row
+  /// (r - first) * slices + s is read s of vector r, LSB first.
+  template <typename S>
+  struct ReadCurrents {
+    Eigen::Index first = 0, vectors = 0;
+    Rows<S> i;             ///< reads x physical columns: column currents (A)
+    std::vector<S> sum_x;  ///< per read: its inputs summed over the crossbar's rows
+  };
+  /// The DAC codes of quantized inputs xq (vectors x K). Only for input_slicing().serial().
+  template <typename S>
+  void slice_inputs(const RowMat<S>& xq, Codes& codes) const;
+  /// Column currents of crossbar b for the reads of vectors [first, first + vectors) of codes.
+  template <typename S>
+  void analog(int b, const Codes& codes, Eigen::Index first, Eigen::Index vectors, ReadCurrents<S>& cur) const;
+  /// ADC quantization of bit-serial reads (the range of read s with converters.adc_range: per_read).
+  template <typename S>
+  void adc_inplace(int b, ReadCurrents<S>& cur) const;
+  /// Adds the partial output of crossbar b for cur's vectors into their rows of y: every read
+  /// recovered, weighted by its input slice's place and added (shift-and-add), then calibrated.
+  template <typename S>
+  void recover_add(int b, const ReadCurrents<S>& cur, Mat<S>& y, bool calibrated = true) const;
+  /// The values (input units) the reads of vectors [first, first + vectors) apply to rows
+  /// [row0, row0 + rows), one row per read in ReadCurrents order.
+  template <typename S>
+  void read_values(const Codes& codes, Eigen::Index first, Eigen::Index vectors, int row0, int rows,
+                   RowMat<S>& out) const;
 
   int inputs() const { return static_cast<int>(w_.rows()); }
   int outputs() const { return static_cast<int>(w_.cols()); }
@@ -154,12 +210,27 @@ class AnalogLayer {
   template <typename S>
   void recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S>& xq, Mat<S>& y, int y_col0,
                   bool calibrated) const;
-  /// Double-precision helpers used while programming (xq: reads, see sliced()).
+  template <typename S>
+  void analog_of(const Crossbar& x, const Codes& codes, Eigen::Index first, Eigen::Index vectors,
+                 ReadCurrents<S>& cur) const;
+  template <typename S>
+  void adc_of(const Crossbar& x, ReadCurrents<S>& cur) const;
+  template <typename S>
+  void recover_of(const Crossbar& x, const ReadCurrents<S>& cur, Mat<S>& y, int y_col0, bool calibrated) const;
+  template <typename S>
+  void forward_serial(const RowMat<S>& xq, Mat<S>& y) const;
+  /// Double-precision helpers used while programming (xq: DAC values, vectors x K).
   Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;
-  /// slice_inputs in double; x itself with one slice.
-  Eigen::MatrixXd sliced(const Eigen::MatrixXd& xq) const;
+  /// Column currents of one read per vector (not bit-serial).
   Eigen::MatrixXd currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
-  Eigen::MatrixXd raw_partial_of(const Crossbar& x, const Eigen::MatrixXd& iq, const Eigen::MatrixXd& xq) const;
+  /// Crossbar x's column currents minus the ADC's offset for every read of xq, one row per
+  /// read (ReadCurrents order), and the range of ADC reference each read uses.
+  Eigen::MatrixXd offset_currents(const Crossbar& x, const Eigen::MatrixXd& xq, Eigen::VectorXi& range) const;
+  /// Crossbar x's recovered output for xq (vectors x its weight columns): converted by the
+  /// ADC when `adc`, calibrated when `calibrated`.
+  Eigen::MatrixXd partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const;
+  /// The mean magnitude of the values the reads of xq apply to each of x's rows.
+  Eigen::VectorXd mean_read_values(const Crossbar& x, const Eigen::MatrixXd& xq) const;
 
   AnalogConfig cfg_;
   Eigen::MatrixXd w_;

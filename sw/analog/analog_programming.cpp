@@ -42,6 +42,7 @@ void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
       x.geff_rows_f = x.geff_f;
     }
   }
+  x.recover_k = x.sign.array() / (x.beta.array() * x.s.array());
 }
 
 void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const {
@@ -69,8 +70,8 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
     const ConversionResult r = convert_signal(p, x.g_target, volts(xs), alpha_ * xs);
     if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
       install(x, r.g_prime);
-      const double e =
-          relative_error(raw_partial_of(x, currents_of(x, in.cal_s), in.cal_s), in.ideal_partial).mean_relative_error;
+      const double e = relative_error(partial_of(x, in.cal, /*adc=*/false, /*calibrated=*/false), in.ideal_partial)
+                           .mean_relative_error;
       if (!(e < best)) continue;
       best = e;
     }
@@ -96,11 +97,9 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
       mo.tolerance = cfg_.conversion.tolerance;
       // The mean applied voltage of each row over the calibration reads.
       const Eigen::VectorXd v_op =
-          in.cal_b.rows()
-              ? Eigen::VectorXd(alpha_ *
-                                in.cal_s.middleCols(x.blk.row0, x.blk.rows).cwiseAbs().colwise().mean().transpose())
-              : Eigen::VectorXd::Constant(x.blk.rows,
-                                          ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
+          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * mean_read_values(x, in.cal))
+                          : Eigen::VectorXd::Constant(
+                                x.blk.rows, ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
       const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
       x.beta = r.column_gain;
       rep.out_of_range_cells = r.out_of_range();
@@ -136,27 +135,48 @@ void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) co
   const int ranges = cfg_.converters.adc_range == AdcRange::PerRead ? slicing_.slices : 1;
   x.adc_lo = Eigen::MatrixXd::Zero(x.pcols, ranges);
   x.adc_hi = Eigen::MatrixXd::Zero(x.pcols, ranges);
-  if (cfg_.converters.adc_bits <= 0) return;
-  if (cfg_.converters.adc_range == AdcRange::Full) {
+  if (cfg_.converters.adc_bits > 0 && cfg_.converters.adc_range == AdcRange::Full) {
     set_full_adc_ranges(x);
-    return;
+  } else if (cfg_.converters.adc_bits > 0) {
+    // ADC ranges from the (offset-subtracted) currents of the range-estimation reads (per read
+    // of a vector with a reference per read).
+    Eigen::VectorXi range;
+    const Eigen::MatrixXd cur = offset_currents(x, range_x, range);
+    x.adc_lo.setConstant(std::numeric_limits<double>::infinity());
+    x.adc_hi.setConstant(-std::numeric_limits<double>::infinity());
+    for (int c = 0; c < x.pcols; ++c)
+      for (Eigen::Index r = 0; r < cur.rows(); ++r) {
+        const int g = ranges == 1 ? 0 : range(r);
+        x.adc_lo(c, g) = std::min(x.adc_lo(c, g), cur(r, c));
+        x.adc_hi(c, g) = std::max(x.adc_hi(c, g), cur(r, c));
+      }
+    for (int c = 0; c < x.pcols; ++c)
+      for (int g = 0; g < ranges; ++g) {
+        const double lo = x.adc_lo(c, g), hi = x.adc_hi(c, g);
+        const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
+                                    ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
+        x.adc_lo(c, g) = lo - pad;
+        x.adc_hi(c, g) = hi + pad;
+      }
   }
-  // ADC ranges from the (offset-subtracted) currents of the range-estimation reads (per read
-  // of a vector: its rows of the slice-major reads).
-  Eigen::MatrixXd cur = currents_of(x, range_x);
-  const Eigen::VectorXd sx = range_x.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
-  const Eigen::Index per_range = cur.rows() / ranges;
-  for (int c = 0; c < x.pcols; ++c) {
-    cur.col(c) -= x.adc_offset(c) * sx;
+  // FastQuantizer's parameters of every column and range, for the bit-serial reads.
+  Crossbar::AdcTable<double>& t = x.adc_d;
+  t.lo = x.adc_lo.array();
+  t.hi = x.adc_hi.array();
+  t.step.resize(x.pcols, ranges);
+  t.on.resize(x.pcols, ranges);
+  for (int c = 0; c < x.pcols; ++c)
     for (int g = 0; g < ranges; ++g) {
-      const auto seg = cur.col(c).segment(g * per_range, ranges == 1 ? cur.rows() : per_range);
-      const double lo = seg.minCoeff(), hi = seg.maxCoeff();
-      const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
-                                  ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
-      x.adc_lo(c, g) = lo - pad;
-      x.adc_hi(c, g) = hi + pad;
+      const FastQuantizer q(Quantizer{cfg_.converters.adc_bits, x.adc_lo(c, g), x.adc_hi(c, g)});
+      t.step(c, g) = q.step;
+      t.on(c, g) = q.on ? 1.0 : 0.0;
     }
-  }
+  t.inv_step = 1.0 / t.step;
+  t.offset = x.adc_offset.array();
+  t.all_on.clear();
+  for (int g = 0; g < ranges; ++g) t.all_on.push_back((t.on.col(g) > 0).all());
+  x.adc_f = {t.lo.cast<float>(), t.hi.cast<float>(), t.step.cast<float>(),  t.inv_step.cast<float>(),
+             t.on.cast<float>(), t.all_on,           t.offset.cast<float>()};
 }
 
 void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
@@ -184,9 +204,7 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;
-  Mat<double> cur = currents_of(x, in.cal_s);
-  adc_of<double, Eigen::MatrixXd>(x, cur, in.cal_s);
-  x.fit = fit_columns(raw_partial_of(x, cur, in.cal_s), in.ideal_partial);
+  x.fit = fit_columns(partial_of(x, in.cal, /*adc=*/true, /*calibrated=*/false), in.ideal_partial);
 }
 
 }  // namespace xbarsim

@@ -29,14 +29,22 @@ struct InputSlicing {
   bool serial() const { return slices > 1; }
   /// Full-scale digit of one DAC read.
   long digit_max() const { return (1L << dac_bits) - 1; }
-  /// The value (input units) read s applies for code q.
-  double digit_value(long q, int s) const {
-    const long m = magnitude_bits;
-    const long pattern = q & ((1L << (m + 1)) - 1);  // two's complement (q >= 0: q itself)
-    if (sign_slice && s == slices - 1) return ((pattern >> m) & 1) ? x_max : 0.0;
-    const long low = pattern & ((1L << m) - 1);
-    return static_cast<double>((low >> (s * dac_bits)) & digit_max()) * (x_max / digit_max());
+  /// The (m+1)-bit two's complement pattern of code q (q itself when q >= 0).
+  long pattern(long q) const { return q & ((1L << (magnitude_bits + 1)) - 1); }
+  /// Digit s of a pattern p is (p >> digit_shift(s)) & digit_mask(s); read s applies it as
+  /// that many digit_unit(s) (input units).
+  int digit_shift(int s) const { return is_sign(s) ? magnitude_bits : s * dac_bits; }
+  long digit_mask(int s) const {
+    if (is_sign(s)) return 1;
+    return digit_max() & (((1L << magnitude_bits) - 1) >> (s * dac_bits));  // the low m bits only
   }
+  double digit_unit(int s) const { return is_sign(s) ? x_max : x_max / static_cast<double>(digit_max()); }
+  long digit(long p, int s) const { return (p >> digit_shift(s)) & digit_mask(s); }
+  /// The value (input units) read s applies for code q.
+  double digit_value(long q, int s) const { return static_cast<double>(digit(pattern(q), s)) * digit_unit(s); }
+
+ private:
+  bool is_sign(int s) const { return sign_slice && s == slices - 1; }
 };
 
 /// The slicing of a layer whose inputs span [0, x_max] (or [-x_max, x_max] when signed),

@@ -178,12 +178,20 @@ TEST(SlicedProduct, ReadsAndConversionsPerVector) {
   const Eigen::MatrixXd w = synthetic_kernel("gaussian", 10, 3, 1);
   AnalogLayer layer(c, w, 1.0, false);
   layer.program(Eigen::MatrixXd());
-  AnalogLayer::RowMat<float> xq = synthetic_inputs(5, 10, 0.2, 1.0, 2).cast<float>(), xs;
+  AnalogLayer::RowMat<float> xq = synthetic_inputs(5, 10, 0.2, 1.0, 2).cast<float>();
   layer.dac_inplace<float>(xq);
-  layer.slice_inputs<float>(xq, xs);
-  EXPECT_EQ(xs.rows(), 4 * 5);  // 8 bits / 2 per read
-  AnalogLayer::Mat<float> cur;
-  layer.analog<float>(0, xs, cur);
-  EXPECT_EQ(cur.rows(), 20);
-  EXPECT_EQ(cur.cols(), 3 * 4);  // 4 cells per weight
+  AnalogLayer::Codes codes;
+  layer.slice_inputs<float>(xq, codes);
+  AnalogLayer::ReadCurrents<float> cur;
+  layer.analog<float>(0, codes, 0, 5, cur);
+  EXPECT_EQ(cur.i.rows(), 4 * 5);  // 8 bits / 2 per read
+  EXPECT_EQ(cur.i.cols(), 3 * 4);  // 4 cells per weight
+  // Each read's input sum is its digits' sum at the read's unit.
+  const InputSlicing& sl = layer.input_slicing();
+  for (int v = 0; v < 5; ++v)
+    for (int s = 0; s < 4; ++s) {
+      double sum = 0;
+      for (int k = 0; k < 10; ++k) sum += sl.digit_value(std::lround(xq(v, k) / sl.step), s);
+      EXPECT_NEAR(cur.sum_x[v * 4 + s], sum, 1e-6) << v << " " << s;
+    }
 }

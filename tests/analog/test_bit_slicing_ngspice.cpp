@@ -28,12 +28,21 @@ void expect_slices_agree(bool nonlinear, int vectors) {
   AnalogLayer layer(c, w, x_max, false);
   layer.program(Eigen::MatrixXd());
   ASSERT_EQ(layer.crossbars(), 1);
-  AnalogLayer::RowMat<double> xq = synthetic_inputs(vectors, 64, 0.3, x_max, 22), xs;
+  AnalogLayer::RowMat<double> xq = synthetic_inputs(vectors, 64, 0.3, x_max, 22);
   layer.dac_inplace<double>(xq);
-  layer.slice_inputs<double>(xq, xs);
-  ASSERT_EQ(xs.rows(), 8 * vectors);
-  AnalogLayer::Mat<double> got;
-  layer.analog<double>(0, xs, got);
+  AnalogLayer::Codes codes;
+  layer.slice_inputs<double>(xq, codes);
+  AnalogLayer::ReadCurrents<double> cur;
+  layer.analog<double>(0, codes, 0, vectors, cur);
+  const Eigen::MatrixXd got = cur.i.matrix();
+  ASSERT_EQ(got.rows(), 8 * vectors);
+  // The values each read applies, from the slicing's definition: read v * 8 + s applies digit
+  // s of vector v's codes.
+  const InputSlicing& sl = layer.input_slicing();
+  Eigen::MatrixXd xs(8 * vectors, 64);
+  for (int v = 0; v < vectors; ++v)
+    for (int s = 0; s < 8; ++s)
+      for (int k = 0; k < 64; ++k) xs(v * 8 + s, k) = sl.digit_value(std::lround(xq(v, k) / sl.step), s);
   // The conductances the layer programs (no conversion, no noise) and the read voltages.
   const Eigen::MatrixXd g = map_weights(w, layer.block(0), c.mapping, c.xbar).g_target;
   ASSERT_EQ(g.cols(), 32);
@@ -44,7 +53,7 @@ void expect_slices_agree(bool nonlinear, int vectors) {
     for (Eigen::Index j = 0; j < ref.cols(); ++j) {
       const double d = std::abs(got(r, j) - ref(r, j)) / scale;
       worst = std::max(worst, d);
-      EXPECT_LT(d, 1e-6) << "read " << r << " (slice " << r / vectors << ") column " << j;
+      EXPECT_LT(d, 1e-6) << "read " << r << " (slice " << r % 8 << ") column " << j;
     }
   ::testing::Test::RecordProperty("worst_difference_of_largest_current", std::to_string(worst));
 }
