@@ -7,6 +7,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/analog/input_slicing.h"
 #include "sw/study/overhead_study.h"
 
 namespace xbarsim {
@@ -68,6 +69,51 @@ void write_csv(std::ostream& os, const OverheadReport& rep) {
     }
 }
 
+/// The machine's bill (IMA, tile, chip), its peak efficiency and the network's mapping on it.
+void print_machine(const MachineReport& r, const HardwareContext& hw) {
+  const double area = r.area_mm2(), power = r.peak_power_mw();
+  std::printf("\nmachine %s (%s): %d tiles x %d IMAs x %d crossbars of %d x %d, %d-bit cells\n", r.name.c_str(),
+              hw.arch.source.c_str(), r.tiles, r.imas_per_tile, r.crossbars_per_ima, hw.arch.crossbar.rows,
+              hw.arch.crossbar.cols, hw.arch.crossbar.cell_bits);
+  const Table bill({{"level", -6}, {"unit", -22}, {"count", 9}, {"area_mm2", 12, 5}, {"peak_mW", 12, 4}});
+  bill.print_header(stdout);
+  for (const auto& [level, lines] : {std::pair<const char*, const std::vector<BillLine>*>{"IMA", &r.bill.ima},
+                                     {"tile", &r.bill.tile},
+                                     {"chip", &r.bill.chip}}) {
+    for (const BillLine& l : *lines) bill.print_row(stdout, {level, l.unit, l.count, l.area_mm2, l.peak_mw});
+    bill.print_row(stdout, {level, "total", "", MachineBill::area(*lines), MachineBill::peak_mw(*lines)});
+  }
+  std::printf(
+      "peak: %.4g TOPS, %.1f GOPS/s/mm^2, %.1f GOPS/W (every crossbar reading: %d-bit inputs in %d reads, "
+      "weights on %d columns each)\n",
+      r.peak_gops * 1e-3, r.peak_gops / area, r.peak_gops / (power * 1e-3), hw.converters.activation_bits(),
+      make_input_slicing(hw.converters.activation_bits(), hw.converters.dac_bits, false, 1.0).slices,
+      hw.mapping.columns_per_weight());
+  const Mapping& m = r.mapping;
+  if (!m.fits) {
+    std::printf("mapping: does not fit: %s\n", m.reason.c_str());
+    return;
+  }
+  std::printf(
+      "mapping: %d of %d IMAs (%.1f %%) on %d of %d tiles; %.2f %% of the chip's cells hold weights; "
+      "bottleneck %s\n",
+      m.imas_used, m.imas_available, 100.0 * m.imas_used / m.imas_available, m.tiles_used, m.tiles_available,
+      100.0 * m.cell_utilization, m.bottleneck >= 0 ? m.layers[m.bottleneck].name.c_str() : "-");
+  const Table t({{"layer", -30},
+                 {"xbars", 6},
+                 {"IMAs", 5},
+                 {"copies", 6},
+                 {"tiles", -9},
+                 {"compute_us", 11, 3},
+                 {"input_us", 9, 3},
+                 {"cell_util", 9, 3}});
+  t.print_header(stdout);
+  for (const LayerPlacement& p : m.layers)
+    t.print_row(stdout, {p.name, p.crossbars, (long long)p.imas, (long long)p.replication,
+                         std::to_string(m.tile_of(p.first_ima)) + "-" + std::to_string(m.tile_of(p.last_ima())),
+                         p.compute_ns * 1e-3, p.input_ns * 1e-3, p.cell_utilization});
+}
+
 int cmd_overhead(int argc, char** argv) {
   const CliArgs args(argc, argv, 0, {"--model", "--preset", "--input-size"});
   const ConfigTree cfg = load_config(args);
@@ -113,6 +159,7 @@ int cmd_overhead(int argc, char** argv) {
   }
   table.print_row(stdout, cells("TOTAL", "", "", "dense", rep.dense_total));
   table.print_row(stdout, cells("", "", "", "sparse", rep.sparse_total));
+  if (rep.machine) print_machine(*rep.machine, hw);
   std::fprintf(stderr, "xbarsim overhead: %.2f ms\n", ms);
   if (args.has("--json")) {
     nlohmann::json j = rep.to_json();

@@ -1,8 +1,7 @@
 #include "sw/hw/component_library.h"
 
 #include "sw/common/input_file.h"
-
-#include "sw/common/parse.h"
+#include "sw/hw/yaml_section.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -35,67 +34,7 @@ double ConverterModel::area_at(int bits) const { return scale_by_bits(area_mm2, 
 
 namespace {
 
-/// One section of the library: its keys are checked against the ones read from it.
-class Section {
- public:
-  Section(const YAML::Node& root, std::string name, std::string origin)
-      : node_(root[name]), name_(std::move(name)), origin_(std::move(origin)) {
-    if (!node_) throw InputError(origin_ + ": missing section '" + name_ + "'");
-    if (!node_.IsMap()) throw InputError(origin_ + ": section '" + name_ + "' must be a map of keys");
-  }
-  /// A number >= 0 (> 0 when `positive`).
-  double number(const std::string& key, bool positive = false) {
-    const YAML::Node n = get(key);
-    double v = 0;
-    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0))
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
-                       " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
-    return v;
-  }
-  /// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
-  int integer(const std::string& key) {
-    const double v = number(key, true);
-    if (v != std::floor(v) || v > (1 << 30))
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer, got '" +
-                       node_[key].Scalar() + "'");
-    return static_cast<int>(v);
-  }
-  Scaling scaling(const std::string& key) {
-    read_.push_back(key);
-    const YAML::Node n = node_[key];
-    if (!n) return Scaling::Exponential;
-    const std::string s = n.Scalar();
-    if (s == "exponential") return Scaling::Exponential;
-    if (s == "linear") return Scaling::Linear;
-    if (s == "constant") return Scaling::Constant;
-    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s +
-                     "'");
-  }
-  /// Rejects keys that were not read (a misspelt key would otherwise be ignored).
-  void finish() const {
-    for (auto it = node_.begin(); it != node_.end(); ++it) {
-      const std::string k = it->first.as<std::string>();
-      if (std::find(read_.begin(), read_.end(), k) == read_.end()) {
-        std::string list;
-        for (const auto& a : read_) list += (list.empty() ? "" : ", ") + a;
-        throw InputError(origin_ + ": unknown key '" + name_ + "." + k + "' (" + list + ")");
-      }
-    }
-  }
-
- private:
-  YAML::Node get(const std::string& key) {
-    read_.push_back(key);
-    const YAML::Node n = node_[key];
-    if (!n) throw InputError(origin_ + ": missing key '" + name_ + "." + key + "'");
-    return n;
-  }
-  YAML::Node node_;
-  std::string name_, origin_;
-  std::vector<std::string> read_;
-};
-
-ConverterModel converter(Section& s) {
+ConverterModel converter(YamlSection& s) {
   ConverterModel c;
   c.area_mm2 = s.number("area_mm2", true);
   c.leakage_mw = s.number("leakage_mw");
@@ -109,33 +48,18 @@ ConverterModel converter(Section& s) {
 }  // namespace
 
 ComponentLibrary parse_component_library(const std::string& text, const std::string& origin) {
-  check_yaml_structure(text, origin);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(origin + ": YAML syntax error: " + e.what());
-  }
-  if (!root.IsMap()) throw InputError(origin + ": a component library is a map of sections");
-  static const char* kSections[] = {
-      "adc",         "dac",       "dac_lut",         "cell",   "accumulator",  "shift_register",
-      "sample_hold", "shift_add", "output_register", "buffer", "interconnect", "digital",
-      "memory"};
-  for (auto it = root.begin(); it != root.end(); ++it) {
-    const std::string k = it->first.as<std::string>();
-    if (std::find_if(std::begin(kSections), std::end(kSections), [&](const char* s) { return k == s; }) ==
-        std::end(kSections)) {
-      std::string list;
-      for (const char* n : kSections) list += (list.empty() ? "" : ", ") + std::string(n);
-      throw InputError(origin + ": unknown section '" + k + "' (" + list + ")");
-    }
-  }
+  const YAML::Node root = load_yaml_map(text, origin, "a component library");
+  check_yaml_sections(root,
+                      {"adc", "dac", "dac_lut", "cell", "accumulator", "shift_register", "sample_hold", "shift_add",
+                       "output_register", "buffer", "interconnect", "digital", "memory", "units"},
+                      origin);
   ComponentLibrary lib;
   lib.source = origin;
-  Section adc(root, "adc", origin), dac(root, "dac", origin), lut(root, "dac_lut", origin), cell(root, "cell", origin),
-      acc(root, "accumulator", origin), sr(root, "shift_register", origin), sh(root, "sample_hold", origin),
-      sa(root, "shift_add", origin), outr(root, "output_register", origin), buf(root, "buffer", origin),
-      noc(root, "interconnect", origin), dig(root, "digital", origin), mem(root, "memory", origin);
+  YamlSection adc(root, "adc", origin), dac(root, "dac", origin), lut(root, "dac_lut", origin),
+      cell(root, "cell", origin), acc(root, "accumulator", origin), sr(root, "shift_register", origin),
+      sh(root, "sample_hold", origin), sa(root, "shift_add", origin), outr(root, "output_register", origin),
+      buf(root, "buffer", origin), noc(root, "interconnect", origin), dig(root, "digital", origin),
+      mem(root, "memory", origin);
   lib.adc = converter(adc);
   lib.adc_columns_per_unit = adc.integer("columns_per_unit");
   lib.adc_sample_rate_gsps = adc.number("sample_rate_gsps", true);
@@ -156,8 +80,28 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
   lib.interconnect = {noc.number("area_mm2"), noc.number("leakage_mw"), noc.number("transfer_pj_per_byte")};
   lib.digital = {dig.number("area_mm2"), dig.number("leakage_mw"), dig.number("op_pj")};
   lib.memory = {mem.number("transfer_pj_per_byte")};
-  for (const Section* s : {&adc, &dac, &lut, &cell, &acc, &sr, &sh, &sa, &outr, &buf, &noc, &dig, &mem}) s->finish();
+  for (const YamlSection* s : {&adc, &dac, &lut, &cell, &acc, &sr, &sh, &sa, &outr, &buf, &noc, &dig, &mem})
+    s->finish();
+  // Named units an architecture instantiates (optional: libraries for layer-sized designs
+  // need none).
+  if (root["units"]) {
+    YamlSection units(root, "units", origin);
+    for (const std::string& name : units.keys()) {
+      YamlSection u = units.section(name);
+      lib.units[name] = {u.number("area_mm2"), u.number("leakage_mw"), u.number("action_pj")};
+      u.finish();
+    }
+    units.finish();
+  }
   return lib;
+}
+
+const ComponentLibrary::Unit& ComponentLibrary::unit(const std::string& name) const {
+  const auto it = units.find(name);
+  if (it != units.end()) return it->second;
+  std::string list;
+  for (const auto& [n, u] : units) list += (list.empty() ? "" : ", ") + n;
+  throw InputError(source + ": no unit '" + name + "' in section 'units' (" + (list.empty() ? "none" : list) + ")");
 }
 
 ComponentLibrary load_component_library(const ConfigTree& cfg) {

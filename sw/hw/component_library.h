@@ -3,6 +3,7 @@
 /// component's area, leakage power and energy per action, with the rules that scale
 /// converters to other resolutions. Parsed once and validated; costs are computed from
 /// it in one place (sw/hw/cost.h).
+#include <map>
 #include <string>
 
 #include "sw/common/config.h"
@@ -68,6 +69,15 @@ struct ComponentLibrary {
   struct Memory {
     double transfer_pj_per_byte = 0;  ///< off-chip input/output
   } memory;
+  /// A unit an architecture instantiates by name (section `units`): a tile's bus, a router,
+  /// a sigmoid or pooling unit, an off-chip link; one action is what the architecture says it
+  /// does per cycle (a byte moved, an operation).
+  struct Unit {
+    double area_mm2 = 0, leakage_mw = 0, action_pj = 0;
+  };
+  std::map<std::string, Unit> units;
+  /// The unit named `name`; InputError naming the library and the units it has otherwise.
+  const Unit& unit(const std::string& name) const;
 };
 
 /// Scales `value` from `ref` to `bits` by the rule.

@@ -1,5 +1,7 @@
 #include "sw/study/hardware.h"
 
+#include "sw/analog/input_slicing.h"
+
 namespace xbarsim {
 
 HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig& ac) {
@@ -7,7 +9,17 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
   hw.mapping = ac.mapping;
   hw.converters = ac.converters;
   hw.lib = load_component_library(cfg);
+  hw.arch = load_architecture(cfg);
+  check_crossbar_geometry(hw.arch, ac.mapping);
   hw.columns_per_adc = resolve_columns_per_adc(ac.converters.adc_columns_per_adc, hw.lib.adc_columns_per_unit);
+  if (hw.arch.machine) {
+    const int shared = hw.arch.columns_per_adc();
+    if (ac.converters.adc_columns_per_adc != 0 && ac.converters.adc_columns_per_adc != shared)
+      throw InputError("converters.adc_columns_per_adc = " + std::to_string(ac.converters.adc_columns_per_adc) +
+                       ", but architecture.machine " + hw.arch.name + " shares each ADC among " +
+                       std::to_string(shared) + " columns (its IMA's); set 0 or " + std::to_string(shared));
+    hw.columns_per_adc = shared;
+  }
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
   hw.cost.lib = hw.lib;
   hw.cost.dac_bits = ac.converters.dac_bits;
@@ -39,6 +51,53 @@ void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInvento
   r.crossbars += v.crossbars;
   r.adcs += v.adcs;
   r.dacs += v.dacs;
+}
+
+MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {
+  const Architecture& a = hw.arch;
+  MachineReport r;
+  r.name = a.name;
+  r.tiles = a.chip.tiles;
+  r.imas_per_tile = a.tile.imas;
+  r.crossbars_per_ima = a.ima.crossbars;
+  r.bill = price_machine(a, hw.cost, hw.converters, hw.mapping);
+  std::vector<LayerInventory> layers;
+  for (size_t l = 0; l < m.linear.size(); ++l)
+    layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l)));
+  r.mapping = map_network(layers, a, hw.platform);
+  const int slices = make_input_slicing(hw.converters.activation_bits(), hw.converters.dac_bits, false, 1.0).slices;
+  const double weights = static_cast<double>(a.crossbar.rows) * (a.crossbar.cols / hw.mapping.columns_per_weight());
+  r.peak_gops = 2.0 * weights / (slices * a.ima.read_ns) * static_cast<double>(a.crossbars());
+  return r;
+}
+
+nlohmann::json MachineReport::to_json() const {
+  auto lines = [](const std::vector<BillLine>& v) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const BillLine& l : v)
+      j.push_back({{"unit", l.unit}, {"count", l.count}, {"area_mm2", l.area_mm2}, {"peak_power_mw", l.peak_mw}});
+    return j;
+  };
+  const double area = area_mm2(), power = peak_power_mw();
+  return {{"name", name},
+          {"tiles", tiles},
+          {"imas_per_tile", imas_per_tile},
+          {"crossbars_per_ima", crossbars_per_ima},
+          {"area_mm2", area},
+          {"peak_power_mw", power},
+          {"ima",
+           {{"area_mm2", MachineBill::area(bill.ima)},
+            {"peak_power_mw", MachineBill::peak_mw(bill.ima)},
+            {"units", lines(bill.ima)}}},
+          {"tile",
+           {{"area_mm2", MachineBill::area(bill.tile)},
+            {"peak_power_mw", MachineBill::peak_mw(bill.tile)},
+            {"units", lines(bill.tile)}}},
+          {"chip", {{"units", lines(bill.chip)}}},
+          {"peak_gops", peak_gops},
+          {"peak_gops_per_mm2", area > 0 ? peak_gops / area : 0.0},
+          {"peak_gops_per_w", power > 0 ? peak_gops / (power * 1e-3) : 0.0},
+          {"mapping", mapping.to_json()}};
 }
 
 }  // namespace xbarsim

@@ -2,8 +2,10 @@
 /// The hardware a configuration describes, parsed once and shared by every command so that
 /// overhead, eval, xbar-study and simulate count and price the same design the same way.
 #include "sw/analog/analog_layer.h"
+#include "sw/hw/architecture.h"
 #include "sw/hw/cost.h"
 #include "sw/hw/inventory.h"
+#include "sw/hw/mapper.h"
 #include "sw/hw/platform_spec.h"
 
 namespace xbarsim {
@@ -13,7 +15,8 @@ struct HardwareContext {
   ConvertersSpec converters;
   ComponentLibrary lib;
   PlatformConfig platform;
-  int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library
+  Architecture arch;          ///< architecture.machine (layer-sized: arch.machine is false)
+  int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library or the machine
   CostModel cost;
   /// The inventory of layer L under `scheme`, its inputs streamed as the converters say
   /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's).
@@ -23,7 +26,8 @@ struct HardwareContext {
   }
 };
 
-/// Reads components.library and platform.*; mapping and converters come from `ac`.
+/// Reads components.library, architecture.machine and platform.*; mapping and converters
+/// come from `ac` (and must fit the machine: check_crossbar_geometry, the ADC sharing).
 HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig& ac);
 
 /// Cost of a set of layers per image: areas, leakage and peak power from the inventory;
@@ -40,5 +44,25 @@ struct CostReport {
 
 /// Adds one layer (its inventory and the actions of one image) to `r`.
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);
+
+/// A machine (architecture.machine) with a network mapped onto it: the chip priced from counts
+/// x components, where the network's layers sit, and the machine's peak throughput for the
+/// configured datapath (weights on cell slices, inputs in reads).
+struct MachineReport {
+  std::string name;
+  int tiles = 0, imas_per_tile = 0, crossbars_per_ima = 0;
+  MachineBill bill;
+  Mapping mapping;
+  /// Operations (2 per MAC) per ns with every crossbar reading: each holds rows x cols /
+  /// columns_per_weight weights and finishes a vector every input_slices reads.
+  double peak_gops = 0;
+  double area_mm2() const { return MachineBill::area(bill.chip); }
+  double peak_power_mw() const { return MachineBill::peak_mw(bill.chip); }
+  nlohmann::json to_json() const;
+};
+
+/// The machine of `hw` (hw.arch.machine) priced, and `m` mapped onto it (dense, with
+/// platform.replication); `signed_inputs` per linear layer as linear_inputs_signed.
+MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs);
 
 }  // namespace xbarsim

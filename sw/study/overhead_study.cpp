@@ -33,6 +33,7 @@ nlohmann::json OverheadReport::to_json() const {
                            {"dense", l.dense.to_json()},
                            {"sparse", l.sparse.to_json()}});
   j["totals"] = {{"dense", dense_total.to_json()}, {"sparse", sparse_total.to_json()}};
+  if (machine) j["machine"] = machine->to_json();
   return j;
 }
 
@@ -60,6 +61,7 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
     }
     r.layers.push_back(std::move(o));
   }
+  if (hw.arch.machine) r.machine = machine_report(m, hw, signed_inputs);
   return r;
 }
 

@@ -2,6 +2,7 @@
 /// Dense vs sparse (Toeplitz) mapping of every Conv/Gemm layer: counts from the inventory,
 /// area and peak power (every unit busy, the paper's Table "Overhead comparison") from the
 /// component library.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,7 @@ struct LayerOverhead {
 struct OverheadReport {
   std::vector<LayerOverhead> layers;
   MappingOverhead dense_total, sparse_total;
+  std::optional<MachineReport> machine;  ///< architecture.machine is a machine: it priced, the network on it
   nlohmann::json to_json() const;
 };
 

@@ -1,0 +1,189 @@
+#include "sw/hw/architecture.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include "sw/analog/input_slicing.h"
+#include "sw/common/input_file.h"
+#include "sw/hw/yaml_section.h"
+
+namespace xbarsim {
+
+namespace {
+
+UnitUse unit_use(YamlSection s, const char* rate_key) {
+  UnitUse u;
+  u.unit = s.word("unit");
+  u.count = s.has("count") ? s.integer("count") : 1;
+  u.actions_per_ns = s.number(rate_key, true);
+  s.finish();
+  return u;
+}
+
+}  // namespace
+
+Architecture parse_architecture(const std::string& text, const std::string& origin) {
+  const YAML::Node root = load_yaml_map(text, origin, "an architecture");
+  check_yaml_sections(root, {"name", "crossbar", "ima", "tile", "chip"}, origin);
+  Architecture a;
+  a.machine = true;
+  a.source = origin;
+  if (!root["name"] || !root["name"].IsScalar() || root["name"].Scalar().empty())
+    throw InputError(origin + ": 'name' must name the architecture");
+  a.name = root["name"].Scalar();
+  if (a.name == "layer-sized") throw InputError(origin + ": 'layer-sized' is the built-in no-machine setting");
+
+  YamlSection xb(root, "crossbar", origin);
+  a.crossbar = {xb.integer("rows"), xb.integer("cols"), xb.integer("cell_bits")};
+  xb.finish();
+
+  YamlSection ima(root, "ima", origin);
+  a.ima.crossbars = ima.integer("crossbars");
+  a.ima.adcs = ima.integer("adcs");
+  a.ima.read_ns = ima.number("read_ns", true);
+  a.ima.input_register_bytes = ima.integer("input_register_bytes");
+  a.ima.output_register_bytes = ima.integer("output_register_bytes");
+  ima.finish();
+  if ((static_cast<long long>(a.ima.crossbars) * a.crossbar.cols) % a.ima.adcs != 0)
+    throw InputError(origin + ": 'ima.adcs' = " + std::to_string(a.ima.adcs) + " must divide the IMA's " +
+                     std::to_string(static_cast<long long>(a.ima.crossbars) * a.crossbar.cols) +
+                     " physical columns (crossbars x cols), which its ADCs share equally");
+
+  YamlSection tile(root, "tile", origin);
+  a.tile.imas = tile.integer("imas");
+  {
+    YamlSection e = tile.section("edram");
+    a.tile.edram_bytes = static_cast<long long>(e.integer("kib")) * 1024;
+    a.tile.edram_bytes_per_ns = e.number("bytes_per_ns", true);
+    e.finish();
+  }
+  a.tile.bus = unit_use(tile.section("bus"), "bytes_per_ns");
+  if (tile.has("units")) {
+    YamlSection units = tile.section("units");
+    for (const std::string& name : units.keys()) {
+      YamlSection u = units.section(name);
+      a.tile.units.push_back({name, u.integer("count"), u.number("actions_per_ns", true)});
+      u.finish();
+    }
+    units.finish();
+  }
+  tile.finish();
+
+  YamlSection chip(root, "chip", origin);
+  a.chip.tiles = chip.integer("tiles");
+  a.chip.tiles_per_router = chip.integer("tiles_per_router");
+  {
+    YamlSection m = chip.section("mesh");
+    a.chip.mesh_rows = m.integer("rows");
+    a.chip.mesh_cols = m.integer("cols");
+    m.finish();
+  }
+  a.chip.router = unit_use(chip.section("router"), "bytes_per_ns");
+  a.chip.offchip = unit_use(chip.section("offchip"), "bytes_per_ns");
+  chip.finish();
+  const long long places = static_cast<long long>(a.chip.routers()) * a.chip.tiles_per_router;
+  if (places < a.chip.tiles)
+    throw InputError(origin + ": 'chip.tiles' = " + std::to_string(a.chip.tiles) + " do not fit the mesh: " +
+                     std::to_string(a.chip.mesh_rows) + " x " + std::to_string(a.chip.mesh_cols) + " routers of " +
+                     std::to_string(a.chip.tiles_per_router) + " tiles hold " + std::to_string(places));
+  return a;
+}
+
+Architecture load_architecture(const ConfigTree& cfg) {
+  const std::string name = cfg.get_string("architecture.machine");
+  if (name == "layer-sized") return Architecture{};
+  if (const char* text = builtin_architecture_yaml(name.c_str()))
+    return parse_architecture(text, "built-in configs/architectures/" + name + ".yaml");
+  return parse_architecture(read_input_file(name, "the architecture (architecture.machine)", kMaxYamlBytes), name);
+}
+
+void check_crossbar_geometry(const Architecture& arch, const MappingSpec& mapping) {
+  if (!arch.machine) return;
+  const auto& x = arch.crossbar;
+  if (mapping.max_rows == x.rows && mapping.max_cols == x.cols && mapping.cell_bits == x.cell_bits) return;
+  auto bits = [](int b) { return b ? std::to_string(b) : std::string("none"); };
+  throw InputError("architecture.machine " + arch.name + " has crossbars of " + std::to_string(x.rows) + " x " +
+                   std::to_string(x.cols) + " cells of " + std::to_string(x.cell_bits) +
+                   " bits; the configuration maps onto " + std::to_string(mapping.max_rows) + " x " +
+                   std::to_string(mapping.max_cols) + " (mapping.max_rows, mapping.max_cols) with crossbar.cell_bits " +
+                   bits(mapping.cell_bits) + ": set them to the machine's (configs/isaac.yaml does for isaac-ce)");
+}
+
+double MachineBill::area(const std::vector<BillLine>& lines) {
+  double a = 0;
+  for (const BillLine& l : lines) a += l.area_mm2;
+  return a;
+}
+
+double MachineBill::peak_mw(const std::vector<BillLine>& lines) {
+  double p = 0;
+  for (const BillLine& l : lines) p += l.peak_mw;
+  return p;
+}
+
+MachineBill price_machine(const Architecture& arch, const CostModel& cost, const ConvertersSpec& converters,
+                          const MappingSpec& mapping) {
+  if (!arch.machine) throw std::logic_error("price_machine: layer-sized is no machine");
+  MachineBill bill;
+  const ComponentLibrary& lib = cost.lib;
+  // One IMA as the counting rule's inventory: every crossbar present and read each read_ns.
+  const long long xb = arch.ima.crossbars, rows = arch.crossbar.rows, cols = arch.crossbar.cols;
+  LayerInventory v;
+  v.crossbars = v.accumulators = xb;
+  v.dacs = xb * rows;
+  v.adcs = arch.ima.adcs;
+  v.cells_present = v.cells_used = xb * rows * cols;
+  v.sample_holds = xb * cols;
+  v.shift_register_entries = arch.ima.input_register_bytes;
+  v.input_bytes = 1;
+  v.output_register_bytes = arch.ima.output_register_bytes;
+  v.columns_per_adc = arch.columns_per_adc();
+  v.input_slices = make_input_slicing(converters.activation_bits(), converters.dac_bits, false, 1.0).slices;
+  v.weight_slices = mapping.weight_slices();
+  CostModel per_read = cost;
+  per_read.clock_mhz = 1e3 / arch.ima.read_ns;
+  const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v);
+  const std::pair<const char*, double ComponentBreakdown::*> parts[] = {
+      {"crossbar", &ComponentBreakdown::crossbar},
+      {"adc", &ComponentBreakdown::adc},
+      {"dac", &ComponentBreakdown::dac},
+      {"sample_hold", &ComponentBreakdown::sample_hold},
+      {"shift_add", &ComponentBreakdown::shift_add},
+      {"input_register", &ComponentBreakdown::shift_register},
+      {"output_register", &ComponentBreakdown::output_register},
+      {"accumulator", &ComponentBreakdown::accumulator}};
+  const long long counts[] = {xb,
+                              v.adcs,
+                              v.dacs,
+                              v.sample_holds,
+                              per_read.shift_add_units(v),
+                              arch.ima.input_register_bytes,
+                              arch.ima.output_register_bytes,
+                              v.accumulators};
+  for (size_t k = 0; k < std::size(parts); ++k)
+    if (area.*parts[k].second > 0 || peak.*parts[k].second > 0)
+      bill.ima.push_back({parts[k].first, counts[k], area.*parts[k].second, peak.*parts[k].second});
+
+  auto priced = [&](const UnitUse& u) {
+    const ComponentLibrary::Unit& m = lib.unit(u.unit);
+    return BillLine{u.unit, u.count, u.count * m.area_mm2, u.count * (m.leakage_mw + m.action_pj * u.actions_per_ns)};
+  };
+  const double kib = arch.tile.edram_bytes / 1024.0;
+  bill.tile.push_back({"ima", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima),
+                       arch.tile.imas * MachineBill::peak_mw(bill.ima)});
+  bill.tile.push_back(
+      {"edram", arch.tile.edram_bytes, kib * lib.buffer.area_mm2_per_kib,
+       kib * lib.buffer.leakage_mw_per_kib + lib.buffer.read_pj_per_byte * arch.tile.edram_bytes_per_ns});
+  bill.tile.push_back(priced(arch.tile.bus));
+  for (const UnitUse& u : arch.tile.units) bill.tile.push_back(priced(u));
+  // The tile's share of the routers (one per tiles_per_router tiles), so that tiles x tile
+  // is the chip without its off-chip links.
+  BillLine routers = priced({arch.chip.router.unit, arch.chip.routers(), arch.chip.router.actions_per_ns});
+  bill.tile.push_back({"router share", 1, routers.area_mm2 / arch.chip.tiles, routers.peak_mw / arch.chip.tiles});
+
+  bill.chip.push_back({"tile", arch.chip.tiles, arch.chip.tiles * MachineBill::area(bill.tile),
+                       arch.chip.tiles * MachineBill::peak_mw(bill.tile)});
+  bill.chip.push_back(priced(arch.chip.offchip));
+  return bill;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,97 @@
+#pragma once
+/// The machine networks are mapped onto (configuration key architecture.machine), a
+/// hierarchy in the style of Timeloop/Accelergy: chip -> tiles (on the routers of a 2-D mesh)
+/// -> IMAs -> crossbars, every unit a component of the library (sw/hw/component_library.h)
+/// by name. `layer-sized` is no fixed machine: a tile per linear layer, sized to it (the
+/// seed paper's setting, and every command's behaviour before machines existed).
+/// Architecture files live in configs/architectures/ (built in by name) or anywhere (a path).
+#include <string>
+#include <vector>
+
+#include "sw/analog/analog_spec.h"
+#include "sw/common/config.h"
+#include "sw/hw/cost.h"
+
+namespace xbarsim {
+
+/// A unit of the library instantiated `count` times, each doing up to `actions_per_ns`
+/// actions (bytes moved, operations) at its peak.
+struct UnitUse {
+  std::string unit;
+  int count = 1;
+  double actions_per_ns = 0;
+};
+
+struct Architecture {
+  std::string name = "layer-sized";
+  std::string source;  ///< the file it was read from ("" for layer-sized)
+  bool machine = false;
+  struct Crossbar {
+    int rows = 0, cols = 0, cell_bits = 0;
+  } crossbar;
+  struct Ima {
+    int crossbars = 0;
+    int adcs = 0;        ///< shared by the IMA's physical columns (columns_per_adc each)
+    double read_ns = 0;  ///< one read of every crossbar (DACs, cells, sample-and-holds)
+    long long input_register_bytes = 0, output_register_bytes = 0;
+  } ima;
+  struct Tile {
+    int imas = 0;
+    long long edram_bytes = 0;
+    double edram_bytes_per_ns = 0;
+    UnitUse bus;
+    std::vector<UnitUse> units;  ///< digital units (sigmoid, pooling, shift-and-add, output register)
+  } tile;
+  struct Chip {
+    int tiles = 0;
+    int tiles_per_router = 1;
+    int mesh_rows = 0, mesh_cols = 0;
+    UnitUse router;   ///< one per mesh node; actions_per_ns per link
+    UnitUse offchip;  ///< off-chip links
+    int routers() const { return mesh_rows * mesh_cols; }
+  } chip;
+  /// Physical columns one ADC serves: the IMA's columns shared by its ADCs.
+  int columns_per_adc() const { return ima.crossbars * crossbar.cols / ima.adcs; }
+  long long crossbars() const { return static_cast<long long>(chip.tiles) * tile.imas * ima.crossbars; }
+};
+
+/// Parses an architecture file; errors name `origin`, the section and the key (unknown or
+/// missing keys, non-positive counts, a mesh too small for the tiles, ADCs that do not divide
+/// the IMA's columns).
+Architecture parse_architecture(const std::string& yaml_text, const std::string& origin);
+
+/// The text of configs/architectures/<name>.yaml compiled in, or nullptr.
+const char* builtin_architecture_yaml(const char* name);
+
+/// architecture.machine: layer-sized, a built-in machine by name (configs/architectures/
+/// <name>.yaml compiled in: isaac-ce), or a YAML file.
+Architecture load_architecture(const ConfigTree& cfg);
+
+/// A machine fixes the crossbar: the mapping and the cells must be its (InputError naming the
+/// keys to set otherwise). Nothing to check for layer-sized.
+void check_crossbar_geometry(const Architecture& arch, const MappingSpec& mapping);
+
+/// One line of a bill of materials: `count` units of one kind and their area and peak power
+/// (every unit at its highest action rate, plus leakage).
+struct BillLine {
+  std::string unit;
+  long long count = 0;
+  double area_mm2 = 0, peak_mw = 0;
+};
+
+/// A machine priced from counts x components: the units of one IMA, of one tile (its IMAs as
+/// one line, then its own units and its share of the routers) and of the chip (its tiles as
+/// one line, then the off-chip links).
+struct MachineBill {
+  std::vector<BillLine> ima, tile, chip;
+  static double area(const std::vector<BillLine>& lines);
+  static double peak_mw(const std::vector<BillLine>& lines);
+};
+
+/// Prices `arch` with `cost` (the library and the converters' resolutions); the IMA's reads
+/// are streamed as `converters` and `mapping` say (bit-serial inputs or sliced weights: its
+/// shift-and-add units and output register work at the ADCs' rate).
+MachineBill price_machine(const Architecture& arch, const CostModel& cost, const ConvertersSpec& converters,
+                          const MappingSpec& mapping);
+
+}  // namespace xbarsim

@@ -1,0 +1,118 @@
+#include "sw/hw/mapper.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace xbarsim {
+
+namespace {
+
+/// Crossbar reads of one copy per image (iterations x input slices) at one read per read_ns.
+double compute_ns(const LayerInventory& v, const Architecture& arch, int copies) {
+  return std::ceil(static_cast<double>(v.iterations) / copies) * v.input_slices * arch.ima.read_ns;
+}
+
+}  // namespace
+
+Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc) {
+  if (!arch.machine) throw std::logic_error("map_network: layer-sized is no machine");
+  Mapping m;
+  m.machine = arch.name;
+  m.imas_per_tile = arch.tile.imas;
+  m.tiles_available = arch.chip.tiles;
+  m.imas_available = arch.chip.tiles * arch.tile.imas;
+  const int L = static_cast<int>(layers.size());
+  if (!pc.replication_per_layer.empty() && static_cast<int>(pc.replication_per_layer.size()) != L)
+    throw InputError("platform.replication_per_layer lists " + std::to_string(pc.replication_per_layer.size()) +
+                     " values for " + std::to_string(L) + " linear layers");
+  const long long cells_per_ima = static_cast<long long>(arch.ima.crossbars) * arch.crossbar.rows * arch.crossbar.cols;
+  for (int l = 0; l < L; ++l) {
+    const LayerInventory& v = layers[l];
+    LayerPlacement p;
+    p.name = v.name;
+    p.crossbars = v.crossbars;
+    p.imas = static_cast<int>((v.crossbars + arch.ima.crossbars - 1) / arch.ima.crossbars);
+    p.replication = pc.replication_per_layer.empty() ? pc.replication : pc.replication_per_layer[l];
+    if (pc.auto_replication && pc.replication_per_layer.empty()) p.replication = 1;
+    p.cell_utilization = static_cast<double>(v.cells_used) / (static_cast<double>(p.imas) * cells_per_ima);
+    p.input_ns = static_cast<double>(v.input.size()) * pc.activation_bytes / arch.chip.router.actions_per_ns;
+    m.layers.push_back(p);
+  }
+  auto used = [&] {
+    long long n = 0;
+    for (const LayerPlacement& p : m.layers) n += static_cast<long long>(p.imas) * p.replication;
+    return n;
+  };
+  auto update_times = [&] {
+    for (int l = 0; l < L; ++l) m.layers[l].compute_ns = compute_ns(layers[l], arch, m.layers[l].replication);
+  };
+  update_times();
+  if (pc.auto_replication && pc.replication_per_layer.empty()) {
+    // Greedy, as ISAAC balances its pipeline: another copy of the slowest stage while it is
+    // compute-bound (a stage bound by its input link gains nothing) and its IMAs fit.
+    for (;;) {
+      int slow = 0;
+      for (int l = 1; l < L; ++l)
+        if (m.layers[l].stage_ns() > m.layers[slow].stage_ns()) slow = l;
+      LayerPlacement& s = m.layers[slow];
+      if (L == 0 || s.compute_ns <= s.input_ns || s.replication >= layers[slow].iterations ||
+          used() + s.imas > m.imas_available)
+        break;
+      ++s.replication;
+      update_times();
+    }
+  }
+  const long long needed = used();
+  m.imas_used = static_cast<int>(std::min<long long>(needed, m.imas_available));
+  if (needed > m.imas_available) {
+    long long crossbars = 0;
+    for (const LayerPlacement& p : m.layers) crossbars += p.crossbars * p.replication;
+    m.fits = false;
+    m.reason = "the network needs " + std::to_string(needed) + " IMAs (" + std::to_string(crossbars) +
+               " crossbars in whole IMAs of " + std::to_string(arch.ima.crossbars) + "), " + arch.name + " has " +
+               std::to_string(m.imas_available) + " (" + std::to_string(arch.chip.tiles) + " tiles x " +
+               std::to_string(arch.tile.imas) + ")";
+    return m;
+  }
+  int next = 0;
+  long long cells = 0;
+  for (int l = 0; l < L; ++l) {
+    m.layers[l].first_ima = next;
+    next += m.layers[l].imas * m.layers[l].replication;
+    cells += layers[l].cells_used * m.layers[l].replication;
+    if (m.bottleneck < 0 || m.layers[l].stage_ns() > m.layers[m.bottleneck].stage_ns()) m.bottleneck = l;
+  }
+  m.tiles_used = next ? m.tile_of(next - 1) + 1 : 0;
+  m.cell_utilization = static_cast<double>(cells) / (static_cast<double>(m.imas_available) * cells_per_ima);
+  return m;
+}
+
+nlohmann::json Mapping::to_json() const {
+  nlohmann::json layers_json = nlohmann::json::array();
+  for (const LayerPlacement& p : layers)
+    layers_json.push_back(
+        {{"name", p.name},
+         {"crossbars", p.crossbars},
+         {"imas", p.imas},
+         {"replication", p.replication},
+         {"first_ima", p.first_ima},
+         {"tiles", p.first_ima < 0 ? nlohmann::json() : nlohmann::json{tile_of(p.first_ima), tile_of(p.last_ima())}},
+         {"compute_ns", p.compute_ns},
+         {"input_ns", p.input_ns},
+         {"stage_ns", p.stage_ns()},
+         {"cell_utilization", p.cell_utilization}});
+  nlohmann::json j = {{"machine", machine},
+                      {"fits", fits},
+                      {"imas_used", imas_used},
+                      {"imas_available", imas_available},
+                      {"tiles_used", tiles_used},
+                      {"tiles_available", tiles_available},
+                      {"ima_utilization", imas_available ? static_cast<double>(imas_used) / imas_available : 0.0},
+                      {"cell_utilization", cell_utilization},
+                      {"bottleneck", bottleneck >= 0 ? nlohmann::json(layers[bottleneck].name) : nlohmann::json()},
+                      {"layers", layers_json}};
+  if (!fits) j["reason"] = reason;
+  return j;
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,55 @@
+#pragma once
+/// The mapper: a network's linear layers onto a machine's fixed crossbars, IMAs and tiles.
+/// A copy of a layer takes the crossbars the counting rule gives it (sw/hw/inventory.h, with
+/// its slices) in whole IMAs (an IMA's input register and ADCs serve one layer); IMAs are
+/// taken in network order, copies after one another, tile by tile, so a layer may span
+/// tiles and a tile may hold several layers. Replication (platform.replication, per layer,
+/// or auto) makes copies that share a layer's iterations; auto balances the pipeline by
+/// stage times that include the interconnect. A network that does not fit is a status with
+/// its reason, not an error.
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+#include "sw/hw/architecture.h"
+#include "sw/hw/inventory.h"
+#include "sw/hw/platform_spec.h"
+
+namespace xbarsim {
+
+struct LayerPlacement {
+  std::string name;
+  long long crossbars = 0;  ///< one copy
+  int imas = 0;             ///< one copy: ceil(crossbars / crossbars per IMA)
+  int replication = 1;
+  int first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
+  /// Per image, one copy's share: reads (iterations x input slices) x read_ns / copies.
+  double compute_ns = 0;
+  /// Per image: its input activations over one router link (replication does not shorten it).
+  double input_ns = 0;
+  double stage_ns() const { return compute_ns > input_ns ? compute_ns : input_ns; }
+  double cell_utilization = 0;  ///< cells its weights use / cells of its IMAs
+  int last_ima() const { return first_ima + imas * replication - 1; }
+};
+
+struct Mapping {
+  std::string machine;
+  bool fits = true;
+  std::string reason;  ///< why it does not fit
+  std::vector<LayerPlacement> layers;
+  int imas_used = 0, imas_available = 0, tiles_used = 0, tiles_available = 0;
+  double cell_utilization = 0;  ///< cells the weights use / cells of the chip
+  int bottleneck = -1;          ///< the layer with the longest stage (-1: none)
+  int imas_per_tile = 0;
+  /// The tile holding the chip-wide IMA `ima`.
+  int tile_of(int ima) const { return imas_per_tile ? ima / imas_per_tile : 0; }
+  nlohmann::json to_json() const;
+};
+
+/// Places `layers` (the inventory of each linear layer, in network order, one copy) on
+/// `arch` with the replication `pc` asks for (platform.replication: a number, per layer, or
+/// auto: copies of the slowest compute-bound stage while IMAs remain).
+Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc);
+
+}  // namespace xbarsim

@@ -1,0 +1,126 @@
+#pragma once
+/// Strict reading of one YAML map of a hardware file (the component library, an
+/// architecture): every key read is checked, every key present must have been read, and
+/// numbers are finite and non-negative. Errors name the file, the section and the key.
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "sw/common/config.h"
+#include "sw/common/errors.h"
+#include "sw/common/parse.h"
+
+namespace xbarsim {
+
+/// One map of a hardware file: its keys are checked against the ones read from it.
+class YamlSection {
+ public:
+  /// Section `name` of `root` (required).
+  YamlSection(const YAML::Node& root, const std::string& name, const std::string& origin)
+      : YamlSection(root[name], name, origin, true) {}
+  /// The map `node`, named `name` (a dotted path) in messages.
+  YamlSection(const YAML::Node& node, std::string name, std::string origin, bool)
+      : node_(node), name_(std::move(name)), origin_(std::move(origin)) {
+    if (!node_) throw InputError(origin_ + ": missing section '" + name_ + "'");
+    if (!node_.IsMap()) throw InputError(origin_ + ": section '" + name_ + "' must be a map of keys");
+  }
+  bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  /// The sub-map at `key` (required).
+  YamlSection section(const std::string& key) {
+    get(key);
+    return YamlSection(node_[key], name_ + "." + key, origin_, true);
+  }
+  /// A word (a name).
+  std::string word(const std::string& key) {
+    const YAML::Node n = get(key);
+    if (!n.IsScalar() || n.Scalar().empty()) throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a name");
+    return n.Scalar();
+  }
+  /// The keys present, in file order.
+  std::vector<std::string> keys() const {
+    std::vector<std::string> k;
+    for (auto it = node_.begin(); it != node_.end(); ++it) k.push_back(it->first.as<std::string>());
+    return k;
+  }
+  /// A number >= 0 (> 0 when `positive`).
+  double number(const std::string& key, bool positive = false) {
+    const YAML::Node n = get(key);
+    double v = 0;
+    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0))
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
+                       " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
+    return v;
+  }
+  /// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
+  int integer(const std::string& key) {
+    const double v = number(key, true);
+    if (v != std::floor(v) || v > (1 << 30))
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer, got '" +
+                       node_[key].Scalar() + "'");
+    return static_cast<int>(v);
+  }
+  Scaling scaling(const std::string& key) {
+    read_.push_back(key);
+    const YAML::Node n = node_[key];
+    if (!n) return Scaling::Exponential;
+    const std::string s = n.Scalar();
+    if (s == "exponential") return Scaling::Exponential;
+    if (s == "linear") return Scaling::Linear;
+    if (s == "constant") return Scaling::Constant;
+    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s +
+                     "'");
+  }
+  /// Rejects keys that were not read (a misspelt key would otherwise be ignored).
+  void finish() const {
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      const std::string k = it->first.as<std::string>();
+      if (std::find(read_.begin(), read_.end(), k) == read_.end()) {
+        std::string list;
+        for (const auto& a : read_) list += (list.empty() ? "" : ", ") + a;
+        throw InputError(origin_ + ": unknown key '" + name_ + "." + k + "' (" + list + ")");
+      }
+    }
+  }
+
+ private:
+  YAML::Node get(const std::string& key) {
+    read_.push_back(key);
+    const YAML::Node n = node_[key];
+    if (!n) throw InputError(origin_ + ": missing key '" + name_ + "." + key + "'");
+    return n;
+  }
+  YAML::Node node_;
+  std::string name_, origin_;
+  std::vector<std::string> read_;
+};
+
+/// A hardware file's text as a YAML map (checked for several documents, duplicate or complex
+/// keys first); `what` says what the file is ("a component library").
+inline YAML::Node load_yaml_map(const std::string& text, const std::string& origin, const std::string& what) {
+  check_yaml_structure(text, origin);
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(origin + ": YAML syntax error: " + e.what());
+  }
+  if (!root.IsMap()) throw InputError(origin + ": " + what + " is a map of sections");
+  return root;
+}
+
+/// Rejects top-level keys of `root` outside `known`, listing them.
+inline void check_yaml_sections(const YAML::Node& root, const std::vector<std::string>& known,
+                                const std::string& origin) {
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    const std::string k = it->first.as<std::string>();
+    if (std::find(known.begin(), known.end(), k) != known.end()) continue;
+    std::string list;
+    for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
+    throw InputError(origin + ": unknown section '" + k + "' (" + list + ")");
+  }
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,257 @@
+// configs/architectures/isaac-ce.yaml priced by configs/components/isaac.yaml against ISAAC's
+// published chip (Shafiee et al., ISCA 2016, Table 6): 168 tiles of 12 IMAs, the tile's
+// digital units and eDRAM, a router per 4 tiles, HyperTransport. Counts x components must
+// give the published figures within 1 %; the figures are typed here, not read from a file.
+#include <gtest/gtest.h>
+
+#include "sw/common/config.h"
+#include "sw/hw/architecture.h"
+#include "sw/hw/mapper.h"
+#include "sw/nn/network.h"
+#include "sw/nn/presets.h"
+#include "sw/study/hardware.h"
+
+using namespace xbarsim;
+
+namespace {
+
+struct Published {
+  double power_mw, area_mm2;
+};
+// ISAAC Table 6.
+constexpr Published kIma{24.08, 0.0131}, kImas{289, 0.157}, kTileDigital{40.9, 0.215}, kTile{330, 0.372},
+    kChip{65.8e3, 85.4}, kHyperTransport{10.4e3, 22.88};
+constexpr Published kEdram{20.7, 0.083}, kBus{7, 0.090}, kRouterPerFourTiles{42, 0.151}, kSigmoid{0.52, 0.0006},
+    kShiftAdd{0.05, 0.00006}, kMaxPool{0.4, 0.00024}, kOutputRegister{1.68, 0.0032};
+
+struct Isaac {
+  Isaac() {
+    ConfigTree cfg;
+    cfg.set("architecture.machine", "isaac-ce");
+    cfg.set("components.library", "isaac");
+    arch = load_architecture(cfg);
+    cost.lib = load_component_library(cfg);
+    cost.dac_bits = 1;
+    cost.adc_bits = 8;
+    converters.input_bits = 16;
+    converters.dac_bits = 1;
+    converters.adc_bits = 8;
+    mapping.max_rows = mapping.max_cols = 128;
+    mapping.cell_bits = 2;
+    mapping.weight_bits = 16;
+    bill = price_machine(arch, cost, converters, mapping);
+  }
+  const BillLine& line(const std::vector<BillLine>& lines, const std::string& unit) const {
+    for (const BillLine& l : lines)
+      if (l.unit == unit) return l;
+    throw std::out_of_range(unit);
+  }
+  Architecture arch;
+  CostModel cost;
+  ConvertersSpec converters;
+  MappingSpec mapping;
+  MachineBill bill;
+};
+
+void expect_within_1_percent(double got, double published, const std::string& what) {
+  EXPECT_NEAR(got, published, 0.01 * published) << what;
+}
+
+}  // namespace
+
+TEST(IsaacChip, CountsOfTheMachine) {
+  const Isaac m;
+  EXPECT_EQ(m.arch.chip.tiles, 168);
+  EXPECT_EQ(m.arch.tile.imas, 12);
+  EXPECT_EQ(m.arch.ima.crossbars, 8);
+  EXPECT_EQ(m.arch.crossbars(), 168 * 12 * 8);
+  EXPECT_EQ(m.arch.chip.routers(), 42);  // one per 4 tiles
+  EXPECT_EQ(m.arch.columns_per_adc(), 128);
+  EXPECT_EQ(m.line(m.bill.ima, "dac").count, 8 * 128);
+  EXPECT_EQ(m.line(m.bill.ima, "sample_hold").count, 8 * 128);
+  EXPECT_EQ(m.line(m.bill.ima, "shift_add").count, 4);
+  EXPECT_EQ(m.line(m.bill.chip, "hypertransport").count, 4);
+}
+
+TEST(IsaacChip, ImaTileAndChipEqualThePublishedFigures) {
+  const Isaac m;
+  const double ima_mw = MachineBill::peak_mw(m.bill.ima), ima_mm2 = MachineBill::area(m.bill.ima);
+  expect_within_1_percent(ima_mw, kIma.power_mw, "IMA power");
+  expect_within_1_percent(ima_mm2, kIma.area_mm2, "IMA area");
+  const BillLine& imas = m.line(m.bill.tile, "ima");
+  expect_within_1_percent(imas.peak_mw, kImas.power_mw, "12 IMAs power");
+  expect_within_1_percent(imas.area_mm2, kImas.area_mm2, "12 IMAs area");
+  const double tile_mw = MachineBill::peak_mw(m.bill.tile), tile_mm2 = MachineBill::area(m.bill.tile);
+  expect_within_1_percent(tile_mw - imas.peak_mw, kTileDigital.power_mw, "tile digital power");
+  expect_within_1_percent(tile_mm2 - imas.area_mm2, kTileDigital.area_mm2, "tile digital area");
+  expect_within_1_percent(tile_mw, kTile.power_mw, "tile power");
+  expect_within_1_percent(tile_mm2, kTile.area_mm2, "tile area");
+  expect_within_1_percent(MachineBill::peak_mw(m.bill.chip), kChip.power_mw, "chip power");
+  expect_within_1_percent(MachineBill::area(m.bill.chip), kChip.area_mm2, "chip area");
+}
+
+TEST(IsaacChip, EveryTileUnitEqualsItsPublishedFigure) {
+  const Isaac m;
+  const std::pair<const char*, Published> units[] = {{"edram", kEdram},     {"tile_bus", kBus},
+                                                     {"sigmoid", kSigmoid}, {"tile_shift_add", kShiftAdd},
+                                                     {"maxpool", kMaxPool}, {"tile_output_register", kOutputRegister}};
+  for (const auto& [unit, published] : units) {
+    expect_within_1_percent(m.line(m.bill.tile, unit).peak_mw, published.power_mw, std::string(unit) + " power");
+    expect_within_1_percent(m.line(m.bill.tile, unit).area_mm2, published.area_mm2, std::string(unit) + " area");
+  }
+  // A router per four tiles: each tile carries a quarter of one.
+  expect_within_1_percent(m.line(m.bill.tile, "router share").peak_mw, kRouterPerFourTiles.power_mw / 4, "router");
+  expect_within_1_percent(m.line(m.bill.tile, "router share").area_mm2, kRouterPerFourTiles.area_mm2 / 4, "router");
+  expect_within_1_percent(m.line(m.bill.chip, "hypertransport").peak_mw, kHyperTransport.power_mw, "HT power");
+  expect_within_1_percent(m.line(m.bill.chip, "hypertransport").area_mm2, kHyperTransport.area_mm2, "HT area");
+}
+
+TEST(Architecture, BadFilesAreRefusedWithTheKey) {
+  const std::string good = builtin_architecture_yaml("isaac-ce");
+  auto refused = [&](const std::string& from, const std::string& to, const std::string& says) {
+    std::string text = good;
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    try {
+      parse_architecture(text, "arch.yaml");
+      ADD_FAILURE() << "accepted: " << to;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  refused("  adcs: 8 ", "  adcs: 7 ", "'ima.adcs' = 7 must divide");
+  refused("  tiles: 168", "  tiles: 169", "do not fit the mesh");
+  refused("  crossbars: 8", "  crossbars: 0", "'ima.crossbars' must be a positive");
+  refused("  imas: 12", "  imas: 12\n  imaz: 3", "unknown key 'tile.imaz'");
+  refused("    unit: tile_bus\n", "", "missing key 'tile.bus.unit'");
+}
+
+TEST(Architecture, AMachineFixesTheCrossbarGeometry) {
+  ConfigTree cfg;
+  cfg.set("architecture.machine", "isaac-ce");
+  const Architecture arch = load_architecture(cfg);
+  MappingSpec m;
+  m.max_rows = 144;
+  m.max_cols = 128;
+  try {
+    check_crossbar_geometry(arch, m);
+    ADD_FAILURE() << "a 144-row mapping accepted on 128-row crossbars";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mapping.max_rows"), std::string::npos) << e.what();
+  }
+  m.max_rows = 128;
+  m.cell_bits = 2;
+  EXPECT_NO_THROW(check_crossbar_geometry(arch, m));
+  EXPECT_NO_THROW(check_crossbar_geometry(Architecture{}, MappingSpec{}));  // layer-sized
+}
+
+namespace {
+
+/// A machine of 2 tiles x 2 IMAs x 2 crossbars of 8 x 8 cells, a read per 10 ns, links of
+/// 1 byte/ns.
+Architecture toy_machine() {
+  Architecture a;
+  a.name = "toy";
+  a.machine = true;
+  a.crossbar = {8, 8, 2};
+  a.ima = {2, 2, 10.0, 16, 16};
+  a.tile.imas = 2;
+  a.chip.tiles = 2;
+  a.chip.mesh_rows = 1;
+  a.chip.mesh_cols = 2;
+  a.chip.router = {"router", 1, 1.0};
+  return a;
+}
+
+/// A layer of `crossbars` crossbars, `iterations` reads of `slices` slices, an input of
+/// `input_values` values, `cells` cells used.
+LayerInventory toy_layer(const std::string& name, long long crossbars, long long iterations, int slices,
+                         int input_values, long long cells) {
+  LayerInventory v;
+  v.name = name;
+  v.crossbars = crossbars;
+  v.iterations = iterations;
+  v.input_slices = slices;
+  v.input = Shape{1, 1, input_values};
+  v.cells_used = cells;
+  return v;
+}
+
+}  // namespace
+
+TEST(Mapper, PlacesCopiesInWholeImasInNetworkOrder) {
+  const Architecture a = toy_machine();
+  PlatformConfig pc;
+  pc.replication_per_layer = {1, 2};
+  // Layer a: 3 crossbars -> 2 IMAs; layer b: 1 crossbar -> 1 IMA, two copies.
+  const Mapping m = map_network({toy_layer("a", 3, 16, 2, 100, 3 * 64), toy_layer("b", 1, 4, 1, 50, 40)}, a, pc);
+  ASSERT_TRUE(m.fits) << m.reason;
+  EXPECT_EQ(m.layers[0].imas, 2);
+  EXPECT_EQ(m.layers[0].first_ima, 0);
+  EXPECT_EQ(m.layers[1].imas, 1);
+  EXPECT_EQ(m.layers[1].first_ima, 2);
+  EXPECT_EQ(m.tile_of(m.layers[1].last_ima()), 1);
+  EXPECT_EQ(m.imas_used, 4);
+  EXPECT_EQ(m.tiles_used, 2);
+  // Cells: a uses 192 of its 2 IMAs' 256; the chip's 4 IMAs hold 512, the weights 192 + 2 x 40.
+  EXPECT_DOUBLE_EQ(m.layers[0].cell_utilization, 192.0 / 256.0);
+  EXPECT_DOUBLE_EQ(m.cell_utilization, (192.0 + 80.0) / 512.0);
+  // Stage times: a = 16 reads x 2 slices x 10 ns = 320 ns (input 100 bytes over 1 byte/ns:
+  // 100 ns); b = ceil(4 / 2) x 1 x 10 = 20 ns of compute, 50 ns of input.
+  EXPECT_DOUBLE_EQ(m.layers[0].stage_ns(), 320.0);
+  EXPECT_DOUBLE_EQ(m.layers[1].compute_ns, 20.0);
+  EXPECT_DOUBLE_EQ(m.layers[1].stage_ns(), 50.0);
+  EXPECT_EQ(m.bottleneck, 0);
+}
+
+TEST(Mapper, AutoReplicationCopiesTheSlowestComputeBoundStageWhileImasRemain) {
+  const Architecture a = toy_machine();
+  PlatformConfig pc;
+  pc.auto_replication = true;
+  // a: 1 IMA, 320 ns; b: 1 IMA, 10 ns. Two IMAs remain: a gets both (320 -> 160 -> 107 ns:
+  // ceil(16 / 3) = 6 reads of 2 slices = 120 ns).
+  const Mapping m = map_network({toy_layer("a", 1, 16, 2, 10, 64), toy_layer("b", 1, 1, 1, 5, 64)}, a, pc);
+  ASSERT_TRUE(m.fits);
+  EXPECT_EQ(m.layers[0].replication, 3);
+  EXPECT_EQ(m.layers[1].replication, 1);
+  EXPECT_DOUBLE_EQ(m.layers[0].compute_ns, 120.0);
+  EXPECT_EQ(m.imas_used, 4);
+  // A stage bound by its input link is not copied: a's input takes 400 ns.
+  const Mapping n = map_network({toy_layer("a", 1, 16, 2, 400, 64), toy_layer("b", 1, 1, 1, 5, 64)}, a, pc);
+  EXPECT_EQ(n.layers[0].replication, 1);
+  EXPECT_EQ(n.bottleneck, 0);
+}
+
+TEST(Mapper, ANetworkThatDoesNotFitIsAStatusWithItsReason) {
+  const Architecture a = toy_machine();
+  const Mapping m = map_network({toy_layer("a", 7, 1, 1, 1, 1), toy_layer("b", 2, 1, 1, 1, 1)}, a, PlatformConfig{});
+  EXPECT_FALSE(m.fits);  // 4 + 1 IMAs on a chip of 4
+  EXPECT_NE(m.reason.find("needs 5 IMAs (9 crossbars"), std::string::npos) << m.reason;
+  EXPECT_NE(m.reason.find("toy has 4"), std::string::npos) << m.reason;
+}
+
+// ISAAC's peak computational efficiency (Section VIII-B: 479 GOPS/s/mm^2 for ISAAC-CE, 16-bit
+// weights and inputs): every crossbar holds 128 x 16 weights and finishes a vector every 16
+// reads of 100 ns, over the chip's area.
+TEST(IsaacChip, PeakComputationalEfficiencyIsThePublishedOne) {
+  ConfigTree cfg;
+  for (const auto& [k, v] : {std::pair<const char*, const char*>{"architecture.machine", "isaac-ce"},
+                             {"components.library", "isaac"},
+                             {"mapping.max_rows", "128"},
+                             {"mapping.max_cols", "128"},
+                             {"crossbar.cell_bits", "2"},
+                             {"mapping.weight_bits", "16"},
+                             {"converters.input_bits", "16"},
+                             {"converters.dac_bits", "1"},
+                             {"converters.adc_bits", "8"},
+                             {"platform.clock_mhz", "10"}})
+    cfg.set(k, v);
+  const AnalogConfig ac = parse_analog_config(cfg);
+  const HardwareContext hw = make_hardware_context(cfg, ac);
+  const Model m = make_preset("resnet20", 3);
+  const MachineReport r = machine_report(m, hw, linear_inputs_signed(m));
+  EXPECT_NEAR(r.peak_gops, 41.3e3, 0.01 * 41.3e3);  // 16128 crossbars x 2 x 2048 MACs / 1.6 us
+  expect_within_1_percent(r.peak_gops / r.area_mm2(), 479, "GOPS/s/mm^2");
+  EXPECT_TRUE(r.mapping.fits);
+}
