@@ -22,8 +22,13 @@ class Adc : public sc_core::sc_module {
   tlm_utils::simple_target_socket<Adc> xbar2adc{"xbar2adc"};
   tlm_utils::simple_initiator_socket<Adc> adc2acc{"adc2acc"};
 
-  Adc(sc_core::sc_module_name name, int columns_per_adc, double rate_gsps)
-      : sc_module(name), columns_per_adc_(columns_per_adc), rate_gsps_(rate_gsps) {
+  /// `crossbars_per_adc` > 1: each ADC converts that many crossbars' columns per read (a
+  /// machine's IMA with fewer ADCs than crossbars), which multiplies its time per read.
+  Adc(sc_core::sc_module_name name, int columns_per_adc, double rate_gsps, int crossbars_per_adc = 1)
+      : sc_module(name),
+        columns_per_adc_(columns_per_adc),
+        rate_gsps_(rate_gsps),
+        crossbars_per_adc_(crossbars_per_adc) {
     xbar2adc.register_b_transport(this, &Adc::b_transport);
   }
   long long conversions() const { return conversions_; }
@@ -33,6 +38,7 @@ class Adc : public sc_core::sc_module {
   int adcs_for(int columns) const { return static_cast<int>(adcs_for_columns(columns, columns_per_adc_)); }
   /// Time of one iteration's conversions on a crossbar of `columns` columns (ns).
   double iteration_ns(int columns) const {
+    if (crossbars_per_adc_ > 1) return static_cast<double>(columns) * crossbars_per_adc_ / rate_gsps_;
     const int a = adcs_for(columns);
     return std::ceil(static_cast<double>(columns) / a) / rate_gsps_;
   }
@@ -66,6 +72,7 @@ class Adc : public sc_core::sc_module {
   }
   int columns_per_adc_;
   double rate_gsps_;
+  int crossbars_per_adc_;
   long long conversions_ = 0, shift_adds_ = 0;
 };
 

@@ -130,7 +130,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
     owner->failure_.guard([&] {
       for (;;) {
         const RowId row = out_rows.read();
-        owner->send_rows(*this, row.image, row.row, row.count, op->out, out_row_bytes);
+        owner->send_rows(this, stats.tile, row.image, row.row, row.count, op->out, out_row_bytes);
       }
     });
   }
@@ -206,11 +206,47 @@ long long row_bytes(const Shape& s, int activation_bytes) {
   return static_cast<long long>(s.c) * s.w * activation_bytes;
 }
 
+/// A write transaction of `bytes` at `data` (its address: the byte offset in the value),
+/// routed from `source` to `destinations` on a machine's mesh.
+void fill_payload(tlm::tlm_generic_payload& p, unsigned char* data, long long offset, long long bytes) {
+  p.set_command(tlm::TLM_WRITE_COMMAND);
+  p.set_address(static_cast<sc_dt::uint64>(offset));
+  p.set_data_ptr(data);
+  p.set_data_length(static_cast<unsigned>(bytes));
+  p.set_streaming_width(static_cast<unsigned>(bytes));
+  p.set_byte_enable_ptr(nullptr);
+  p.set_dmi_allowed(false);
+  p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+}
+
 }  // namespace
+
+const char* digital_op_name(OpKind k) {
+  switch (k) {
+    case OpKind::Relu:
+      return "relu";
+    case OpKind::Affine:
+      return "affine";
+    case OpKind::Add:
+      return "add";
+    case OpKind::MaxPool:
+      return "maxpool";
+    case OpKind::AvgPool:
+      return "avgpool";
+    case OpKind::GlobalAvgPool:
+      return "globalavgpool";
+    case OpKind::Linear:
+    case OpKind::Flatten:
+    case OpKind::Slice:
+    case OpKind::Pad:
+      return "";
+  }
+  return "";
+}
 
 Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
                    const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-                   std::function<void(int)> progress, std::vector<double> sparse_ns)
+                   std::function<void(int)> progress, std::vector<double> sparse_ns, const MachinePlan* machine)
     : sc_module(name),
       model_(model),
       programmed_(programmed),
@@ -218,9 +254,18 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       sparse_ns_(std::move(sparse_ns)),
       image_(std::move(image)),
       progress_(std::move(progress)),
-      bus_("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles, cfg.bus_lanes),
+      machine_(machine),
       consumers_of_(model.values.size()),
       values_(std::make_unique<Values>(model.values.size())) {
+  if (machine_) {
+    const Architecture& a = machine_->arch;
+    noc_ = std::make_unique<MeshNoc>("noc", a.chip.mesh_rows, a.chip.mesh_cols, a.chip.tiles_per_router,
+                                     a.chip.router.actions_per_ns, a.chip.hop_ns);
+  } else {
+    bus_ = std::make_unique<Bus>("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles, cfg.bus_lanes);
+  }
+  // On a machine: the tile each value is produced on (the network's input: router 0).
+  std::vector<int> produced_on(model.values.size(), 0);
   for (size_t k = 0; k < model.ops.size(); ++k) {
     const Op& op = model.ops[k];
     auto s = std::make_unique<Stage>(("stage_" + std::to_string(k)).c_str(), this);
@@ -230,6 +275,22 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     s->stats.name = op.name;
     s->stats.kind = op.kind;
     s->stats.linear = op.linear;
+    std::vector<int> tiles;  // on a machine: the tiles the stage's input buffers live on
+    if (machine_) {
+      if (op.kind == OpKind::Linear) {
+        const Mapping& mp = machine_->mapping;
+        const LayerPlacement& pl = mp.layers.at(op.linear);
+        for (int t = mp.tile_of(pl.first_ima); t <= mp.tile_of(pl.last_ima()); ++t) tiles.push_back(t);
+      } else {
+        tiles.push_back(produced_on[op.in[0]]);
+        const char* kind = digital_op_name(op.kind);
+        if (*kind && machine_->arch.ops_per_ns(kind) <= 0)
+          throw InputError("architecture.machine " + machine_->arch.name + " has no tile unit for '" + kind +
+                           "' (operation '" + op.name + "'): list it in a unit's ops (tile.units.<unit>.ops)");
+      }
+      s->stats.tile = tiles.front();
+      produced_on[op.out] = tiles.front();
+    }
     const bool sparse_layer =
         op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
     for (int v : op.in) {
@@ -243,6 +304,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
                          std::to_string(std::min(cfg.grain_rows, in.h)) + " rows of " + std::to_string(rb) +
                          " bytes) of the input of '" + op.name + "'");
       buffers_.push_back(std::make_unique<RowBuffer>(op.name + ".in", cap, rb, in.h));
+      tiles_of_[buffers_.back().get()] = tiles;
       s->in.push_back(buffers_.back().get());
       s->in_shape.push_back(in);
       consumers_of_[v].push_back(buffers_.back().get());
@@ -261,15 +323,22 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
             std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(),
                                           s->replicas_done, s->replicas_pending, failure_));
     }
-    s->stage2bus.bind(bus_.stage2bus);
+    if (machine_)
+      s->stage2bus.bind(noc_->tile2noc);
+    else
+      s->stage2bus.bind(bus_->stage2bus);
     stages_.push_back(std::move(s));
   }
   const Shape out = model.values[model.output];
   const long long ob = row_bytes(out, cfg.activation_bytes);
   buffers_.push_back(std::make_unique<RowBuffer>("memory.out", ob * out.h, ob, out.h));
+  tiles_of_[buffers_.back().get()] = {-1};  // off-chip: out through router 0
   output_ = buffers_.back().get();
   consumers_of_[model.output].push_back(output_);
-  mem2bus.bind(bus_.stage2bus);
+  if (machine_)
+    mem2bus.bind(noc_->tile2noc);
+  else
+    mem2bus.bind(bus_->stage2bus);
   SC_HAS_PROCESS(Pipeline);
   SC_THREAD(source_process);
   SC_THREAD(sink_process);
@@ -303,7 +372,7 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
     b->trace_to(occupancy_sigs_.back().get(), &tracing_);
     sc_core::sc_trace(vcd_, *occupancy_sigs_.back(), b->name() + ".bytes");
   }
-  sc_core::sc_trace(vcd_, bus_bytes_sig_, "bus.bytes_carried");
+  sc_core::sc_trace(vcd_, bus_bytes_sig_, machine_ ? "noc.bytes_carried" : "bus.bytes_carried");
 }
 
 void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
@@ -312,26 +381,60 @@ void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
   s.stall_sig.write(stall);
 }
 
-void Pipeline::send_rows(Stage& s, int image, int row, int count, int value, long long row_bytes) {
+void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes) {
+  tlm_utils::simple_initiator_socket<Stage>* stage_socket = s ? &s->stage2bus : nullptr;
+  auto transport = [&](tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+    if (stage_socket)
+      (*stage_socket)->b_transport(p, delay);
+    else
+      mem2bus->b_transport(p, delay);
+    if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("interconnect transfer failed");
+  };
   const long long bytes = row_bytes * count;
-  for (RowBuffer* b : consumers_of_[value]) {
-    for (int q = 0; q < count; ++q) b->reserve();
-    tlm::tlm_generic_payload p;
-    std::vector<float>& v = values_->at(image, value);
-    p.set_command(tlm::TLM_WRITE_COMMAND);
-    p.set_address(0);
-    p.set_data_ptr(
-        reinterpret_cast<unsigned char*>(v.data() + static_cast<size_t>(row) * (v.size() / b->rows_per_image())));
-    p.set_data_length(static_cast<unsigned>(bytes));
-    p.set_streaming_width(static_cast<unsigned>(bytes));
-    p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
-    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
-    s.stage2bus->b_transport(p, delay);
-    if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("bus transfer failed");
-    sc_core::wait(delay);
-    b->commit(image, row + count - 1);
-    if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(bus_.bytes(), 1LL << 30)));
+  std::vector<float>& v = values_->at(image, value);
+  const std::vector<RowBuffer*>& consumers = consumers_of_[value];
+  if (!machine_) {
+    // One shared bus: a transfer per consumer.
+    for (RowBuffer* b : consumers) {
+      for (int q = 0; q < count; ++q) b->reserve();
+      const size_t at = static_cast<size_t>(row) * (v.size() / b->rows_per_image());
+      tlm::tlm_generic_payload p;
+      fill_payload(p, reinterpret_cast<unsigned char*>(v.data() + at), static_cast<long long>(row) * row_bytes, bytes);
+      sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+      transport(p, delay);
+      sc_core::wait(delay);
+      b->commit(image, row + count - 1);
+      if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(bus_->bytes(), 1LL << 30)));
+    }
+    return;
   }
+  // A machine: space in every consumer's buffer, then one multicast over the mesh to the tiles
+  // that are not the source's (a consumer on the source's tile reads the rows from its eDRAM).
+  std::vector<int> remote;
+  const sc_core::sc_time t0 = sc_core::sc_time_stamp();
+  for (RowBuffer* b : consumers) {
+    for (int q = 0; q < count; ++q) b->reserve();
+    for (int t : tiles_of_.at(b))
+      if (t != source && std::find(remote.begin(), remote.end(), t) == remote.end()) remote.push_back(t);
+  }
+  if (!s) result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;  // the input port waited
+  if (remote.empty()) {
+    local_bytes_ += bytes;
+    sc_core::wait(sim_delay(static_cast<double>(bytes) / machine_->arch.tile.edram_bytes_per_ns));
+  } else {
+    const size_t at = static_cast<size_t>(row) * (v.size() / consumers.front()->rows_per_image());
+    tlm::tlm_generic_payload p;
+    fill_payload(p, reinterpret_cast<unsigned char*>(v.data() + at), static_cast<long long>(row) * row_bytes, bytes);
+    auto* route = new Route;  // owned by the payload
+    route->source = source;
+    route->destinations = remote;
+    p.set_extension(route);
+    sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+    transport(p, delay);
+    sc_core::wait(delay);
+    if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(noc_->bytes(), 1LL << 30)));
+  }
+  for (RowBuffer* b : consumers) b->commit(image, row + count - 1);
 }
 
 void Pipeline::compute(Stage& s, int image) {
@@ -434,7 +537,12 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
     return t;
   } else {
     const long long ops = row_ops(s) * (r1 - r0);
-    t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+    if (machine_) {  // the tile's units that perform this operation
+      const char* kind = digital_op_name(s.op->kind);
+      t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
+    } else {
+      t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+    }
     s.stats.digital_ops += ops;
   }
   if (t > 0) sc_core::wait(sim_delay(t));
@@ -452,7 +560,6 @@ void Pipeline::sink_process() {
 void Pipeline::source() {
   const Shape in = model_.input;
   const long long rb = row_bytes(in, cfg_.activation_bytes);
-  const double clk = cfg_.clock_ns();
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)
       while (images_left_ < img) sc_core::wait(image_left_);
@@ -461,10 +568,12 @@ void Pipeline::source() {
     x.resize(in.size());
     image_(img, x.data());
     for (int r = 0; r < in.h; ++r) {
-      const double t = (r == 0 ? cfg_.memory_latency_ns : 0.0) +
-                       std::ceil(static_cast<double>(rb) / cfg_.memory_bytes_per_cycle) * clk;
-      sc_core::wait(sim_delay(t));
+      sc_core::wait(sim_delay((r == 0 ? cfg_.memory_latency_ns : 0.0) + offchip_ns(rb)));
       result_.memory_bytes += rb;
+      if (machine_) {  // into the chip at router 0, then over the mesh to the first stages' tiles
+        send_rows(nullptr, -1, img, r, 1, 0, rb);
+        continue;
+      }
       for (RowBuffer* b : consumers_of_[0]) {
         const sc_core::sc_time t0 = sc_core::sc_time_stamp();
         b->reserve();
@@ -483,14 +592,20 @@ void Pipeline::source() {
   }
 }
 
+double Pipeline::offchip_ns(long long bytes) const {
+  if (machine_) {
+    const UnitUse& links = machine_->arch.chip.offchip;
+    return static_cast<double>(bytes) / (links.count * links.actions_per_ns);
+  }
+  return std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * cfg_.clock_ns();
+}
+
 void Pipeline::sink() {
   const Shape out = model_.values[model_.output];
   const long long bytes = row_bytes(out, cfg_.activation_bytes) * out.h;
-  const double clk = cfg_.clock_ns();
   for (int img = 0; img < cfg_.images; ++img) {
     output_->wait_for(img, out.h - 1);
-    sc_core::wait(
-        sim_delay(cfg_.memory_latency_ns + std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * clk));
+    sc_core::wait(sim_delay(cfg_.memory_latency_ns + offchip_ns(bytes)));
     output_->release_before(img, out.h);
     result_.memory_bytes += bytes;
     const std::vector<float>& y = values_->at(img, model_.output);
@@ -513,9 +628,18 @@ const PipelineResult& Pipeline::result() {
     for (const RowBuffer* b : s->in) st.buffer_peak_bytes += b->peak_bytes();
     result_.stages.push_back(st);
   }
-  result_.bus_bytes = bus_.bytes();
-  result_.bus_transfers = bus_.transfers();
-  result_.bus_busy_ns = bus_.busy_ns();
+  if (machine_) {
+    result_.bus_bytes = noc_->bytes();
+    result_.bus_transfers = noc_->transfers();
+    result_.bus_busy_ns = noc_->link_busy_ns();
+    result_.router_bytes = noc_->router_bytes();
+    result_.noc_contention_ns = noc_->contention_ns();
+    result_.local_bytes = local_bytes_;
+  } else {
+    result_.bus_bytes = bus_->bytes();
+    result_.bus_transfers = bus_->transfers();
+    result_.bus_busy_ns = bus_->busy_ns();
+  }
   return result_;
 }
 

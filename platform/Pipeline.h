@@ -12,6 +12,7 @@
 /// logits are bit-identical.
 #include <exception>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <systemc>
@@ -20,8 +21,10 @@
 #include <vector>
 
 #include "platform/Bus.h"
+#include "platform/MeshNoc.h"
 #include "platform/RowBuffer.h"
 #include "platform/Tile.h"
+#include "sw/hw/mapper.h"
 #include "sw/hw/platform_spec.h"
 #include "sw/inference/crossbar_backend.h"
 
@@ -33,6 +36,7 @@ struct StageStats {
   OpKind kind = OpKind::Relu;
   int linear = -1;  ///< index of the linear layer, or -1
   int replication = 1;
+  int tile = -1;        ///< on a machine: the tile its outputs leave from
   double busy_ns = 0;   ///< computing (the slowest replica per row)
   double stall_ns = 0;  ///< waiting for space in a consumer's buffer
   long long rows = 0, digital_ops = 0;
@@ -45,7 +49,11 @@ struct PipelineResult {
   std::vector<StageStats> stages;
   long long bus_bytes = 0, bus_transfers = 0, memory_bytes = 0;
   double memory_stall_ns = 0;  ///< the input port waiting for space in the first stages' buffers
-  double bus_busy_ns = 0;
+  double bus_busy_ns = 0;      ///< the bus's lanes, or a machine's mesh links, carrying data (summed)
+  /// On a machine: bytes times the routers they crossed, the time transfers waited for busy
+  /// links, and the bytes that stayed on their tile (written to its eDRAM without the mesh).
+  double router_bytes = 0, noc_contention_ns = 0;
+  long long local_bytes = 0;
   bool completed = false;  ///< false: the run stopped with images still in flight (deadlock)
   double makespan_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.back(); }
   double latency_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.front() - image_in_ns.front(); }
@@ -69,6 +77,19 @@ class ProcessFailure {
   std::exception_ptr first_;
 };
 
+/// A machine the pipeline runs on (architecture.machine): its architecture and the network's
+/// mapping. Every operation sits on a tile: a linear layer on the tiles of its IMAs (its inputs
+/// are sent to all of them, its outputs leave from the first), a digital operation on the tile
+/// its first input comes from (the network's input enters at router 0).
+struct MachinePlan {
+  Architecture arch;
+  Mapping mapping;
+};
+
+/// The name a machine's digital units list an operation by (digital_op_names()), or "" for
+/// operations that only move data.
+const char* digital_op_name(OpKind k);
+
 /// Copies of every linear layer's tile: per-layer list, one value for all, or `auto`
 /// (the slowest stage is replicated while the crossbar budget allows, as ISAAC does).
 std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& programmed, const PlatformConfig& cfg);
@@ -79,9 +100,12 @@ class Pipeline : public sc_core::sc_module {
   /// `replication[l]` tiles for linear layer l; `sparse_ns[l]` > 0 makes layer l a sparse
   /// (Toeplitz) layer: one iteration of that time once its whole input is present (its values
   /// are computed by the dense datapath).
+  /// `machine`: the machine and mapping to run on (null: layer-sized, one shared bus); its
+  /// mapping's replication is used instead of `replication`.
   Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
            const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-           std::function<void(int)> progress = nullptr, std::vector<double> sparse_ns = {});
+           std::function<void(int)> progress = nullptr, std::vector<double> sparse_ns = {},
+           const MachinePlan* machine = nullptr);
   ~Pipeline() override;
 
   /// Result after sc_start() returned; rethrows the exception a process ended the run with.
@@ -102,10 +126,13 @@ class Pipeline : public sc_core::sc_module {
   void sink();
   void stage_process(Stage& s);
   void compute(Stage& s, int image);
+  /// Time of `bytes` over the off-chip port (a machine's off-chip links).
+  double offchip_ns(long long bytes) const;
   /// Operations a digital unit performs for one output row.
   long long row_ops(const Stage& s) const;
-  /// Rows [row, row + count) of `value` into every consumer's buffer over the bus.
-  void send_rows(Stage& s, int image, int row, int count, int value, long long row_bytes);
+  /// Rows [row, row + count) of `value` into every consumer's buffer over the interconnect
+  /// (from tile `source` on a machine; -1: the off-chip port).
+  void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
   /// Computes output rows [r0, r1) of a stage (replicas for tiles); returns the busy time.
   double busy_time(Stage& s, int r0, int r1);
   void traced(Stage& s, int image, bool busy, bool stall);
@@ -117,7 +144,11 @@ class Pipeline : public sc_core::sc_module {
   std::function<void(int, float*)> image_;
   std::function<void(int)> progress_;
   tlm_utils::simple_initiator_socket<Pipeline> mem2bus{"mem2bus"};  ///< the memory port's transfers
-  Bus bus_;
+  const MachinePlan* machine_ = nullptr;
+  std::unique_ptr<Bus> bus_;                               ///< layer-sized
+  std::unique_ptr<MeshNoc> noc_;                           ///< on a machine
+  std::map<const RowBuffer*, std::vector<int>> tiles_of_;  ///< on a machine: the tiles a buffer lives on
+  long long local_bytes_ = 0;
   std::vector<std::unique_ptr<Stage>> stages_;
   std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it
   std::vector<std::unique_ptr<RowBuffer>> buffers_;

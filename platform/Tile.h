@@ -62,7 +62,7 @@ class Tile : public sc_core::sc_module {
         sr_("sr", c.clock_ns(), c.shift_entries_per_cycle),
         dac_("dac", c.dac_latency_ns),
         xbar_("xbar", c.crossbar_settle_ns),
-        adc_("adc", c.adc_columns_per_unit, c.adc_rate_gsps),
+        adc_("adc", c.adc_columns_per_unit, c.adc_rate_gsps, c.crossbars_per_adc),
         acc_("acc", c.accumulator_latency_ns) {
     noc2tile.register_b_transport(this, &Tile::b_transport);
     tile2sr.bind(sr_.ctrl2sr);

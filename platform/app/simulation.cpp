@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <fstream>
 #include <numeric>
+#include <optional>
 
 #include "platform/Pipeline.h"
 #include "sw/app/app_common.h"
@@ -42,7 +43,7 @@ std::string kernel_name(const LinearLayer& L) {
 /// Per-layer JSON and the network's cost from the simulation's counters.
 nlohmann::json report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
                       const std::vector<int>& replication, const std::vector<bool>& signed_inputs, const Pipeline& pipe,
-                      bool print) {
+                      bool print, const MachineReport* machine) {
   const PlatformConfig& pc = hw.platform;
   const double images = std::max<size_t>(r.logits.size(), 1), clk = pc.clock_ns();
   const Table table({{"layer", -30},
@@ -61,11 +62,15 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   CostReport cost;
   long long iterations = 0;
   int digital_units = 0;
+  double macs = 0;
   ActionCounts platform;
+  ComponentBreakdown platform_pj;  // on a machine: its interconnect, digital units and off-chip links
   for (const StageStats& st : r.stages) {
     if (st.linear < 0) {
       if (st.digital_ops > 0) ++digital_units;
       platform.digital_ops += st.digital_ops / images;
+      if (machine && st.digital_ops > 0)
+        platform_pj.digital += st.digital_ops / images * digital_op_pj(hw.arch, hw.lib, digital_op_name(st.kind));
       continue;
     }
     const LinearLayer& L = model.linear[st.linear];
@@ -82,7 +87,10 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
         *x /= images;
     }
     add_layer_cost(cost, hw, v, a);
+    if (machine)  // the layer's eDRAM reads cross its tile's bus
+      platform_pj.interconnect += a.buffer_read_bytes * hw.lib.unit(hw.arch.tile.bus.unit).action_pj;
     const double e_uj = hw.cost.dynamic_energy_pj(a).total() * 1e-6;
+    macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
     layers.push_back({{"name", L.name},
@@ -108,9 +116,18 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   }
   platform.bus_bytes = r.bus_bytes / images;
   platform.memory_bytes = r.memory_bytes / images;
-  cost.dynamic_energy_uj += hw.cost.dynamic_energy_pj(platform) * 1e-6;
-  cost.area_mm2 += hw.cost.platform_area_mm2(digital_units);
-  cost.leakage_mw += hw.cost.platform_leakage_mw(digital_units);
+  if (machine) {
+    // The whole chip is the machine's, used or not: its area, peak power and leakage; energy
+    // from the actions, the mesh's routers per byte and router crossed, the off-chip links.
+    price_whole_machine(cost, hw);
+    platform_pj.interconnect += r.router_bytes / images * hw.lib.unit(hw.arch.chip.router.unit).action_pj;
+    platform_pj.memory += platform.memory_bytes * hw.lib.unit(hw.arch.chip.offchip.unit).action_pj;
+    cost.dynamic_energy_uj += platform_pj * 1e-6;
+  } else {
+    cost.dynamic_energy_uj += hw.cost.dynamic_energy_pj(platform) * 1e-6;
+    cost.area_mm2 += hw.cost.platform_area_mm2(digital_units);
+    cost.leakage_mw += hw.cost.platform_leakage_mw(digital_units);
+  }
   cost.time_ns = r.makespan_ns() / images;  // leakage runs for the whole run, shared by its images
   nlohmann::json j;
   j["iterations_total"] = iterations;
@@ -122,6 +139,33 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   j["bus_bytes_per_image"] = platform.bus_bytes;
   j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
   j.update(cost.to_json());
+  // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
+  // on the network at the simulated throughput.
+  const double throughput = r.throughput_per_s(), energy_uj = cost.energy_uj().total();
+  j["macs_per_image"] = macs;
+  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
+  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
+  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
+  // The bottleneck: the stage busy longest per image (with its stall, the time it held up).
+  const StageStats* slow = nullptr;
+  for (const StageStats& st : r.stages)
+    if (!slow || st.busy_ns > slow->busy_ns) slow = &st;
+  if (slow) j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
+  if (machine) {
+    j["architecture"] = machine->name;
+    j["peak_gops"] = machine->peak_gops;
+    j["placement"] = machine->mapping.to_json();
+    const double links = 4.0 * hw.arch.chip.routers() + 2.0 * hw.arch.chip.routers() * hw.arch.chip.tiles_per_router;
+    j["noc"] = {{"bytes_per_image", r.bus_bytes / images},
+                {"router_bytes_per_image", r.router_bytes / images},
+                {"local_bytes_per_image", r.local_bytes / images},
+                {"contention_us_per_image", r.noc_contention_ns / images * 1e-3},
+                {"link_utilization", r.makespan_ns() > 0 ? r.bus_busy_ns / (links * r.makespan_ns()) : 0.0}};
+    j.erase("bus_bytes_per_image");
+    j.erase("bus_utilization");
+  } else {
+    j["architecture"] = "layer-sized";
+  }
   j["layers"] = layers;
   return j;
 }
@@ -166,10 +210,30 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
     own->program(data.calib, cfg.get_int32("eval.calibration_samples"), [&](int d, int) { bar.update(d); });
   }
   const CrossbarBackend& programmed = given ? *given : *own;
-  const std::vector<int> replication = resolve_replication(model, programmed, pc);
   std::vector<bool> signed_inputs;  // as the programmed layers stream them
   for (size_t l = 0; l < model.linear.size(); ++l)
     signed_inputs.push_back(programmed.statistics(static_cast<int>(l)).signed_inputs);
+  // On a machine: the mapper's placement and replication; its datapath reads once per read_ns.
+  std::optional<MachineReport> machine;
+  std::unique_ptr<MachinePlan> plan;
+  if (hw.arch.machine) {
+    if (hw.mapping.scheme == MappingScheme::Sparse)
+      throw InputError("mapping.scheme: sparse is not simulated on a machine (architecture.machine " + hw.arch.name +
+                       "): its IMAs hold dense layers");
+    machine = machine_report(model, hw, signed_inputs);
+    if (!machine->mapping.fits)
+      throw InputError("the network does not fit architecture.machine " + hw.arch.name + ": " +
+                       machine->mapping.reason);
+    plan = std::make_unique<MachinePlan>(MachinePlan{hw.arch, machine->mapping});
+    pc.clock_mhz = 1e3 / hw.arch.ima.read_ns;     // the tiles' datapath clock: one read per cycle
+    pc.crossbar_settle_ns = hw.arch.ima.read_ns;  // a read occupies the crossbars for a cycle
+    pc.crossbars_per_adc = std::max(1, hw.arch.columns_per_adc() / hw.arch.crossbar.cols);
+  }
+  std::vector<int> replication;
+  if (plan)
+    for (const LayerPlacement& p : plan->mapping.layers) replication.push_back(p.replication);
+  else
+    replication = resolve_replication(model, programmed, pc);
   // Sparse (Toeplitz) layers: one iteration per image on their own crossbars and converters.
   std::vector<double> sparse_ns;
   if (hw.mapping.scheme == MappingScheme::Sparse)
@@ -180,7 +244,8 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   ProgressBar bar(data.test.count(), "simulating ");
   Pipeline pipe(
       "accelerator", model, programmed, pc, replication,
-      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse_ns);
+      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse_ns,
+      plan.get());
   if (!vcd.empty()) pipe.trace(vcd, pc.vcd_images);
   sc_core::sc_start();
   bar.finish();
@@ -190,7 +255,9 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
     throw InputError(
         "the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
         "for the schedule (deadlock)");
-  nlohmann::json j = report(model, hw, r, replication, signed_inputs, pipe, print);
+  HardwareContext run_hw = hw;
+  run_hw.platform = pc;
+  nlohmann::json j = report(model, run_hw, r, replication, signed_inputs, pipe, print, machine ? &*machine : nullptr);
   j["model"] = model.path;
   j["clock_mhz"] = pc.clock_mhz;
   j["timing"] = pc.detailed ? "detailed" : "ideal";
@@ -242,9 +309,9 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
   std::string text((std::istreambuf_iterator<char>(in)), {});
   std::remove(path);
   if (!WIFEXITED(status) || text.empty())
-    throw std::runtime_error(WIFSIGNALED(status) ? "the simulation process was killed by signal " +
-                                                       std::to_string(WTERMSIG(status))
-                                                 : std::string("the simulation process wrote no result"));
+    throw std::runtime_error(WIFSIGNALED(status)
+                                 ? "the simulation process was killed by signal " + std::to_string(WTERMSIG(status))
+                                 : std::string("the simulation process wrote no result"));
   nlohmann::json j = nlohmann::json::parse(text);
   if (j.contains("error")) Failure::from_kind_name(j["kind"], j["error"]).rethrow();
   return j;

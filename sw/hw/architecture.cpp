@@ -2,6 +2,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+
 #include "sw/analog/input_slicing.h"
 #include "sw/common/input_file.h"
 #include "sw/hw/yaml_section.h"
@@ -10,12 +12,11 @@ namespace xbarsim {
 
 namespace {
 
-UnitUse unit_use(YamlSection s, const char* rate_key) {
+UnitUse unit_use(YamlSection& s, const char* rate_key) {
   UnitUse u;
   u.unit = s.word("unit");
   u.count = s.has("count") ? s.integer("count") : 1;
   u.actions_per_ns = s.number(rate_key, true);
-  s.finish();
   return u;
 }
 
@@ -56,12 +57,27 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     a.tile.edram_bytes_per_ns = e.number("bytes_per_ns", true);
     e.finish();
   }
-  a.tile.bus = unit_use(tile.section("bus"), "bytes_per_ns");
+  {
+    YamlSection bus = tile.section("bus");
+    a.tile.bus = unit_use(bus, "bytes_per_ns");
+    bus.finish();
+  }
   if (tile.has("units")) {
     YamlSection units = tile.section("units");
     for (const std::string& name : units.keys()) {
       YamlSection u = units.section(name);
-      a.tile.units.push_back({name, u.integer("count"), u.number("actions_per_ns", true)});
+      UnitUse use{name, u.integer("count"), u.number("actions_per_ns", true), {}};
+      if (u.has("ops"))
+        for (const std::string& op : u.words("ops")) {
+          const auto& known = digital_op_names();
+          if (std::find(known.begin(), known.end(), op) == known.end()) {
+            std::string list;
+            for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
+            throw InputError(origin + ": 'tile.units." + name + ".ops': unknown operation '" + op + "' (" + list + ")");
+          }
+          use.ops.push_back(op);
+        }
+      a.tile.units.push_back(use);
       u.finish();
     }
     units.finish();
@@ -77,8 +93,15 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     a.chip.mesh_cols = m.integer("cols");
     m.finish();
   }
-  a.chip.router = unit_use(chip.section("router"), "bytes_per_ns");
-  a.chip.offchip = unit_use(chip.section("offchip"), "bytes_per_ns");
+  {
+    YamlSection router = chip.section("router");
+    a.chip.router = unit_use(router, "bytes_per_ns");
+    a.chip.hop_ns = router.number("hop_ns");
+    router.finish();
+    YamlSection offchip = chip.section("offchip");
+    a.chip.offchip = unit_use(offchip, "bytes_per_ns");
+    offchip.finish();
+  }
   chip.finish();
   const long long places = static_cast<long long>(a.chip.routers()) * a.chip.tiles_per_router;
   if (places < a.chip.tiles)
@@ -86,6 +109,18 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
                      std::to_string(a.chip.mesh_rows) + " x " + std::to_string(a.chip.mesh_cols) + " routers of " +
                      std::to_string(a.chip.tiles_per_router) + " tiles hold " + std::to_string(places));
   return a;
+}
+
+const std::vector<std::string>& digital_op_names() {
+  static const std::vector<std::string> names = {"relu", "affine", "add", "maxpool", "avgpool", "globalavgpool"};
+  return names;
+}
+
+double Architecture::ops_per_ns(const std::string& op) const {
+  double rate = 0;
+  for (const UnitUse& u : tile.units)
+    if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) rate += u.count * u.actions_per_ns;
+  return rate;
 }
 
 Architecture load_architecture(const ConfigTree& cfg) {
@@ -112,6 +147,18 @@ double MachineBill::area(const std::vector<BillLine>& lines) {
   double a = 0;
   for (const BillLine& l : lines) a += l.area_mm2;
   return a;
+}
+
+double MachineBill::leakage(const std::vector<BillLine>& lines) {
+  double p = 0;
+  for (const BillLine& l : lines) p += l.leakage_mw;
+  return p;
+}
+
+double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op) {
+  for (const UnitUse& u : arch.tile.units)
+    if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) return lib.unit(u.unit).action_pj;
+  return 0.0;
 }
 
 double MachineBill::peak_mw(const std::vector<BillLine>& lines) {
@@ -141,7 +188,7 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
   v.weight_slices = mapping.weight_slices();
   CostModel per_read = cost;
   per_read.clock_mhz = 1e3 / arch.ima.read_ns;
-  const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v);
+  const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v), leak = per_read.leakage_mw(v);
   const std::pair<const char*, double ComponentBreakdown::*> parts[] = {
       {"crossbar", &ComponentBreakdown::crossbar},
       {"adc", &ComponentBreakdown::adc},
@@ -161,28 +208,48 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
                               v.accumulators};
   for (size_t k = 0; k < std::size(parts); ++k)
     if (area.*parts[k].second > 0 || peak.*parts[k].second > 0)
-      bill.ima.push_back({parts[k].first, counts[k], area.*parts[k].second, peak.*parts[k].second});
+      bill.ima.push_back(
+          {parts[k].first, counts[k], area.*parts[k].second, peak.*parts[k].second, leak.*parts[k].second});
+  const double imas = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
+  bill.chip_area_mm2 = area * imas;
+  bill.chip_peak_mw = peak * imas;
+  bill.chip_leakage_mw = leak * imas;
+  auto add = [&](double ComponentBreakdown::*part, const BillLine& l, double times) {
+    bill.chip_area_mm2.*part += l.area_mm2 * times;
+    bill.chip_peak_mw.*part += l.peak_mw * times;
+    bill.chip_leakage_mw.*part += l.leakage_mw * times;
+  };
 
   auto priced = [&](const UnitUse& u) {
     const ComponentLibrary::Unit& m = lib.unit(u.unit);
-    return BillLine{u.unit, u.count, u.count * m.area_mm2, u.count * (m.leakage_mw + m.action_pj * u.actions_per_ns)};
+    return BillLine{u.unit, u.count, u.count * m.area_mm2, u.count * (m.leakage_mw + m.action_pj * u.actions_per_ns),
+                    u.count * m.leakage_mw};
   };
-  const double kib = arch.tile.edram_bytes / 1024.0;
+  const double kib = arch.tile.edram_bytes / 1024.0, tiles = arch.chip.tiles;
   bill.tile.push_back({"ima", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima),
-                       arch.tile.imas * MachineBill::peak_mw(bill.ima)});
-  bill.tile.push_back(
-      {"edram", arch.tile.edram_bytes, kib * lib.buffer.area_mm2_per_kib,
-       kib * lib.buffer.leakage_mw_per_kib + lib.buffer.read_pj_per_byte * arch.tile.edram_bytes_per_ns});
+                       arch.tile.imas * MachineBill::peak_mw(bill.ima),
+                       arch.tile.imas * MachineBill::leakage(bill.ima)});
+  bill.tile.push_back({"edram", arch.tile.edram_bytes, kib * lib.buffer.area_mm2_per_kib,
+                       kib * lib.buffer.leakage_mw_per_kib + lib.buffer.read_pj_per_byte * arch.tile.edram_bytes_per_ns,
+                       kib * lib.buffer.leakage_mw_per_kib});
+  add(&ComponentBreakdown::buffer, bill.tile.back(), tiles);
   bill.tile.push_back(priced(arch.tile.bus));
-  for (const UnitUse& u : arch.tile.units) bill.tile.push_back(priced(u));
+  add(&ComponentBreakdown::interconnect, bill.tile.back(), tiles);
+  for (const UnitUse& u : arch.tile.units) {
+    bill.tile.push_back(priced(u));
+    add(&ComponentBreakdown::digital, bill.tile.back(), tiles);
+  }
   // The tile's share of the routers (one per tiles_per_router tiles), so that tiles x tile
   // is the chip without its off-chip links.
-  BillLine routers = priced({arch.chip.router.unit, arch.chip.routers(), arch.chip.router.actions_per_ns});
-  bill.tile.push_back({"router share", 1, routers.area_mm2 / arch.chip.tiles, routers.peak_mw / arch.chip.tiles});
+  const BillLine routers = priced({arch.chip.router.unit, arch.chip.routers(), arch.chip.router.actions_per_ns, {}});
+  add(&ComponentBreakdown::interconnect, routers, 1);
+  bill.tile.push_back(
+      {"router share", 1, routers.area_mm2 / tiles, routers.peak_mw / tiles, routers.leakage_mw / tiles});
 
-  bill.chip.push_back({"tile", arch.chip.tiles, arch.chip.tiles * MachineBill::area(bill.tile),
-                       arch.chip.tiles * MachineBill::peak_mw(bill.tile)});
+  bill.chip.push_back({"tile", arch.chip.tiles, tiles * MachineBill::area(bill.tile),
+                       tiles * MachineBill::peak_mw(bill.tile), tiles * MachineBill::leakage(bill.tile)});
   bill.chip.push_back(priced(arch.chip.offchip));
+  add(&ComponentBreakdown::memory, bill.chip.back(), 1);
   return bill;
 }
 

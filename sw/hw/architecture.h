@@ -15,12 +15,17 @@
 namespace xbarsim {
 
 /// A unit of the library instantiated `count` times, each doing up to `actions_per_ns`
-/// actions (bytes moved, operations) at its peak.
+/// actions (bytes moved, operations) at its peak; a digital unit also names the network
+/// operations it performs (`ops`: relu, affine, add, maxpool, avgpool, globalavgpool).
 struct UnitUse {
   std::string unit;
   int count = 1;
   double actions_per_ns = 0;
+  std::vector<std::string> ops;
 };
+
+/// The names of the digital operations a tile unit may perform.
+const std::vector<std::string>& digital_op_names();
 
 struct Architecture {
   std::string name = "layer-sized";
@@ -46,13 +51,17 @@ struct Architecture {
     int tiles = 0;
     int tiles_per_router = 1;
     int mesh_rows = 0, mesh_cols = 0;
-    UnitUse router;   ///< one per mesh node; actions_per_ns per link
-    UnitUse offchip;  ///< off-chip links
+    UnitUse router;     ///< one per mesh node; actions_per_ns per link
+    double hop_ns = 0;  ///< a transfer's head through one router
+    UnitUse offchip;    ///< off-chip links
     int routers() const { return mesh_rows * mesh_cols; }
   } chip;
   /// Physical columns one ADC serves: the IMA's columns shared by its ADCs.
   int columns_per_adc() const { return ima.crossbars * crossbar.cols / ima.adcs; }
   long long crossbars() const { return static_cast<long long>(chip.tiles) * tile.imas * ima.crossbars; }
+  /// Operations per ns a tile performs of the digital operation `op` (a name of
+  /// digital_op_names()): every unit that lists it, at its rate; 0 when none does.
+  double ops_per_ns(const std::string& op) const;
 };
 
 /// Parses an architecture file; errors name `origin`, the section and the key (unknown or
@@ -76,7 +85,7 @@ void check_crossbar_geometry(const Architecture& arch, const MappingSpec& mappin
 struct BillLine {
   std::string unit;
   long long count = 0;
-  double area_mm2 = 0, peak_mw = 0;
+  double area_mm2 = 0, peak_mw = 0, leakage_mw = 0;
 };
 
 /// A machine priced from counts x components: the units of one IMA, of one tile (its IMAs as
@@ -84,9 +93,17 @@ struct BillLine {
 /// one line, then the off-chip links).
 struct MachineBill {
   std::vector<BillLine> ima, tile, chip;
+  /// The whole chip by component class (the IMAs' units in theirs; eDRAM as buffer; buses and
+  /// routers as interconnect; tile units as digital; off-chip links as memory).
+  ComponentBreakdown chip_area_mm2, chip_peak_mw, chip_leakage_mw;
   static double area(const std::vector<BillLine>& lines);
   static double peak_mw(const std::vector<BillLine>& lines);
+  static double leakage(const std::vector<BillLine>& lines);
 };
+
+/// Energy per action (pJ) of the tile unit that performs the digital operation `op`
+/// (Architecture::ops_per_ns), 0 when none does.
+double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op);
 
 /// Prices `arch` with `cost` (the library and the converters' resolutions); the IMA's reads
 /// are streamed as `converters` and `mapping` say (bit-serial inputs or sliced weights: its

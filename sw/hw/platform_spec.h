@@ -18,7 +18,11 @@ struct PlatformConfig {
   bool auto_replication = false;           ///< platform.replication = auto: balance under crossbar_budget
   long long crossbar_budget = 0;           ///< crossbars the auto replication may use (0 = 2x the unreplicated)
   int adc_columns_per_unit = 128;          ///< converters.adc_columns_per_adc resolved with the library
-  double adc_rate_gsps = 1.28;             ///< the library's adc.sample_rate_gsps
+  /// Crossbars whose columns one ADC converts in turn (a machine's IMA shares its ADCs among
+  /// more columns than one crossbar has): an ADC's conversions per read are this many
+  /// crossbars' columns.
+  int crossbars_per_adc = 1;
+  double adc_rate_gsps = 1.28;  ///< the library's adc.sample_rate_gsps
   double dac_latency_ns = 1, crossbar_settle_ns = 5, accumulator_latency_ns = 2;
   int shift_entries_per_cycle = 64;
   int link_bytes_per_cycle = 32;    ///< interconnect link width

@@ -39,6 +39,18 @@ class YamlSection {
     if (!n.IsScalar() || n.Scalar().empty()) throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a name");
     return n.Scalar();
   }
+  /// A list of words (names); a single word is a list of one.
+  std::vector<std::string> words(const std::string& key) {
+    const YAML::Node n = get(key);
+    std::vector<std::string> out;
+    if (n.IsScalar()) out.push_back(n.Scalar());
+    if (n.IsSequence())
+      for (const auto& item : n)
+        if (item.IsScalar()) out.push_back(item.Scalar());
+    if (out.empty() || (n.IsSequence() && out.size() != n.size()))
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a name or a list of names");
+    return out;
+  }
   /// The keys present, in file order.
   std::vector<std::string> keys() const {
     std::vector<std::string> k;

@@ -53,6 +53,14 @@ void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInvento
   r.dacs += v.dacs;
 }
 
+void price_whole_machine(CostReport& r, const HardwareContext& hw) {
+  if (!hw.arch.machine) return;
+  const MachineBill bill = price_machine(hw.arch, hw.cost, hw.converters, hw.mapping);
+  r.area_mm2 = bill.chip_area_mm2;
+  r.peak_power_mw = bill.chip_peak_mw;
+  r.leakage_mw = bill.chip_leakage_mw;
+}
+
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {
   const Architecture& a = hw.arch;
   MachineReport r;

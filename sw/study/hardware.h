@@ -45,6 +45,10 @@ struct CostReport {
 /// Adds one layer (its inventory and the actions of one image) to `r`.
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);
 
+/// On a machine (hw.arch.machine) the area, peak power and leakage of `r` are the whole
+/// chip's (its bill, used by the network or not); nothing changes for layer-sized.
+void price_whole_machine(CostReport& r, const HardwareContext& hw);
+
 /// A machine (architecture.machine) with a network mapped onto it: the chip priced from counts
 /// x components, where the network's layers sit, and the machine's peak throughput for the
 /// configured datapath (weights on cell slices, inputs in reads).

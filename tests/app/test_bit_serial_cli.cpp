@@ -95,3 +95,33 @@ TEST_F(BitSerialCli, ExploreSweepsDacBitsAndCellBits) {
   // An 8-bit DAC is larger than a 1-bit one.
   EXPECT_GT(c2d8["area_breakdown_mm2"]["dac"].get<double>(), c2d1["area_breakdown_mm2"]["dac"].get<double>());
 }
+
+// A machine (issue 25): overhead, eval and simulate price the same chip (area and peak power
+// from counts x components), simulate places the network on it and crosses its mesh, and a
+// mapping that contradicts the machine's crossbars is refused naming the key.
+TEST_F(BitSerialCli, SimulateOnIsaacCeGivesOverheadsChip) {
+  const std::string machine =
+      " --set architecture.machine=isaac-ce --set mapping.max_rows=128 --set mapping.max_cols=128"
+      " --set components.library=isaac";
+  const auto o = run("overhead", "--model tiny" + machine + " --json " + path("o.json"));
+  ASSERT_EQ(o.code, 0) << o.out;
+  const auto s = run("simulate", "--model tiny --dataset cifar10 --images 2 --set platform.schedule=pipelined" +
+                                     machine + " --json " + path("s.json"));
+  ASSERT_EQ(s.code, 0) << s.out;
+  const auto e = run("eval", "--model tiny --images 2" + machine + " --json " + path("e.json"));
+  ASSERT_EQ(e.code, 0) << e.out;
+  const auto oj = json(path("o.json")), sj = json(path("s.json")), ej = json(path("e.json"));
+  EXPECT_NEAR(ej["area_mm2"].get<double>(), oj["machine"]["area_mm2"].get<double>(), 1e-9);
+  EXPECT_NEAR(ej["peak_power_mw"].get<double>(), oj["machine"]["peak_power_mw"].get<double>(), 1e-6);
+  EXPECT_EQ(sj["architecture"], "isaac-ce");
+  EXPECT_NEAR(sj["area_mm2"].get<double>(), oj["machine"]["area_mm2"].get<double>(), 1e-9);
+  EXPECT_NEAR(sj["peak_power_mw"].get<double>(), oj["machine"]["peak_power_mw"].get<double>(), 1e-6);
+  EXPECT_NEAR(sj["area_mm2"].get<double>(), 85.4, 0.01 * 85.4);  // ISAAC's chip
+  EXPECT_TRUE(sj["placement"]["fits"].get<bool>());
+  EXPECT_EQ(sj["placement"]["imas_used"], oj["machine"]["mapping"]["imas_used"]);
+  EXPECT_GT(sj["achieved_tops_per_w"].get<double>(), 0);
+  EXPECT_TRUE(sj.contains("noc"));
+  const auto bad = run("overhead", "--model tiny --set architecture.machine=isaac-ce --set components.library=isaac");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("mapping.max_rows"), std::string::npos) << bad.out;
+}

@@ -21,6 +21,7 @@ struct Published {
 // ISAAC Table 6.
 constexpr Published kIma{24.08, 0.0131}, kImas{289, 0.157}, kTileDigital{40.9, 0.215}, kTile{330, 0.372},
     kChip{65.8e3, 85.4}, kHyperTransport{10.4e3, 22.88};
+constexpr double kAdcPerIma = 16;  // mW: 8 ADCs
 constexpr Published kEdram{20.7, 0.083}, kBus{7, 0.090}, kRouterPerFourTiles{42, 0.151}, kSigmoid{0.52, 0.0006},
     kShiftAdd{0.05, 0.00006}, kMaxPool{0.4, 0.00024}, kOutputRegister{1.68, 0.0032};
 
@@ -88,6 +89,10 @@ TEST(IsaacChip, ImaTileAndChipEqualThePublishedFigures) {
   expect_within_1_percent(tile_mm2, kTile.area_mm2, "tile area");
   expect_within_1_percent(MachineBill::peak_mw(m.bill.chip), kChip.power_mw, "chip power");
   expect_within_1_percent(MachineBill::area(m.bill.chip), kChip.area_mm2, "chip area");
+  // The chip by component class adds up to the same totals.
+  EXPECT_NEAR(m.bill.chip_area_mm2.total(), MachineBill::area(m.bill.chip), 1e-9);
+  EXPECT_NEAR(m.bill.chip_peak_mw.total(), MachineBill::peak_mw(m.bill.chip), 1e-6);
+  EXPECT_NEAR(m.bill.chip_peak_mw.adc, 168 * 12 * kAdcPerIma, 1e-6);
 }
 
 TEST(IsaacChip, EveryTileUnitEqualsItsPublishedFigure) {

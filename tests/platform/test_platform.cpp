@@ -208,13 +208,18 @@ namespace {
 
 /// A pipeline over `m` with `images` random images; returns its result after the run.
 struct PipelineRun {
-  PipelineRun(const Model& m, const PlatformConfig& pc, std::vector<int> replication = {})
-      : model(m), xb(m, quantized_partitioned()) {
+  /// `machine`: run on it (its mapping's replication), else layer-sized.
+  PipelineRun(const Model& m, const PlatformConfig& pc, std::vector<int> replication = {},
+              const MachinePlan* machine = nullptr, const AnalogConfig& ac = quantized_partitioned())
+      : model(m), xb(m, ac) {
     xb.program(random_dataset(m.input, 8, 1), 512);
     images = random_dataset(m.input, pc.images, 2);
+    if (machine)
+      for (const LayerPlacement& p : machine->mapping.layers) replication.push_back(p.replication);
     if (replication.empty()) replication.assign(m.linear.size(), 1);
-    pipe = std::make_unique<Pipeline>("acc", m, xb, pc, replication,
-                                      [this](int k, float* x) { images.preprocess(k, model.pre, x); });
+    pipe = std::make_unique<Pipeline>(
+        "acc", m, xb, pc, replication, [this](int k, float* x) { images.preprocess(k, model.pre, x); }, nullptr,
+        std::vector<double>{}, machine);
     sc_core::sc_start();
   }
   /// Logits bit-identical to the batch engine (the functions eval uses).
@@ -374,4 +379,79 @@ TEST(Platform, AutoReplicationUnderTwiceTheCrossbarsRaisesThroughput) {
   EXPECT_LE(used, 2 * base);
   EXPECT_GT(r[0], 1);  // the first layers (32 x 32 outputs) are copied, as in ISAAC
   EXPECT_LT(slowest_after, slowest_before / 2);
+}
+
+// A machine's ADC shared by k crossbars converts k crossbars' columns per read: an ADC-bound
+// tile takes k times as long per iteration (the hand factor).
+TEST(Tile, AnAdcSharedByThreeCrossbarsTripleTheAdcBoundIteration) {
+  ONE_SIMULATION_PER_PROCESS();
+  const LinearLayer L = conv_layer(8, 40, 3, 1, 1, 6, 6);  // 72 rows x 40 cols: 2 x 2 crossbars of 20 columns
+  AnalogConfig ac = quantized_partitioned();
+  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
+  analog.program(Eigen::MatrixXd());
+  PlatformConfig pc;
+  pc.crossbars_per_adc = 3;
+  pc.adc_rate_gsps = 0.1;  // 20 columns x 3 crossbars / 0.1 GS/s = 600 ns, far above every other stage
+  const auto act = random_activation(L.in, 5);
+  TileRun run(L, analog, pc, act, true);
+  run.expect_forward_of(analog);
+  const int n = L.out.h * L.out.w;
+  const double clk = pc.clock_ns(), adc_ns = 20.0 * 3 / 0.1;
+  const double refill_ns = std::ceil(72.0 / pc.shift_entries_per_cycle) * clk;
+  const double fill =
+      std::ceil((refill_ns + pc.dac_latency_ns + pc.crossbar_settle_ns + adc_ns + pc.accumulator_latency_ns) / clk -
+                1e-9) *
+      clk;
+  EXPECT_NEAR(run.driver.delay.to_seconds() * 1e9, fill + (n - 1) * adc_ns, 1e-6);
+}
+
+namespace {
+
+/// A machine of 3 tiles on a 3 x 1 mesh (a router each), 64 IMAs of 2 crossbars of 64 x 32 per
+/// tile, with a ReLU, pooling and add unit on every tile.
+MachinePlan toy_machine(const Model& m, const AnalogConfig& ac) {
+  MachinePlan plan;
+  Architecture& a = plan.arch;
+  a.name = "toy";
+  a.machine = true;
+  a.crossbar = {64, 32, 0};
+  a.ima = {2, 2, 100.0, 1024, 256};
+  a.tile.imas = 64;
+  a.tile.edram_bytes = 65536;
+  a.tile.edram_bytes_per_ns = 32;
+  a.tile.units = {{"alu", 1, 1.0, {"relu", "affine", "add", "maxpool", "avgpool", "globalavgpool"}}};
+  a.chip.tiles = 3;
+  a.chip.tiles_per_router = 1;
+  a.chip.mesh_rows = 3;
+  a.chip.mesh_cols = 1;
+  a.chip.router = {"router", 1, 4.0, {}};
+  a.chip.hop_ns = 1;
+  a.chip.offchip = {"link", 1, 16.0, {}};
+  std::vector<LayerInventory> layers;
+  for (const LinearLayer& L : m.linear) layers.push_back(layer_inventory(L, MappingScheme::Dense, ac.mapping, 32));
+  PlatformConfig pc;
+  plan.mapping = map_network(layers, a, pc);
+  return plan;
+}
+
+}  // namespace
+
+// On a machine the values are still the batch engine's, rows cross the mesh between tiles, and
+// layers that share a tile pass their rows through its eDRAM.
+TEST(Platform, OnAMachineTheLogitsAreTheBatchEnginesAndRowsCrossTheMesh) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = make_preset("lenet", 3);
+  const MachinePlan plan = toy_machine(m, quantized_partitioned());
+  ASSERT_TRUE(plan.mapping.fits) << plan.mapping.reason;
+  ASSERT_GE(plan.mapping.tiles_used, 2);  // so that some rows cross the mesh
+  PlatformConfig pc;
+  pc.images = 3;
+  pc.pipelined = true;
+  PipelineRun run(m, pc, {}, &plan);
+  run.expect_logits_of_the_batch_engine();
+  const PipelineResult& r = run.pipe->result();
+  EXPECT_GT(r.bus_bytes, 0);  // the mesh
+  EXPECT_GT(r.router_bytes, 0);
+  EXPECT_GT(r.local_bytes, 0);  // a tile's own eDRAM
+  for (const StageStats& st : r.stages) EXPECT_GE(st.tile, 0) << st.name;
 }
