@@ -34,15 +34,19 @@ class CrossbarArray : public sc_core::sc_module {
     }
     const int nb = job->analog->crossbars();
     const long long reads = job->reads();
-    if (job->serial())
-      job->read_currents.resize(nb);
-    else
-      job->currents.resize(nb);
-    for (int b = 0; b < nb; ++b) {
+    if (!job->timing_only) {
+      if (job->serial())
+        job->read_currents.resize(nb);
+      else
+        job->currents.resize(nb);
+    }
+    for (int b = 0; b < nb && !job->timing_only; ++b) {
       if (job->serial())
         job->analog->analog<float>(b, job->codes, 0, job->iterations(), job->read_currents[b]);
       else
         job->analog->analog<float>(b, job->xq, job->currents[b]);
+    }
+    for (int b = 0; b < nb; ++b) {
       cell_reads_ += reads * job->analog->block(b).rows * job->physical_columns(b);
     }
     evaluations_ += reads * nb;

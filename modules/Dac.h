@@ -26,12 +26,14 @@ class Dac : public sc_core::sc_module {
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
-    if (!job || job->xq.rows() != job->iterations()) {
+    if (!job || (!job->timing_only && job->xq.rows() != job->iterations())) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
-    job->analog->dac_inplace<float>(job->xq);
-    if (job->serial()) job->analog->slice_inputs<float>(job->xq, job->codes);
+    if (!job->timing_only) {
+      job->analog->dac_inplace<float>(job->xq);
+      if (job->serial()) job->analog->slice_inputs<float>(job->xq, job->codes);
+    }
     long long rows = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) rows += job->analog->block(b).rows;
     const long long n = job->reads() * rows;

@@ -27,8 +27,8 @@ class DigitalAccumulator : public sc_core::sc_module {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
-    job->y.setZero(job->iterations(), job->analog->outputs());
-    for (int b = 0; b < job->analog->crossbars(); ++b)
+    if (!job->timing_only) job->y.setZero(job->iterations(), job->analog->outputs());
+    for (int b = 0; b < job->analog->crossbars() && !job->timing_only; ++b)
       if (job->serial())
         job->analog->recover_add<float>(b, job->read_currents[b], job->y);
       else

@@ -19,6 +19,9 @@ struct LayerJob {
   const AnalogLayer* analog = nullptr;
   const float* activation = nullptr;  ///< C x H x W input of the layer
   bool detailed = true;               ///< timing mode
+  /// Timing only (platform.timing_only): the modules count actions and record stage latencies
+  /// from the layer's geometry and compute no values (xq, currents and y stay empty).
+  bool timing_only = false;
   int replication = 1;
 
   AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC values
@@ -42,11 +45,13 @@ struct LayerJob {
   long long reads() const { return static_cast<long long>(slices()) * iterations(); }
   /// Whether the previous stages produced what a stage reads, for every crossbar.
   bool has_currents() const {
+    if (timing_only) return true;
     const size_t nb = static_cast<size_t>(analog->crossbars());
     return serial() ? read_currents.size() == nb : currents.size() == nb;
   }
   /// Physical columns of crossbar b.
   int physical_columns(int b) const {
+    if (timing_only) return analog->config().mapping.physical_columns(analog->block(b).cols);
     return static_cast<int>(serial() ? read_currents[b].i.cols() : currents[b].cols());
   }
   /// Reads are combined by shift-and-add (input or weight slices).

@@ -32,8 +32,18 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
     const LinearLayer& L = *job.layer;
     const int K = L.rows(), n = job.iterations(), col = L.k_h * L.c_in;
     const int H = L.in.h, W = L.in.w;
-    job.xq.resize(n, K);
     job.stage_ns[kShift].assign(n, 0.0);
+    if (job.timing_only) {  // the entries each iteration shifts in, as below
+      for (int it = 0; it < n; ++it) {
+        const bool reload = it % L.out.w == 0 || L.stride_w >= L.k_w;
+        const int shifted = reload ? K : L.stride_w * col;
+        job.refills += reload;
+        job.shifted_entries += shifted;
+        job.stage_ns[kShift][it] = shifted;
+      }
+      return;
+    }
+    job.xq.resize(n, K);
     std::vector<float> reg(K, 0.0f);
     auto load_column = [&](float* dst, int oy, int x) {
       for (int ky = 0; ky < L.k_h; ++ky) {

@@ -441,6 +441,7 @@ void Pipeline::compute(Stage& s, int image) {
   const Op& op = *s.op;
   std::vector<float>& y = values_->at(image, op.out);
   if (op.kind != OpKind::Linear) {
+    if (cfg_.timing_only) return;  // its time comes from its operation count (busy_time)
     digital_op(op, model_.values[op.in[0]], model_.values[op.out], values_->at(image, op.in[0]),
                op.in.size() > 1 ? &values_->at(image, op.in[1]) : nullptr, y);
     return;
@@ -451,15 +452,18 @@ void Pipeline::compute(Stage& s, int image) {
   job.analog = &programmed_.layer(op.linear);
   job.activation = values_->at(image, op.in[0]).data();
   job.detailed = true;
+  job.timing_only = cfg_.timing_only;
   tlm::tlm_generic_payload p;
   attach(p, job, 0);
   sc_core::sc_time ignored = sc_core::SC_ZERO_TIME;
   (*s.stage2tile)->b_transport(p, ignored);
   if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("tile transaction failed");
-  y.resize(L.out.size());
-  const int pixels = L.out.h * L.out.w;
-  for (int c = 0; c < L.c_out; ++c)
-    for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
+  if (!cfg_.timing_only) {
+    y.resize(L.out.size());
+    const int pixels = L.out.h * L.out.w;
+    for (int c = 0; c < L.c_out; ++c)
+      for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
+  }
   const IterationTiming t = iteration_timing(job, cfg_.clock_ns(), cfg_.detailed);
   s.ii_ns = t.ii_ns;
   s.fill_ns = t.fill_ns - t.ii_ns[0];  // added to the first iteration
@@ -523,8 +527,10 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
   if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
     t = r0 == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
   } else if (s.op->kind == OpKind::Linear) {
-    // The group's iterations, split into contiguous shares over the replica processes.
-    const int w = s.out_shape.w, nrep = static_cast<int>(s.replicas.size()), n = (r1 - r0) * w;
+    // The group's iterations, split into contiguous shares over the replica processes (those
+    // that have one: a group of fewer iterations than replicas leaves the rest idle).
+    const int w = s.out_shape.w, n = (r1 - r0) * w;
+    const int nrep = std::max(1, std::min(static_cast<int>(s.replicas.size()), n));
     s.replicas_pending = nrep;
     for (int q = 0; q < nrep; ++q) {
       double share = 0;
@@ -566,7 +572,7 @@ void Pipeline::source() {
     result_.image_in_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
     std::vector<float>& x = values_->at(img, 0);
     x.resize(in.size());
-    image_(img, x.data());
+    if (!cfg_.timing_only) image_(img, x.data());
     for (int r = 0; r < in.h; ++r) {
       sc_core::wait(sim_delay((r == 0 ? cfg_.memory_latency_ns : 0.0) + offchip_ns(rb)));
       result_.memory_bytes += rb;
@@ -609,7 +615,8 @@ void Pipeline::sink() {
     output_->release_before(img, out.h);
     result_.memory_bytes += bytes;
     const std::vector<float>& y = values_->at(img, model_.output);
-    result_.logits.push_back(Eigen::Map<const Eigen::VectorXf>(y.data(), static_cast<Eigen::Index>(y.size())));
+    if (!cfg_.timing_only)
+      result_.logits.push_back(Eigen::Map<const Eigen::VectorXf>(y.data(), static_cast<Eigen::Index>(y.size())));
     result_.image_out_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
     values_->drop(img);
     ++images_left_;

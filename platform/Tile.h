@@ -124,7 +124,7 @@ class Tile : public sc_core::sc_module {
     }
     delay += sim_delay(steady_ns, delay);
     iterations_ += n;
-    outputs_written_ += static_cast<long long>(job->y.size());
+    outputs_written_ += static_cast<long long>(n) * job->analog->outputs();
     cycles_ += std::llround((delay - start).to_seconds() * 1e9 / clk);
   }
 

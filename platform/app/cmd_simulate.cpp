@@ -19,8 +19,13 @@ namespace {
 nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
   Model model = model_from_args(args, cfg);
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
-  const int images = make_hardware_context(cfg, parse_analog_config(cfg)).platform.images;
-  const SimulationData data = simulation_data(args.get("--dataset"), cfg, model, images);
+  const PlatformConfig pc = make_hardware_context(cfg, parse_analog_config(cfg)).platform;
+  if (pc.timing_only && args.has("--dataset"))
+    throw InputError(
+        "--dataset with platform.timing_only (--timing-only): a timing-only run computes no values, so "
+        "it has no use for images; give the count with --images");
+  const SimulationData data =
+      pc.timing_only ? SimulationData{} : simulation_data(args.get("--dataset"), cfg, model, pc.images);
   return simulate_model(cfg, model, data, vcd, print);
 }
 
@@ -50,12 +55,14 @@ void print_summary(const nlohmann::json& j) {
 
 int cmd_simulate(int argc, char** argv) {
   const CliArgs args(argc, argv, 0,
-                     {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images", "--report"});
+                     {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images", "--report"},
+                     {"--timing-only"});
   const std::string vcd = args.get("--vcd");
   std::vector<std::string> sets = args.sets();
   if (args.has("--images")) sets.push_back("platform.images=" + args.get("--images"));
   if (args.has("--timing")) sets.push_back("platform.timing=" + args.get("--timing"));
   if (args.has("--vcd-images")) sets.push_back("platform.vcd_images=" + args.get("--vcd-images"));
+  if (args.has("--timing-only")) sets.push_back("platform.timing_only=true");
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
   const auto points = sweep_points(base);
   check_sweep<HardwareContext>(base, points, [](const ConfigTree& cfg) {  // every point before any runs
@@ -119,10 +126,10 @@ namespace {
 const CommandRegistrar kRegister{
     "simulate", cmd_simulate,
     "simulate (--model M.onnx | --preset resnet20) [--dataset cifar10 --images N] [--timing ideal|detailed]\n"
-    "         [--vcd out.vcd [--vcd-images K]] [--config F] [--set k=v]... [--json F] [--csv F]\n"
-    "         [--report F.html]\n"
+    "         [--timing-only] [--vcd out.vcd [--vcd-images K]] [--config F] [--set k=v]... [--json F]\n"
+    "         [--csv F] [--report F.html]\n"
     "      SystemC/TLM-2.0 accelerator: latency, makespan, throughput, stalls, energy, power, area, accuracy;\n"
-    "      list values sweep (one process per point)"};
+    "      list values sweep (one process per point); --timing-only: no values, no dataset, the same timing and cost"};
 }  // namespace
 
 }  // namespace xbarsim

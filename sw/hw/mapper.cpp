@@ -7,9 +7,19 @@ namespace xbarsim {
 
 namespace {
 
-/// Crossbar reads of one copy per image (iterations x input slices) at one read per read_ns.
-double compute_ns(const LayerInventory& v, const Architecture& arch, int copies) {
-  return std::ceil(static_cast<double>(v.iterations) / copies) * v.input_slices * arch.ima.read_ns;
+/// The iterations a layer's copies can share: one row group's (platform.grain_rows output
+/// rows; the pipeline hands a layer its inputs a row group at a time).
+long long group_iterations(const LayerInventory& v, int grain_rows) {
+  const long long rows = std::max(1, v.output.h), groups = (rows + grain_rows - 1) / grain_rows;
+  return (v.iterations + groups - 1) / groups;
+}
+
+/// Crossbar reads of one copy per image, at one read per read_ns: every row group's
+/// iterations shared by the copies, times the input slices.
+double compute_ns(const LayerInventory& v, const Architecture& arch, int copies, int grain_rows) {
+  const long long per_group = group_iterations(v, grain_rows);
+  const long long groups = (v.iterations + per_group - 1) / std::max(1LL, per_group);
+  return static_cast<double>(groups * ((per_group + copies - 1) / copies)) * v.input_slices * arch.ima.read_ns;
 }
 
 }  // namespace
@@ -44,21 +54,31 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     return n;
   };
   auto update_times = [&] {
-    for (int l = 0; l < L; ++l) m.layers[l].compute_ns = compute_ns(layers[l], arch, m.layers[l].replication);
+    for (int l = 0; l < L; ++l)
+      m.layers[l].compute_ns = compute_ns(layers[l], arch, m.layers[l].replication, pc.grain_rows);
   };
   update_times();
   if (pc.auto_replication && pc.replication_per_layer.empty()) {
-    // Greedy, as ISAAC balances its pipeline: another copy of the slowest stage while it is
-    // compute-bound (a stage bound by its input link gains nothing) and its IMAs fit.
+    // Greedy, as ISAAC balances its pipeline: more copies of the slowest stage that can gain
+    // from them: compute-bound (a stage bound by its input link gains nothing), and IMAs for
+    // the fewest copies that take an iteration off each copy's share of a row group. Once the
+    // bottleneck cannot grow, the spare IMAs shorten the other stages (latency, and the fill).
+    auto next_copies = [&](int l) {  // 0: no more copies help
+      const long long g = group_iterations(layers[l], pc.grain_rows), c = m.layers[l].replication;
+      const long long share = (g + c - 1) / c;
+      return share <= 1 ? 0LL : (g + share - 2) / (share - 1);
+    };
     for (;;) {
-      int slow = 0;
-      for (int l = 1; l < L; ++l)
-        if (m.layers[l].stage_ns() > m.layers[slow].stage_ns()) slow = l;
-      LayerPlacement& s = m.layers[slow];
-      if (L == 0 || s.compute_ns <= s.input_ns || s.replication >= layers[slow].iterations ||
-          used() + s.imas > m.imas_available)
-        break;
-      ++s.replication;
+      int slow = -1;
+      for (int l = 0; l < L; ++l) {
+        const LayerPlacement& s = m.layers[l];
+        const long long copies = next_copies(l);
+        const bool grows =
+            s.compute_ns > s.input_ns && copies > 0 && used() + (copies - s.replication) * s.imas <= m.imas_available;
+        if (grows && (slow < 0 || s.stage_ns() > m.layers[slow].stage_ns())) slow = l;
+      }
+      if (slow < 0) break;
+      m.layers[slow].replication = static_cast<int>(next_copies(slow));
       update_times();
     }
   }

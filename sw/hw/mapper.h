@@ -24,7 +24,8 @@ struct LayerPlacement {
   int imas = 0;             ///< one copy: ceil(crossbars / crossbars per IMA)
   int replication = 1;
   int first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
-  /// Per image, one copy's share: reads (iterations x input slices) x read_ns / copies.
+  /// Per image, one copy's share: per row group (platform.grain_rows output rows), its
+  /// iterations over the copies, rounded up, x input slices x read_ns.
   double compute_ns = 0;
   /// Per image: its input activations over one router link (replication does not shorten it).
   double input_ns = 0;

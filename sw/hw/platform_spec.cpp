@@ -14,6 +14,7 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.clock_mhz = cfg.get_double("platform.clock_mhz");
   c.detailed = require_one_of(cfg, "platform.timing", {"ideal", "detailed"}) == "detailed";
   c.pipelined = require_one_of(cfg, "platform.schedule", {"sequential", "pipelined"}) == "pipelined";
+  c.timing_only = cfg.get_bool("platform.timing_only");
   if (cfg.get_string("platform.replication") == "auto")
     c.auto_replication = true;
   else

@@ -18,6 +18,24 @@ void CrossbarBackend::program(const Dataset& calib, int max_samples, const std::
   program_layers(progress);
 }
 
+void CrossbarBackend::structure_only() {
+  const int L = static_cast<int>(model_.linear.size());
+  const std::vector<bool> may_be_negative = linear_inputs_signed(model_);
+  stats_.assign(L, LayerStatistics{});
+  layers_.clear();
+  layers_.reserve(L);
+  for (int l = 0; l < L; ++l) {
+    stats_[l].x_max = 1.0;
+    stats_[l].signed_inputs = may_be_negative[l];
+    try {
+      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), 1.0, may_be_negative[l],
+                           static_cast<uint64_t>(l + 1));
+    } catch (const std::exception&) {
+      rethrow_with_context("layer " + model_.linear[l].name);
+    }
+  }
+}
+
 void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
   const int L = static_cast<int>(model_.linear.size());
   const int images = calib.count();

@@ -27,6 +27,11 @@ class CrossbarBackend : public LinearBackend {
   /// calibrates every layer. `progress(done, total)` is called per programmed layer.
   void program(const Dataset& calib, int max_samples = 2048, const std::function<void(int, int)>& progress = nullptr);
 
+  /// The layers' crossbars, mapping and input slicing without programming them (timing-only
+  /// simulation: timing and action counts do not depend on the conductances); inputs are
+  /// signed where the network can make them negative. multiply() must not be called.
+  void structure_only();
+
   void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override;
   /// Quantizes the activation once (DAC codes; zero padding stays zero), then im2col.
   void multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,

@@ -125,3 +125,29 @@ TEST_F(BitSerialCli, SimulateOnIsaacCeGivesOverheadsChip) {
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("mapping.max_rows"), std::string::npos) << bad.out;
 }
+
+// Timing and action counts do not depend on the values: a timing-only run (no programming, no
+// reads) reports what the run that computes the logits reports, on a machine (auto replication)
+// and on layer-sized tiles, bit-serial and not. It refuses a dataset it would not read.
+TEST_F(BitSerialCli, SimulateTimingOnlyReportsWhatTheFullRunReports) {
+  const std::string machine =
+      " --set architecture.machine=isaac-ce --set mapping.max_rows=128 --set mapping.max_cols=128"
+      " --set components.library=isaac --set platform.replication=auto";
+  for (const std::string& design : {machine, std::string(" --set converters.input_bits=none")}) {
+    const std::string common = " --model tiny --images 3 --set platform.schedule=pipelined" + design;
+    const auto full = run("simulate", common + " --json " + path("full.json"));
+    ASSERT_EQ(full.code, 0) << full.out;
+    const auto fast = run("simulate", common + " --timing-only --json " + path("fast.json"));
+    ASSERT_EQ(fast.code, 0) << fast.out;
+    auto a = json(path("full.json")), b = json(path("fast.json"));
+    EXPECT_EQ(a["mode"], "timing-and-values");
+    EXPECT_EQ(b["mode"], "timing-only");
+    for (auto* j : {&a, &b})
+      for (const char* k : {"mode", "simulation_wall_time_s", "simulated_images_per_wall_s"}) j->erase(k);
+    EXPECT_GT(a["latency_us"].get<double>(), 0);
+    EXPECT_EQ(a.dump(), b.dump()) << design;
+  }
+  const auto bad = run("simulate", "--model tiny --dataset cifar10 --images 2 --timing-only");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("--images"), std::string::npos) << bad.out;
+}

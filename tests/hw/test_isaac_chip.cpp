@@ -165,7 +165,7 @@ Architecture toy_machine() {
   a.chip.tiles = 2;
   a.chip.mesh_rows = 1;
   a.chip.mesh_cols = 2;
-  a.chip.router = {"router", 1, 1.0};
+  a.chip.router = {"router", 1, 1.0, {}};
   return a;
 }
 
@@ -226,6 +226,31 @@ TEST(Mapper, AutoReplicationCopiesTheSlowestComputeBoundStageWhileImasRemain) {
   const Mapping n = map_network({toy_layer("a", 1, 16, 2, 400, 64), toy_layer("b", 1, 1, 1, 5, 64)}, a, pc);
   EXPECT_EQ(n.layers[0].replication, 1);
   EXPECT_EQ(n.bottleneck, 0);
+}
+
+TEST(Mapper, CopiesShareARowGroupsIterationsAndSpareImasGoToTheNextSlowest) {
+  const Architecture a = toy_machine();
+  PlatformConfig pc;
+  pc.auto_replication = true;  // grain_rows 1: a layer's copies share one output row at a time
+  // a: 4 rows of 2 iterations, 4 x 2 x 10 = 80 ns; b: 1 row of 4 iterations, 40 ns. a takes a
+  // second copy (4 x 1 x 10 = 40 ns) and can use no third (a row has 2 iterations); the two
+  // IMAs left go to b, which a third copy could not speed up further: ceil(4 / 2) x 10 = 20 ns.
+  LayerInventory la = toy_layer("a", 1, 8, 1, 1, 64), lb = toy_layer("b", 1, 4, 1, 1, 64);
+  la.output = Shape{1, 4, 2};
+  lb.output = Shape{1, 1, 4};
+  const Mapping m = map_network({la, lb}, a, pc);
+  ASSERT_TRUE(m.fits);
+  EXPECT_EQ(m.layers[0].replication, 2);
+  EXPECT_DOUBLE_EQ(m.layers[0].compute_ns, 40.0);
+  EXPECT_EQ(m.layers[1].replication, 2);
+  EXPECT_DOUBLE_EQ(m.layers[1].compute_ns, 20.0);
+  EXPECT_EQ(m.imas_used, 4);
+  // Two output rows per transaction: a's copies share 4 iterations. A third copy would take
+  // none off a copy's share (ceil(4 / 3) = 2), a fourth would: it gets none, b gets a second.
+  pc.grain_rows = 2;
+  const Mapping g = map_network({la, lb}, a, pc);
+  EXPECT_EQ(g.layers[0].replication, 2);
+  EXPECT_EQ(g.layers[1].replication, 2);
 }
 
 TEST(Mapper, ANetworkThatDoesNotFitIsAStatusWithItsReason) {
