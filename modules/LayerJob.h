@@ -1,8 +1,10 @@
 #pragma once
 /// The work item carried by the tile datapath's TLM transactions: one image's pass through
-/// one linear layer. The generic payload's data pointer points to it; each module reads
-/// what the previous one produced, adds its own results, counters and per-iteration stage
-/// times, and annotates its latency on the transaction's delay (loosely timed).
+/// one linear layer, as an extension of the generic payload (a write of the layer's input
+/// activation: its data, its length in bytes, address 0 of the tile's input buffer). Each
+/// module reads what the previous one produced, adds its own results, counters and
+/// per-iteration stage times, and annotates its latency on the transaction's delay (loosely
+/// timed). The job belongs to its initiator: the payload never frees it.
 #include <tlm>
 #include <vector>
 
@@ -14,7 +16,11 @@ namespace xbarsim {
 /// Pipeline stages of a tile, in datapath order.
 enum Stage { kShift = 0, kDac, kCrossbar, kAdc, kAccumulate, kStages };
 
-struct LayerJob {
+struct LayerJob : tlm::tlm_extension<LayerJob> {
+  tlm::tlm_extension_base* clone() const override { return new LayerJob(*this); }
+  void copy_from(const tlm::tlm_extension_base& other) override { *this = static_cast<const LayerJob&>(other); }
+  void free() override {}  // owned by the initiator, not by the payload
+
   const LinearLayer* layer = nullptr;
   const AnalogLayer* analog = nullptr;
   const float* activation = nullptr;  ///< C x H x W input of the layer
@@ -58,22 +64,28 @@ struct LayerJob {
   bool sliced() const { return slices() > 1 || analog->config().mapping.weight_slices() > 1; }
 };
 
-/// Points a generic payload at a job (write command, the job as data).
+/// Makes `p` the write of a job's input activation (job.layer->in, floats) to the tile's input
+/// buffer, with the job as its extension.
 inline void attach(tlm::tlm_generic_payload& p, LayerJob& job, sc_dt::uint64 address) {
   p.set_command(tlm::TLM_WRITE_COMMAND);
   p.set_address(address);
-  p.set_data_ptr(reinterpret_cast<unsigned char*>(&job));
-  p.set_data_length(sizeof(LayerJob));
-  p.set_streaming_width(sizeof(LayerJob));
+  p.set_data_ptr(reinterpret_cast<unsigned char*>(const_cast<float*>(job.activation)));
+  p.set_data_length(static_cast<unsigned>(job.layer->in.size() * sizeof(float)));
+  p.set_streaming_width(p.get_data_length());
   p.set_byte_enable_ptr(nullptr);
   p.set_dmi_allowed(false);
   p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+  p.set_extension(&job);
 }
 
-/// The job a payload carries, or nullptr when it is malformed.
+/// The job a payload carries, or nullptr when it is malformed (no job, not a write, or data
+/// that is not the job's input activation).
 inline LayerJob* job_of(tlm::tlm_generic_payload& p) {
-  if (p.get_command() != tlm::TLM_WRITE_COMMAND || p.get_data_length() != sizeof(LayerJob)) return nullptr;
-  return reinterpret_cast<LayerJob*>(p.get_data_ptr());
+  LayerJob* job = p.get_extension<LayerJob>();
+  if (!job || !job->layer || p.get_command() != tlm::TLM_WRITE_COMMAND ||
+      p.get_data_length() != job->layer->in.size() * sizeof(float))
+    return nullptr;
+  return job;
 }
 
 }  // namespace xbarsim

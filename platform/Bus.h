@@ -11,6 +11,7 @@
 #include <tlm>
 #include <tlm_utils/multi_passthrough_target_socket.h>
 #include "modules/sim_time.h"
+#include "platform/Transfer.h"
 
 namespace xbarsim {
 
@@ -39,10 +40,10 @@ class Bus : public sc_core::sc_module {
     const sc_core::sc_time now = sc_core::sc_time_stamp() + delay;
     sc_core::sc_time& lane = *std::min_element(free_at_.begin(), free_at_.end());
     const sc_core::sc_time start = std::max(now, lane);
-    const sc_core::sc_time dur = sim_delay(transfer_ns(p.get_data_length()), start - sc_core::sc_time_stamp());
+    const sc_core::sc_time dur = sim_delay(transfer_ns(wire_bytes(p)), start - sc_core::sc_time_stamp());
     lane = start + dur;
     busy_ += dur;
-    bytes_ += p.get_data_length();
+    bytes_ += wire_bytes(p);
     ++transfers_;
     delay = lane - sc_core::sc_time_stamp();
     p.set_response_status(tlm::TLM_OK_RESPONSE);

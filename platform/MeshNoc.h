@@ -3,8 +3,8 @@
 /// `tiles_per_router` tiles (a concentrated mesh), dimension-ordered XY routing, and every
 /// directed link a resource that carries one transfer at a time. A transfer's route comes as
 /// a `Route` extension of its generic payload (source tile, destination tiles: several make a
-/// multicast along the union of their XY paths, each link carrying the data once); its data
-/// pointer and length are the bytes moved.
+/// multicast along the union of their XY paths, each link carrying the data once); the bytes it
+/// moves are its wire bytes (platform/Transfer.h).
 ///
 /// Timing (loosely timed: the target books the links and annotates the delay, it never
 /// waits): a transfer of B bytes occupies each link of its route for B / bytes_per_ns; its
@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "modules/sim_time.h"
+#include "platform/Transfer.h"
 
 namespace xbarsim {
 
@@ -104,7 +105,8 @@ class MeshNoc : public sc_core::sc_module {
       return;
     }
     const double now = (sc_core::sc_time_stamp() + delay).to_seconds() * 1e9;
-    const double dur = p.get_data_length() / bytes_per_ns_;
+    const long long bytes = wire_bytes(p);
+    const double dur = static_cast<double>(bytes) / bytes_per_ns_;
     // The multicast tree: every link once, at its depth.
     std::map<Link, int> tree;
     std::vector<std::pair<Link, int>> hops;
@@ -123,9 +125,9 @@ class MeshNoc : public sc_core::sc_module {
     }
     // A byte crosses a router once per link leaving one: every link of the tree but the
     // injection.
-    router_bytes_ += static_cast<double>(p.get_data_length()) * static_cast<double>(tree.size() - 1);
+    router_bytes_ += static_cast<double>(bytes) * static_cast<double>(tree.size() - 1);
     contention_ns_ += t0 - now;
-    bytes_ += p.get_data_length();
+    bytes_ += bytes;
     ++transfers_;
     const double arrival = t0 + deepest * hop_ns_ + dur;
     delay += sim_delay(arrival - now, delay);

@@ -1,5 +1,7 @@
 #include "platform/Pipeline.h"
 
+#include "platform/Transfer.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -208,15 +210,19 @@ long long row_bytes(const Shape& s, int activation_bytes) {
 
 /// A write transaction of `bytes` at `data` (its address: the byte offset in the value),
 /// routed from `source` to `destinations` on a machine's mesh.
-void fill_payload(tlm::tlm_generic_payload& p, unsigned char* data, long long offset, long long bytes) {
+/// A write of rows [row, row + count) of an activation of `rows` rows (platform/Transfer.h):
+/// its values as data, at their byte offset in the activation, and `wire` bytes on the wire.
+void fill_payload(tlm::tlm_generic_payload& p, std::vector<float>& v, int rows, int row, int count, long long wire) {
+  const size_t per_row = v.size() / static_cast<size_t>(rows), at = static_cast<size_t>(row) * per_row;
   p.set_command(tlm::TLM_WRITE_COMMAND);
-  p.set_address(static_cast<sc_dt::uint64>(offset));
-  p.set_data_ptr(data);
-  p.set_data_length(static_cast<unsigned>(bytes));
-  p.set_streaming_width(static_cast<unsigned>(bytes));
+  p.set_address(static_cast<sc_dt::uint64>(at * sizeof(float)));
+  p.set_data_ptr(reinterpret_cast<unsigned char*>(v.data() + at));
+  p.set_data_length(static_cast<unsigned>(static_cast<size_t>(count) * per_row * sizeof(float)));
+  p.set_streaming_width(p.get_data_length());
   p.set_byte_enable_ptr(nullptr);
   p.set_dmi_allowed(false);
   p.set_response_status(tlm::TLM_INCOMPLETE_RESPONSE);
+  p.set_extension(new WireBytes(wire));  // owned by the payload
 }
 
 }  // namespace
@@ -264,6 +270,16 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
   } else {
     bus_ = std::make_unique<Bus>("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles, cfg.bus_lanes);
   }
+  // An initiator bound to a target, through a base-protocol checker when asked.
+  auto bind = [&](auto& initiator, auto& target, const std::string& what) {
+    if (!cfg.check_protocol) {
+      initiator.bind(target);
+      return;
+    }
+    checkers_.push_back(std::make_unique<ProtocolChecker>(("check_" + what).c_str()));
+    initiator.bind(checkers_.back()->in);
+    checkers_.back()->out.bind(target);
+  };
   // On a machine: the tile each value is produced on (the network's input: router 0).
   std::vector<int> produced_on(model.values.size(), 0);
   for (size_t k = 0; k < model.ops.size(); ++k) {
@@ -314,7 +330,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg);
       s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
           ("stage2tile_" + std::to_string(op.linear)).c_str());
-      s->stage2tile->bind(s->tile->noc2tile);
+      bind(*s->stage2tile, s->tile->noc2tile, "tile_" + std::to_string(op.linear));
       if (op.linear < static_cast<int>(sparse_ns_.size())) s->sparse_ns = sparse_ns_[op.linear];
       const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
       s->stats.replication = r;
@@ -324,9 +340,9 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
                                           s->replicas_done, s->replicas_pending, failure_));
     }
     if (machine_)
-      s->stage2bus.bind(noc_->tile2noc);
+      bind(s->stage2bus, noc_->tile2noc, "stage_" + std::to_string(k));
     else
-      s->stage2bus.bind(bus_->stage2bus);
+      bind(s->stage2bus, bus_->stage2bus, "stage_" + std::to_string(k));
     stages_.push_back(std::move(s));
   }
   const Shape out = model.values[model.output];
@@ -336,9 +352,9 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
   output_ = buffers_.back().get();
   consumers_of_[model.output].push_back(output_);
   if (machine_)
-    mem2bus.bind(noc_->tile2noc);
+    bind(mem2bus, noc_->tile2noc, "memory");
   else
-    mem2bus.bind(bus_->stage2bus);
+    bind(mem2bus, bus_->stage2bus, "memory");
   SC_HAS_PROCESS(Pipeline);
   SC_THREAD(source_process);
   SC_THREAD(sink_process);
@@ -397,9 +413,8 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
     // One shared bus: a transfer per consumer.
     for (RowBuffer* b : consumers) {
       for (int q = 0; q < count; ++q) b->reserve();
-      const size_t at = static_cast<size_t>(row) * (v.size() / b->rows_per_image());
       tlm::tlm_generic_payload p;
-      fill_payload(p, reinterpret_cast<unsigned char*>(v.data() + at), static_cast<long long>(row) * row_bytes, bytes);
+      fill_payload(p, v, b->rows_per_image(), row, count, bytes);
       sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
       transport(p, delay);
       sc_core::wait(delay);
@@ -422,9 +437,8 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
     local_bytes_ += bytes;
     sc_core::wait(sim_delay(static_cast<double>(bytes) / machine_->arch.tile.edram_bytes_per_ns));
   } else {
-    const size_t at = static_cast<size_t>(row) * (v.size() / consumers.front()->rows_per_image());
     tlm::tlm_generic_payload p;
-    fill_payload(p, reinterpret_cast<unsigned char*>(v.data() + at), static_cast<long long>(row) * row_bytes, bytes);
+    fill_payload(p, v, consumers.front()->rows_per_image(), row, count, bytes);
     auto* route = new Route;  // owned by the payload
     route->source = source;
     route->destinations = remote;
@@ -441,7 +455,10 @@ void Pipeline::compute(Stage& s, int image) {
   const Op& op = *s.op;
   std::vector<float>& y = values_->at(image, op.out);
   if (op.kind != OpKind::Linear) {
-    if (cfg_.timing_only) return;  // its time comes from its operation count (busy_time)
+    if (cfg_.timing_only) {  // its time comes from its operation count (busy_time); no values
+      y.resize(model_.values[op.out].size());
+      return;
+    }
     digital_op(op, model_.values[op.in[0]], model_.values[op.out], values_->at(image, op.in[0]),
                op.in.size() > 1 ? &values_->at(image, op.in[1]) : nullptr, y);
     return;
@@ -458,8 +475,8 @@ void Pipeline::compute(Stage& s, int image) {
   sc_core::sc_time ignored = sc_core::SC_ZERO_TIME;
   (*s.stage2tile)->b_transport(p, ignored);
   if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("tile transaction failed");
+  y.resize(L.out.size());
   if (!cfg_.timing_only) {
-    y.resize(L.out.size());
     const int pixels = L.out.h * L.out.w;
     for (int c = 0; c < L.c_out; ++c)
       for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
@@ -585,10 +602,7 @@ void Pipeline::source() {
         b->reserve();
         result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
         tlm::tlm_generic_payload p;
-        p.set_command(tlm::TLM_WRITE_COMMAND);
-        p.set_data_ptr(reinterpret_cast<unsigned char*>(x.data() + static_cast<size_t>(r) * in.c * in.w));
-        p.set_data_length(static_cast<unsigned>(rb));
-        p.set_streaming_width(static_cast<unsigned>(rb));
+        fill_payload(p, x, in.h, r, 1, rb);
         sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
         mem2bus->b_transport(p, delay);
         sc_core::wait(delay);
@@ -634,6 +648,13 @@ const PipelineResult& Pipeline::result() {
     StageStats st = s->stats;
     for (const RowBuffer* b : s->in) st.buffer_peak_bytes += b->peak_bytes();
     result_.stages.push_back(st);
+  }
+  result_.protocol_transactions = 0;
+  result_.protocol_violations.clear();
+  for (const auto& c : checkers_) {
+    result_.protocol_transactions += c->transactions();
+    result_.protocol_violations.insert(result_.protocol_violations.end(), c->violations().begin(),
+                                       c->violations().end());
   }
   if (machine_) {
     result_.bus_bytes = noc_->bytes();

@@ -22,6 +22,7 @@
 
 #include "platform/Bus.h"
 #include "platform/MeshNoc.h"
+#include "platform/ProtocolChecker.h"
 #include "platform/RowBuffer.h"
 #include "platform/Tile.h"
 #include "sw/hw/mapper.h"
@@ -54,6 +55,9 @@ struct PipelineResult {
   /// links, and the bytes that stayed on their tile (written to its eDRAM without the mesh).
   double router_bytes = 0, noc_contention_ns = 0;
   long long local_bytes = 0;
+  /// platform.check_protocol: transactions checked and the base-protocol rules they broke.
+  long long protocol_transactions = 0;
+  std::vector<std::string> protocol_violations;
   bool completed = false;  ///< false: the run stopped with images still in flight (deadlock)
   double makespan_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.back(); }
   double latency_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.front() - image_in_ns.front(); }
@@ -145,9 +149,11 @@ class Pipeline : public sc_core::sc_module {
   std::function<void(int)> progress_;
   tlm_utils::simple_initiator_socket<Pipeline> mem2bus{"mem2bus"};  ///< the memory port's transfers
   const MachinePlan* machine_ = nullptr;
-  std::unique_ptr<Bus> bus_;                               ///< layer-sized
-  std::unique_ptr<MeshNoc> noc_;                           ///< on a machine
-  std::map<const RowBuffer*, std::vector<int>> tiles_of_;  ///< on a machine: the tiles a buffer lives on
+  std::unique_ptr<Bus> bus_;      ///< layer-sized
+  std::unique_ptr<MeshNoc> noc_;  ///< on a machine
+  std::map<const RowBuffer*, std::vector<int>> tiles_of_;
+  std::vector<std::unique_ptr<ProtocolChecker>>
+      checkers_;  ///< platform.check_protocol  ///< on a machine: the tiles a buffer lives on
   long long local_bytes_ = 0;
   std::vector<std::unique_ptr<Stage>> stages_;
   std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it

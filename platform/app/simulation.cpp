@@ -268,6 +268,13 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   j["mapping"] = hw.mapping.scheme == MappingScheme::Sparse ? "sparse" : "dense";
   j["images"] = pc.images;
   j["mode"] = pc.timing_only ? "timing-only" : "timing-and-values";
+  if (pc.check_protocol) {
+    const size_t shown = std::min<size_t>(r.protocol_violations.size(), 20);
+    j["protocol_check"] = {{"transactions", r.protocol_transactions},
+                           {"violations", r.protocol_violations.size()},
+                           {"first_violations", std::vector<std::string>(r.protocol_violations.begin(),
+                                                                         r.protocol_violations.begin() + shown)}};
+  }
   j["component_library"] = hw.lib.source;
   j["simulation_wall_time_s"] = wall_s;
   j["simulated_images_per_wall_s"] = pc.images / std::max(wall_s, 1e-9);

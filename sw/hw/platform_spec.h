@@ -37,6 +37,7 @@ struct PlatformConfig {
   int images = 1;
   int grain_rows = 1;  ///< output rows per transaction of a stage
   int vcd_images = 1;  ///< images traced into the VCD
+  bool check_protocol = false;  ///< platform.check_protocol: a base-protocol checker before every target
   double clock_ns() const { return 1e3 / clock_mhz; }
 };
 

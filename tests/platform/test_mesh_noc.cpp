@@ -6,6 +6,7 @@
 #include <tlm_utils/simple_initiator_socket.h>
 
 #include "platform/MeshNoc.h"
+#include "platform/Transfer.h"
 
 using namespace xbarsim;
 
@@ -28,8 +29,9 @@ struct Mesh : sc_core::sc_module {
     sc_core::sc_start(sc_core::SC_ZERO_TIME);
     return m;
   }
-  /// Arrival time (ns) of `bytes` from tile `from` to `to` (several: a multicast) sent at `at`.
-  double send(int from, std::vector<int> to, unsigned bytes, double at) {
+  /// Arrival time (ns) of `bytes` from tile `from` to `to` (several: a multicast) sent at `at`;
+  /// `wire` >= 0: the bytes it puts on the wire (platform/Transfer.h).
+  double send(int from, std::vector<int> to, unsigned bytes, double at, long long wire = -1) {
     std::vector<unsigned char> data(bytes);
     tlm::tlm_generic_payload p;
     p.set_command(tlm::TLM_WRITE_COMMAND);
@@ -40,6 +42,7 @@ struct Mesh : sc_core::sc_module {
     route->source = from;
     route->destinations = std::move(to);
     p.set_extension(route);
+    if (wire >= 0) p.set_extension(new WireBytes(wire));
     sc_core::sc_time delay(at, sc_core::SC_NS);
     out->b_transport(p, delay);
     EXPECT_EQ(p.get_response_status(), tlm::TLM_OK_RESPONSE);
@@ -105,4 +108,13 @@ TEST(MeshNoc, TilesSharingARouterMeetAtItsPorts) {
   EXPECT_DOUBLE_EQ(m.send(1, {2}, 50, 0), 6.0);  // injection, ejection: depth 1, 5 ns
   // Into tile 2 again at once: its ejection port is busy until 6 (depth 1: t0 = 5).
   EXPECT_DOUBLE_EQ(m.send(0, {2}, 50, 0), 11.0);
+}
+
+// A payload carries the simulator's values (floats) of the rows it moves; the mesh times and
+// counts the bytes they take on the wire (its WireBytes), not the data length.
+TEST(MeshNoc, ATransferMovesItsWireBytesNotItsDataLength) {
+  Mesh* made = Mesh::make(2, 2, 1);
+  if (!made) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone";
+  EXPECT_DOUBLE_EQ(made->send(0, {3}, 400, 0, 100), 13.0);  // as 100 bytes: 10 ns per link, depth 3
+  EXPECT_EQ(made->noc.bytes(), 100);
 }

@@ -285,9 +285,13 @@ TEST(Platform, PipelinedThroughputIsTheSlowestStage) {
   ONE_SIMULATION_PER_PROCESS();
   const Model m = make_preset("lenet", 3);  // conv1: 24 x 24 = 576 iterations, the slowest stage
   const int n = 12;
-  PipelineRun run(m, fast_platform(n, true));
+  PlatformConfig pc = fast_platform(n, true);
+  pc.check_protocol = true;
+  PipelineRun run(m, pc);
   run.expect_logits_of_the_batch_engine();
   const PipelineResult& r = run.pipe->result();
+  EXPECT_GT(r.protocol_transactions, 0);  // every transfer and tile call kept the base protocol
+  EXPECT_TRUE(r.protocol_violations.empty()) << r.protocol_violations.front();
   const double stage_ns = 576 * 10.0;
   EXPECT_NEAR(r.throughput_per_s(), 1e9 / stage_ns, 0.01 * 1e9 / stage_ns);
   // makespan(N) = fill + (N - 1) / throughput, the fill being the first image's latency.
@@ -447,9 +451,12 @@ TEST(Platform, OnAMachineTheLogitsAreTheBatchEnginesAndRowsCrossTheMesh) {
   PlatformConfig pc;
   pc.images = 3;
   pc.pipelined = true;
+  pc.check_protocol = true;
   PipelineRun run(m, pc, {}, &plan);
   run.expect_logits_of_the_batch_engine();
   const PipelineResult& r = run.pipe->result();
+  EXPECT_GT(r.protocol_transactions, 0);  // every transfer and tile call kept the base protocol
+  EXPECT_TRUE(r.protocol_violations.empty()) << r.protocol_violations.front();
   EXPECT_GT(r.bus_bytes, 0);  // the mesh
   EXPECT_GT(r.router_bytes, 0);
   EXPECT_GT(r.local_bytes, 0);  // a tile's own eDRAM
