@@ -150,7 +150,13 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   const StageStats* slow = nullptr;
   for (const StageStats& st : r.stages)
     if (!slow || st.busy_ns > slow->busy_ns) slow = &st;
-  if (slow) j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
+  // The shared bus is the bottleneck when its lanes carry longer per image than that stage
+  // computes (a machine's mesh: see noc.link_utilization).
+  const double bus_ns = machine ? 0.0 : r.bus_busy_ns / std::max(pc.bus_lanes, 1);
+  if (slow && bus_ns > slow->busy_ns)
+    j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
+  else if (slow)
+    j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
   if (machine) {
     j["architecture"] = machine->name;
     j["peak_gops"] = machine->peak_gops;
