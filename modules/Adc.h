@@ -52,13 +52,13 @@ class Adc : public sc_core::sc_module {
     }
     double slowest = 0;
     const long long reads = job->reads();
+    for (int b = 0; b < job->analog->crossbars() && !job->timing_only; ++b) {
+      if (job->serial())
+        job->analog->adc_inplace<float>(b, job->read_currents[b]);
+      else
+        job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
+    }
     for (int b = 0; b < job->analog->crossbars(); ++b) {
-      if (!job->timing_only) {
-        if (job->serial())
-          job->analog->adc_inplace<float>(b, job->read_currents[b]);
-        else
-          job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
-      }
       const int cols = job->physical_columns(b);
       slowest = std::max(slowest, iteration_ns(cols));
       job->adc_conversions += reads * cols;

@@ -42,6 +42,10 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
   long long shift_adds = 0;
 
+  /// Zeroes the action counters for the next pass (the buffers keep their capacity).
+  void reset_counters() {
+    shifted_entries = refills = dac_conversions = adc_conversions = accumulations = shift_adds = 0;
+  }
   int iterations() const { return layer->out.h * layer->out.w; }
   /// Crossbar reads per iteration (input slices).
   int slices() const { return analog->input_slicing().slices; }

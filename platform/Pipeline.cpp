@@ -2,6 +2,8 @@
 
 #include "platform/Transfer.h"
 
+#include <tlm_utils/tlm_quantumkeeper.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -65,36 +67,11 @@ void ProcessFailure::rethrow() const {
   if (first_) std::rethrow_exception(first_);
 }
 
-/// One replica of a layer's tile: a process that works through its share of each row.
-class TileReplica : public sc_core::sc_module {
- public:
-  TileReplica(sc_core::sc_module_name name, sc_core::sc_event& done, int& pending, ProcessFailure& failure)
-      : sc_module(name), done_(done), pending_(pending), failure_(failure) {
-    SC_HAS_PROCESS(TileReplica);
-    SC_THREAD(run);
-  }
-  void start(double share_ns) {
-    share_ns_ = share_ns;
-    start_.notify(sc_core::SC_ZERO_TIME);
-  }
-  double busy_ns = 0;
-
- private:
-  void run() {
-    failure_.guard([&] {
-      for (;;) {
-        sc_core::wait(start_);
-        sc_core::wait(sim_delay(share_ns_));
-        busy_ns += share_ns_;
-        if (--pending_ == 0) done_.notify(sc_core::SC_ZERO_TIME);
-      }
-    });
-  }
-  sc_core::sc_event start_;
-  sc_core::sc_event& done_;
-  int& pending_;
-  ProcessFailure& failure_;
-  double share_ns_ = 0;
+/// One replica of a layer's tile: a copy of its crossbars that takes a share of each row
+/// group's iterations; the stage is busy until the slowest copy is done.
+struct TileReplica : public sc_core::sc_module {
+  explicit TileReplica(sc_core::sc_module_name name) : sc_module(name) {}
+  double busy_ns = 0;  ///< its shares
 };
 
 struct Pipeline::Stage : public sc_core::sc_module {
@@ -107,9 +84,11 @@ struct Pipeline::Stage : public sc_core::sc_module {
   Shape out_shape;
   long long out_row_bytes = 0;
   std::unique_ptr<Tile> tile;  ///< linear layers: the datapath that computes and times each iteration
+  /// The tile's work item, kept across images so that its buffers (codes, currents) are
+  /// allocated once: every image's transaction starts from reset() counters.
+  LayerJob job;
+  tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
   std::vector<std::unique_ptr<TileReplica>> replicas;
-  sc_core::sc_event replicas_done;
-  int replicas_pending = 0;
   std::vector<double> ii_ns;  ///< per iteration of the current image: initiation interval
   double sparse_ns = 0;       ///< > 0: a sparse (Toeplitz) layer's single iteration
   double fill_ns = 0;         ///< extra latency of the first iteration (pipeline fill)
@@ -263,6 +242,8 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       machine_(machine),
       consumers_of_(model.values.size()),
       values_(std::make_unique<Values>(model.values.size())) {
+  if (cfg.quantum_ns > 0)
+    tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg.quantum_ns, sc_core::SC_NS));
   if (machine_) {
     const Architecture& a = machine_->arch;
     noc_ = std::make_unique<MeshNoc>("noc", a.chip.mesh_rows, a.chip.mesh_cols, a.chip.tiles_per_router,
@@ -336,8 +317,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->stats.replication = r;
       for (int q = 0; q < r; ++q)
         s->replicas.push_back(
-            std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str(),
-                                          s->replicas_done, s->replicas_pending, failure_));
+            std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str()));
     }
     if (machine_)
       bind(s->stage2bus, noc_->tile2noc, "stage_" + std::to_string(k));
@@ -464,7 +444,8 @@ void Pipeline::compute(Stage& s, int image) {
     return;
   }
   const LinearLayer& L = model_.linear[op.linear];
-  LayerJob job;
+  LayerJob& job = s.job;
+  job.reset_counters();
   job.layer = &L;
   job.analog = &programmed_.layer(op.linear);
   job.activation = values_->at(image, op.in[0]).data();
@@ -515,13 +496,19 @@ long long Pipeline::row_ops(const Stage& s) const {
 
 void Pipeline::stage_process(Stage& s) {
   const int rows = s.out_shape.h;
+  s.qk.reset();
+  // Waits for row `row` of input i, having waited the stage's local time if it must block.
+  auto need = [&](size_t i, int img, int row) {
+    if (!s.in[i]->has(img, row)) before_blocking(s);
+    s.in[i]->wait_for(img, row);
+  };
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)
-      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.in_shape[i].h - 1);
+      for (size_t i = 0; i < s.in.size(); ++i) need(i, img, s.in_shape[i].h - 1);
     // Transactions of grain_rows output rows: wait for the group's windows, compute, hand over.
     for (int r0 = 0; r0 < rows; r0 += cfg_.grain_rows) {
       const int r1 = std::min(rows, r0 + cfg_.grain_rows);
-      for (size_t i = 0; i < s.in.size(); ++i) s.in[i]->wait_for(img, s.window(static_cast<int>(i), r1 - 1).second);
+      for (size_t i = 0; i < s.in.size(); ++i) need(i, img, s.window(static_cast<int>(i), r1 - 1).second);
       if (r0 == 0) compute(s, img);
       traced(s, img, true, false);
       const double t = busy_time(s, r0, r1);
@@ -530,6 +517,7 @@ void Pipeline::stage_process(Stage& s) {
       traced(s, img, false, false);
       for (size_t i = 0; i < s.in.size(); ++i)
         s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
+      if (s.out_rows.num_free() == 0) before_blocking(s);
       const sc_core::sc_time t0 = sc_core::sc_time_stamp();
       traced(s, img, false, true);
       s.out_rows.write(RowId{img, r0, r1 - r0});  // stalls while the previous group still waits for space or the bus
@@ -548,16 +536,17 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
     // that have one: a group of fewer iterations than replicas leaves the rest idle).
     const int w = s.out_shape.w, n = (r1 - r0) * w;
     const int nrep = std::max(1, std::min(static_cast<int>(s.replicas.size()), n));
-    s.replicas_pending = nrep;
+    std::vector<double>& shares = share_scratch_;
+    shares.assign(nrep, 0.0);
     for (int q = 0; q < nrep; ++q) {
-      double share = 0;
-      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) share += s.ii_ns[k];
-      if (r0 == 0 && q == 0) share += s.fill_ns;
-      t = std::max(t, share);
-      s.replicas[q]->start(share);
+      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) shares[q] += s.ii_ns[k];
+      if (r0 == 0 && q == 0) shares[q] += s.fill_ns;
+      t = std::max(t, shares[q]);
     }
-    sc_core::wait(s.replicas_done);
-    return t;
+    // The copies work side by side: each is busy for its share, the stage until the slowest
+    // is done (a process per copy that waited its share gave the same times, one delta later,
+    // at three times the simulation's cost).
+    for (int q = 0; q < nrep; ++q) s.replicas[q]->busy_ns += shares[q];
   } else {
     const long long ops = row_ops(s) * (r1 - r0);
     if (machine_) {  // the tile's units that perform this operation
@@ -568,8 +557,23 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
     }
     s.stats.digital_ops += ops;
   }
-  if (t > 0) sc_core::wait(sim_delay(t));
+  advance(s, t);
   return t;
+}
+
+void Pipeline::advance(Stage& s, double ns) {
+  if (!(ns > 0)) return;
+  if (cfg_.quantum_ns <= 0) {
+    sc_core::wait(sim_delay(ns));
+    return;
+  }
+  s.qk.inc(sim_delay(ns, s.qk.get_local_time()));
+  if (s.qk.need_sync()) s.qk.sync();
+}
+
+void Pipeline::before_blocking(Stage& s) {
+  // (Nothing to wait: no delta cycle either, so the processes' order stays as without a quantum.)
+  if (cfg_.quantum_ns > 0 && s.qk.get_local_time() > sc_core::SC_ZERO_TIME) s.qk.sync();
 }
 
 void Pipeline::source_process() {

@@ -139,6 +139,12 @@ class Pipeline : public sc_core::sc_module {
   void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
   /// Computes output rows [r0, r1) of a stage (replicas for tiles); returns the busy time.
   double busy_time(Stage& s, int r0, int r1);
+  /// `ns` of a stage's busy time: waited, or with platform.quantum_ns added to its quantum
+  /// keeper's local time and waited when the quantum is used up.
+  void advance(Stage& s, double ns);
+  /// Before a stage blocks (an input row missing, its output register full): its local time
+  /// is waited first, so that what it waits for is measured from its own time.
+  void before_blocking(Stage& s);
   void traced(Stage& s, int image, bool busy, bool stall);
 
   const Model& model_;
@@ -155,6 +161,7 @@ class Pipeline : public sc_core::sc_module {
   std::vector<std::unique_ptr<ProtocolChecker>>
       checkers_;  ///< platform.check_protocol  ///< on a machine: the tiles a buffer lives on
   long long local_bytes_ = 0;
+  std::vector<double> share_scratch_;  ///< a row group's shares of the replicas
   std::vector<std::unique_ptr<Stage>> stages_;
   std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it
   std::vector<std::unique_ptr<RowBuffer>> buffers_;

@@ -40,6 +40,8 @@ class RowBuffer {
     committed_ = index(image, row) + 1;
     data_.notify(sc_core::SC_ZERO_TIME);
   }
+  /// Rows 0..row of `image` have arrived (row < 0: nothing needed).
+  bool has(int image, int row) const { return row < 0 || committed_ > index(image, row); }
   /// Consumer: waits until rows 0..row of `image` have arrived (row < 0: nothing needed).
   void wait_for(int image, int row) {
     if (row < 0) return;

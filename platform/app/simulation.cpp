@@ -274,6 +274,8 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   j["mapping"] = hw.mapping.scheme == MappingScheme::Sparse ? "sparse" : "dense";
   j["images"] = pc.images;
   j["mode"] = pc.timing_only ? "timing-only" : "timing-and-values";
+  j["quantum_ns"] = pc.quantum_ns;
+  j["stages"] = static_cast<int>(r.stages.size());
   if (pc.check_protocol) {
     const size_t shown = std::min<size_t>(r.protocol_violations.size(), 20);
     j["protocol_check"] = {{"transactions", r.protocol_transactions},

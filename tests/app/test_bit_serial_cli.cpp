@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -150,4 +151,28 @@ TEST_F(BitSerialCli, SimulateTimingOnlyReportsWhatTheFullRunReports) {
   const auto bad = run("simulate", "--model tiny --dataset cifar10 --images 2 --timing-only");
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("--images"), std::string::npos) << bad.out;
+}
+
+// Temporal decoupling (platform.quantum_ns): a stage publishes rows up to one quantum before its
+// own time, so along an image's path of `stages` operations plus the input and output
+// transfers its latency, and the run's makespan, move by at most (stages + 2) x quantum; a
+// quantum below the clock period changes nothing.
+TEST_F(BitSerialCli, SimulateQuantumSweepMovesTimingWithinTheBound) {
+  const auto r = run("simulate",
+                     "--model tiny --images 4 --timing-only --set platform.schedule=pipelined"
+                     " --set 'platform.quantum_ns=[0,1,1000,100000]' --json " +
+                         path("q.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = json(path("q.json"));
+  ASSERT_EQ(j.size(), 4u);
+  const double lat0 = j[0]["latency_us"].get<double>(), span0 = j[0]["makespan_us"].get<double>();
+  EXPECT_EQ(j[1]["latency_us"].get<double>(), lat0);
+  EXPECT_EQ(j[1]["makespan_us"].get<double>(), span0);
+  for (size_t k = 1; k < j.size(); ++k) {
+    const double bound_us = (j[k]["stages"].get<int>() + 2) * j[k]["quantum_ns"].get<double>() * 1e-3;
+    EXPECT_LE(std::abs(j[k]["latency_us"].get<double>() - lat0), bound_us) << j[k]["quantum_ns"];
+    EXPECT_LE(std::abs(j[k]["makespan_us"].get<double>() - span0), bound_us) << j[k]["quantum_ns"];
+    EXPECT_EQ(j[k]["energy_uj_per_image"], j[0]["energy_uj_per_image"]);  // the same actions
+  }
+  EXPECT_NE(j[3]["latency_us"].get<double>(), lat0);  // a quantum beyond an image's time does move it
 }
