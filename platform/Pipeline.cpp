@@ -499,8 +499,11 @@ void Pipeline::stage_process(Stage& s) {
   s.qk.reset();
   // Waits for row `row` of input i, having waited the stage's local time if it must block.
   auto need = [&](size_t i, int img, int row) {
-    if (!s.in[i]->has(img, row)) before_blocking(s);
+    if (s.in[i]->has(img, row)) return;
+    before_blocking(s);
+    const sc_core::sc_time t0 = sc_core::sc_time_stamp();
     s.in[i]->wait_for(img, row);
+    s.stats.starved_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
   };
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)

@@ -40,6 +40,9 @@ struct StageStats {
   int tile = -1;        ///< on a machine: the tile its outputs leave from
   double busy_ns = 0;   ///< computing (the slowest replica per row)
   double stall_ns = 0;  ///< waiting for space in a consumer's buffer
+  /// Starved: waiting for input rows (its producer, the interconnect or the memory port was
+  /// later than it; the first image's wait is the pipeline filling).
+  double starved_ns = 0;
   long long rows = 0, digital_ops = 0;
   long long buffer_bytes = 0, buffer_peak_bytes = 0;  ///< its input buffers: capacity and peak occupancy
 };

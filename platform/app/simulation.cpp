@@ -55,6 +55,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                      {"iters", 7},
                      {"busy_us", 9, 3},
                      {"stall_us", 9, 3},
+                     {"starved_us", 10, 3},
                      {"buf_B", 8},
                      {"energy_uJ", 10, 4}});
   if (print) table.print_header(stdout);
@@ -65,8 +66,16 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   double macs = 0;
   ActionCounts platform;
   ComponentBreakdown platform_pj;  // on a machine: its interconnect, digital units and off-chip links
+  nlohmann::json digital = nlohmann::json::array();
   for (const StageStats& st : r.stages) {
     if (st.linear < 0) {
+      digital.push_back({{"name", st.name},
+                         {"operation", *digital_op_name(st.kind) ? digital_op_name(st.kind) : "data movement"},
+                         {"tile", st.tile},
+                         {"operations", st.digital_ops / images},
+                         {"busy_us", st.busy_ns / images * 1e-3},
+                         {"stall_us", st.stall_ns / images * 1e-3},
+                         {"starved_us", st.starved_ns / images * 1e-3}});
       if (st.digital_ops > 0) ++digital_units;
       platform.digital_ops += st.digital_ops / images;
       if (machine && st.digital_ops > 0)
@@ -105,14 +114,16 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       {"cycles", std::llround(busy / clk)},
                       {"busy_us", busy * 1e-3},
                       {"stall_us", stall * 1e-3},
+                      {"starved_us", st.starved_ns / images * 1e-3},
                       {"buffer_bytes", st.buffer_bytes},
                       {"buffer_peak_bytes", st.buffer_peak_bytes},
                       {"energy_uj", e_uj},
                       {"area_mm2", hw.cost.area_mm2(v).total()},
                       {"area_breakdown_mm2", hw.cost.area_mm2(v).to_json()}});
     if (print)
-      table.print_row(stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs,
-                               v.iterations, busy * 1e-3, stall * 1e-3, st.buffer_bytes, e_uj});
+      table.print_row(
+          stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,
+                   busy * 1e-3, stall * 1e-3, st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
   }
   platform.bus_bytes = r.bus_bytes / images;
   platform.memory_bytes = r.memory_bytes / images;
@@ -173,6 +184,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     j["architecture"] = "layer-sized";
   }
   j["layers"] = layers;
+  j["digital_stages"] = digital;
   return j;
 }
 

@@ -298,6 +298,15 @@ TEST(Platform, PipelinedThroughputIsTheSlowestStage) {
   EXPECT_NEAR(r.makespan_ns(), r.latency_ns() + (n - 1) * stage_ns, 0.01 * r.makespan_ns());
   // Several images were in flight: the second entered before the first left.
   EXPECT_LT(r.image_in_ns[1], r.image_out_ns[0]);
+  // A stage's time: busy, stalled on its output, starved of input, or done; the bottleneck is
+  // never starved after the first image's rows arrive, the last layer mostly is.
+  for (const StageStats& st : r.stages)
+    EXPECT_LE(st.busy_ns + st.stall_ns + st.starved_ns, r.makespan_ns() + 1e-6) << st.name;
+  const StageStats& conv1 = r.stages.front();
+  const StageStats& last = r.stages.back();
+  ASSERT_EQ(conv1.name, "conv1");
+  EXPECT_LT(conv1.starved_ns, 0.05 * r.makespan_ns());
+  EXPECT_GT(last.starved_ns, 0.5 * r.makespan_ns()) << last.name;
 }
 
 TEST(Platform, NarrowInterconnectLimitsThroughput) {
