@@ -5,6 +5,7 @@
 #include <tlm_utils/tlm_quantumkeeper.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 
@@ -94,6 +95,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
   double fill_ns = 0;         ///< extra latency of the first iteration (pipeline fill)
   StageStats stats;
   sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
+  sc_core::sc_signal<int> image_sig{"image", -1};  ///< the image it computes, -1 when not busy
   /// Output register: the stage hands a finished row to its sender process (which waits for
   /// buffer space and the bus) and goes on with the next row; it stalls when the register is
   /// still occupied.
@@ -359,22 +361,48 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
   vcd_ = sc_core::sc_create_vcd_trace_file(base.c_str());
   vcd_images_ = images;
   tracing_ = true;
-  for (auto& s : stages_) {
-    sc_core::sc_trace(vcd_, s->busy_sig, s->stats.name + ".busy");
-    sc_core::sc_trace(vcd_, s->stall_sig, s->stats.name + ".stall");
-  }
-  for (auto& b : buffers_) {
+  // Scopes follow the machine, in network order: chip.tile_T.NN_name (a machine) or
+  // accelerator.NN_name, with the operation's ONNX name made a VCD identifier (its dots and
+  // slashes would open scopes), each input buffer its own scope (an Add's two inputs).
+  auto identifier = [](const std::string& name) {
+    std::string id;
+    for (char c : name) {
+      const char d = std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+      if (d != '_' || (!id.empty() && id.back() != '_')) id += d;
+    }
+    while (!id.empty() && id.back() == '_') id.pop_back();
+    return id.empty() ? std::string("op") : id;
+  };
+  auto padded = [](long long v, long long count) {  // so that names sort in network order
+    const size_t width = std::to_string(std::max(count - 1, 0LL)).size();
+    const std::string s = std::to_string(v);
+    return s.size() < width ? std::string(width - s.size(), '0') + s : s;
+  };
+  const std::string top = machine_ ? "chip" : "accelerator";
+  auto trace_buffer = [&](RowBuffer* b, const std::string& name) {
     occupancy_sigs_.push_back(std::make_unique<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>());
     b->trace_to(occupancy_sigs_.back().get(), &tracing_);
-    sc_core::sc_trace(vcd_, *occupancy_sigs_.back(), b->name() + ".bytes");
+    sc_core::sc_trace(vcd_, *occupancy_sigs_.back(), name);
+  };
+  for (size_t k = 0; k < stages_.size(); ++k) {
+    Stage& s = *stages_[k];
+    std::string scope = top + ".";
+    if (machine_) scope += "tile_" + padded(s.stats.tile, machine_->arch.chip.tiles) + ".";
+    scope += padded(static_cast<long long>(k), static_cast<long long>(stages_.size())) + "_" + identifier(s.stats.name);
+    sc_core::sc_trace(vcd_, s.busy_sig, scope + ".busy");
+    sc_core::sc_trace(vcd_, s.stall_sig, scope + ".stall");
+    sc_core::sc_trace(vcd_, s.image_sig, scope + ".image");
+    for (size_t i = 0; i < s.in.size(); ++i) trace_buffer(s.in[i], scope + ".in" + std::to_string(i) + ".bytes");
   }
-  sc_core::sc_trace(vcd_, bus_bytes_sig_, machine_ ? "noc.bytes_carried" : "bus.bytes_carried");
+  trace_buffer(output_, top + ".memory_out.bytes");
+  sc_core::sc_trace(vcd_, bus_bytes_sig_, top + (machine_ ? ".noc.bytes_carried" : ".bus.bytes_carried"));
 }
 
 void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {
   if (!tracing_ || image >= vcd_images_) return;
   s.busy_sig.write(busy);
   s.stall_sig.write(stall);
+  s.image_sig.write(busy ? image : -1);
 }
 
 void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes) {

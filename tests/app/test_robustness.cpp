@@ -71,8 +71,22 @@ TEST(Robustness, VcdPathIsCheckedBeforeTheSimulation) {  // items 4 and 11
   EXPECT_EQ(ok.code, 0) << ok.out;
   const std::string vcd = slurp("/tmp/xbarsim_rb_trace.vcd");
   EXPECT_NE(vcd.find("$enddefinitions"), std::string::npos);
-  for (const char* sig : {" busy ", " stall ", " bytes ", " bytes_carried "})  // stages, buffers, bus
+  for (const char* sig : {" busy ", " stall ", " image ", " bytes ", " bytes_carried "})  // stages, buffers, bus
     EXPECT_NE(vcd.find(sig), std::string::npos) << sig;
+  // Scopes in network order under the accelerator, each input buffer its own: an Add's two.
+  const Result r20 = run("simulate --preset resnet20 --images 1 --vcd /tmp/xbarsim_rb_r20.vcd");
+  ASSERT_EQ(r20.code, 0) << r20.out;
+  const std::string v = slurp("/tmp/xbarsim_rb_r20.vcd");
+  const size_t conv1 = v.find("$scope module 00_conv1 $end"), add = v.find("$scope module 05_layer1_0_add $end");
+  ASSERT_NE(conv1, std::string::npos);
+  ASSERT_NE(add, std::string::npos);
+  EXPECT_LT(v.find("$scope module accelerator $end"), conv1);
+  EXPECT_LT(conv1, add);
+  const size_t next = v.find("$scope module 06_", add);
+  const size_t in0 = v.find("$scope module in0 $end", add), in1 = v.find("$scope module in1 $end", add);
+  EXPECT_LT(in0, in1);
+  EXPECT_LT(in1, next);
+  EXPECT_EQ(v.substr(0, v.find("$enddefinitions")).find('/'), std::string::npos);  // no raw ONNX names
 }
 
 TEST(Robustness, OverheadOnAnInputSmallerThanTheKernel) {  // item 5
