@@ -185,10 +185,6 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
   return in.h;
 }
 
-long long row_bytes(const Shape& s, int activation_bytes) {
-  return static_cast<long long>(s.c) * s.w * activation_bytes;
-}
-
 /// A write transaction of `bytes` at `data` (its address: the byte offset in the value),
 /// routed from `source` to `destinations` on a machine's mesh.
 /// A write of rows [row, row + count) of an activation of `rows` rows (platform/Transfer.h):
@@ -270,7 +266,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     auto s = std::make_unique<Stage>(("stage_" + std::to_string(k)).c_str(), this);
     s->op = &op;
     s->out_shape = model.values[op.out];
-    s->out_row_bytes = row_bytes(s->out_shape, cfg.activation_bytes);
+    s->out_row_bytes = activation_row_bytes(s->out_shape, cfg.activation_bytes);
     s->stats.name = op.name;
     s->stats.kind = op.kind;
     s->stats.linear = op.linear;
@@ -294,7 +290,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
         op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
     for (int v : op.in) {
       const Shape in = model.values[v];
-      const long long rb = row_bytes(in, cfg.activation_bytes);
+      const long long rb = activation_row_bytes(in, cfg.activation_bytes);
       const long long cap = cfg.buffer_bytes > 0
                                 ? cfg.buffer_bytes
                                 : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer, cfg.grain_rows);
@@ -328,7 +324,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     stages_.push_back(std::move(s));
   }
   const Shape out = model.values[model.output];
-  const long long ob = row_bytes(out, cfg.activation_bytes);
+  const long long ob = activation_row_bytes(out, cfg.activation_bytes);
   buffers_.push_back(std::make_unique<RowBuffer>("memory.out", ob * out.h, ob, out.h));
   tiles_of_[buffers_.back().get()] = {-1};  // off-chip: out through router 0
   output_ = buffers_.back().get();
@@ -495,32 +491,7 @@ void Pipeline::compute(Stage& s, int image) {
   s.fill_ns = t.fill_ns - t.ii_ns[0];  // added to the first iteration
 }
 
-long long Pipeline::row_ops(const Stage& s) const {
-  const Op& op = *s.op;
-  long long ops = 0;
-  const Shape& o = s.out_shape;
-  switch (op.kind) {
-    case OpKind::Relu:
-    case OpKind::Affine:
-    case OpKind::Add:
-      ops = static_cast<long long>(o.c) * o.w;
-      break;
-    case OpKind::MaxPool:
-    case OpKind::AvgPool:
-      ops = static_cast<long long>(o.c) * o.w * op.k_h * op.k_w;
-      break;
-    case OpKind::GlobalAvgPool:
-      ops = static_cast<long long>(s.in_shape[0].size());
-      break;
-    case OpKind::Pad:
-    case OpKind::Slice:
-    case OpKind::Flatten:
-    case OpKind::Linear:  // (a tile's time comes from its modules)
-      ops = 0;            // padding, slicing, flattening move data only
-      break;
-  }
-  return ops;
-}
+long long Pipeline::row_ops(const Stage& s) const { return digital_row_ops(*s.op, s.out_shape, s.in_shape[0]); }
 
 void Pipeline::stage_process(Stage& s) {
   const int rows = s.out_shape.h;
@@ -617,7 +588,7 @@ void Pipeline::sink_process() {
 
 void Pipeline::source() {
   const Shape in = model_.input;
-  const long long rb = row_bytes(in, cfg_.activation_bytes);
+  const long long rb = activation_row_bytes(in, cfg_.activation_bytes);
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)
       while (images_left_ < img) sc_core::wait(image_left_);
@@ -657,7 +628,7 @@ double Pipeline::offchip_ns(long long bytes) const {
 
 void Pipeline::sink() {
   const Shape out = model_.values[model_.output];
-  const long long bytes = row_bytes(out, cfg_.activation_bytes) * out.h;
+  const long long bytes = activation_row_bytes(out, cfg_.activation_bytes) * out.h;
   for (int img = 0; img < cfg_.images; ++img) {
     output_->wait_for(img, out.h - 1);
     sc_core::wait(sim_delay(cfg_.memory_latency_ns + offchip_ns(bytes)));

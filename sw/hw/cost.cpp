@@ -167,4 +167,48 @@ ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_
   return a;
 }
 
+long long activation_row_bytes(const Shape& s, int activation_bytes) {
+  return static_cast<long long>(s.c) * s.w * activation_bytes;
+}
+
+long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
+  switch (op.kind) {
+    case OpKind::Relu:
+    case OpKind::Affine:
+    case OpKind::Add:
+      return static_cast<long long>(out.c) * out.w;
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+      return static_cast<long long>(out.c) * out.w * op.k_h * op.k_w;
+    case OpKind::GlobalAvgPool:
+      return static_cast<long long>(in0.size());
+    case OpKind::Pad:
+    case OpKind::Slice:
+    case OpKind::Flatten:
+    case OpKind::Linear:  // (a tile's work is its crossbars')
+      return 0;
+  }
+  return 0;
+}
+
+PlatformActions platform_actions(const Model& m, int activation_bytes) {
+  PlatformActions p;
+  std::vector<int> consumers(m.values.size(), 0);
+  for (const Op& op : m.ops)
+    for (int v : op.in) ++consumers[v];
+  ++consumers[m.output];  // the logits go to memory
+  for (size_t v = 0; v < m.values.size(); ++v)
+    p.actions.bus_bytes +=
+        static_cast<double>(consumers[v]) * activation_row_bytes(m.values[v], activation_bytes) * m.values[v].h;
+  const Shape& out = m.values[m.output];
+  p.actions.memory_bytes = static_cast<double>(activation_row_bytes(m.input, activation_bytes)) * m.input.h +
+                           static_cast<double>(activation_row_bytes(out, activation_bytes)) * out.h;
+  for (const Op& op : m.ops) {
+    const long long ops = digital_row_ops(op, m.values[op.out], m.values[op.in[0]]) * m.values[op.out].h;
+    p.actions.digital_ops += static_cast<double>(ops);
+    if (ops > 0) ++p.digital_units;
+  }
+  return p;
+}
+
 }  // namespace xbarsim

@@ -79,4 +79,20 @@ struct CostModel {
 /// `shifted_entries` inputs in from its buffer.
 ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries);
 
+/// Bytes of one row (C x W values) of an activation at `activation_bytes` per value.
+long long activation_row_bytes(const Shape& s, int activation_bytes);
+/// Operations a digital unit performs for one output row of `op` (0 for linear layers and for
+/// padding, slicing and flattening, which only move data).
+long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0);
+
+/// What the platform around the layers does for one image, in closed form, as the layer-sized
+/// pipeline does it: every value crosses the shared bus once per consumer (the input from
+/// memory, the logits to memory), the memory port reads the input and writes the logits, and
+/// a digital unit per operation that computes performs its operations.
+struct PlatformActions {
+  ActionCounts actions;   ///< bus_bytes, memory_bytes, digital_ops
+  int digital_units = 0;  ///< operations with a digital unit (those that compute)
+};
+PlatformActions platform_actions(const Model& m, int activation_bytes);
+
 }  // namespace xbarsim

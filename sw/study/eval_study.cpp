@@ -338,6 +338,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     r.cost.time_ns += el.inventory.reads() * clock_ns;
     r.layers.push_back(el);
   }
+  add_platform_cost(r.cost, point.hw, model);
   price_whole_machine(r.cost, point.hw);
   return r;
 }

@@ -48,6 +48,10 @@ void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInvento
 /// On a machine (hw.arch.machine) the area, peak power and leakage of `r` are the whole
 /// chip's (its bill, used by the network or not); nothing changes for layer-sized.
 void price_whole_machine(CostReport& r, const HardwareContext& hw);
+/// Adds the layer-sized platform around the layers (its bus, memory port and digital units:
+/// platform_actions, the area and leakage of the bus and digital units), as simulate prices
+/// them. A machine's platform is part of its whole price (price_whole_machine).
+void add_platform_cost(CostReport& r, const HardwareContext& hw, const Model& m);
 
 /// A machine (architecture.machine) with a network mapped onto it: the chip priced from counts
 /// x components, where the network's layers sit, and the machine's peak throughput for the

@@ -64,7 +64,16 @@ TEST(Consistency, AllCommandsCountAndPriceTheSameDesign) {
   const auto& ab = sim["area_breakdown_mm2"];
   EXPECT_NEAR(sim["area_mm2"].get<double>(), area + ab["interconnect"].get<double>() + ab["digital"].get<double>(),
               1e-12 * area);
-  EXPECT_NEAR(ev.cost.area_mm2.total(), area, 1e-12 * area);
+  // eval prices the same platform in closed form: the same area and energy per image.
+  EXPECT_NEAR(ev.cost.area_mm2.total(), sim["area_mm2"].get<double>(), 1e-12 * area);
+  const double e_sim = sim["energy_uj_per_image"].get<double>();
+  EXPECT_NEAR(ev.cost.energy_uj().total(), e_sim, 1e-9 * e_sim);
+  for (const char* part : {"interconnect", "memory", "digital"}) {
+    EXPECT_GT(sim["energy_breakdown_uj"][part].get<double>(), 0) << part;
+    EXPECT_NEAR(ev.cost.energy_uj().to_json()[part].get<double>(), sim["energy_breakdown_uj"][part].get<double>(),
+                1e-9 * e_sim)
+        << part;
+  }
   // xbar-study of one 150 x 100 matrix: the same rule.
   const nlohmann::json xs = run_json(std::string("xbar-study --set study.rows=150 --set study.cols=100 "
                                                  "--set study.vectors=4 ") +
