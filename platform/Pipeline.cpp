@@ -68,13 +68,6 @@ void ProcessFailure::rethrow() const {
   if (first_) std::rethrow_exception(first_);
 }
 
-/// One replica of a layer's tile: a copy of its crossbars that takes a share of each row
-/// group's iterations; the stage is busy until the slowest copy is done.
-struct TileReplica : public sc_core::sc_module {
-  explicit TileReplica(sc_core::sc_module_name name) : sc_module(name) {}
-  double busy_ns = 0;  ///< its shares
-};
-
 struct Pipeline::Stage : public sc_core::sc_module {
   tlm_utils::simple_initiator_socket<Stage> stage2bus{"stage2bus"};
   std::unique_ptr<tlm_utils::simple_initiator_socket<Stage>> stage2tile;  ///< linear layers only
@@ -89,10 +82,9 @@ struct Pipeline::Stage : public sc_core::sc_module {
   /// allocated once: every image's transaction starts from reset() counters.
   LayerJob job;
   tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
-  std::vector<std::unique_ptr<TileReplica>> replicas;
-  std::vector<double> ii_ns;  ///< per iteration of the current image: initiation interval
-  double sparse_ns = 0;       ///< > 0: a sparse (Toeplitz) layer's single iteration
-  double fill_ns = 0;         ///< extra latency of the first iteration (pipeline fill)
+  std::vector<double> ii_ns;        ///< per iteration of the current image: initiation interval
+  double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
+  double fill_ns = 0;               ///< extra latency of the first iteration (pipeline fill)
   StageStats stats;
   sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
   sc_core::sc_signal<int> image_sig{"image", -1};  ///< the image it computes, -1 when not busy
@@ -185,8 +177,6 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
   return in.h;
 }
 
-/// A write transaction of `bytes` at `data` (its address: the byte offset in the value),
-/// routed from `source` to `destinations` on a machine's mesh.
 /// A write of rows [row, row + count) of an activation of `rows` rows (platform/Transfer.h):
 /// its values as data, at their byte offset in the activation, and `wire` bytes on the wire.
 void fill_payload(tlm::tlm_generic_payload& p, std::vector<float>& v, int rows, int row, int count, long long wire) {
@@ -259,6 +249,12 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     initiator.bind(checkers_.back()->in);
     checkers_.back()->out.bind(target);
   };
+  auto bind_interconnect = [&](auto& initiator, const std::string& what) {
+    if (machine_)
+      bind(initiator, noc_->tile2noc, what);
+    else
+      bind(initiator, bus_->stage2bus, what);
+  };
   // On a machine: the tile each value is produced on (the network's input: router 0).
   std::vector<int> produced_on(model.values.size(), 0);
   for (size_t k = 0; k < model.ops.size(); ++k) {
@@ -313,14 +309,8 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       if (op.linear < static_cast<int>(sparse_ns_.size())) s->sparse_ns = sparse_ns_[op.linear];
       const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
       s->stats.replication = r;
-      for (int q = 0; q < r; ++q)
-        s->replicas.push_back(
-            std::make_unique<TileReplica>(("replica_" + std::to_string(op.linear) + "_" + std::to_string(q)).c_str()));
     }
-    if (machine_)
-      bind(s->stage2bus, noc_->tile2noc, "stage_" + std::to_string(k));
-    else
-      bind(s->stage2bus, bus_->stage2bus, "stage_" + std::to_string(k));
+    bind_interconnect(s->stage2bus, "stage_" + std::to_string(k));
     stages_.push_back(std::move(s));
   }
   const Shape out = model.values[model.output];
@@ -329,10 +319,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
   tiles_of_[buffers_.back().get()] = {-1};  // off-chip: out through router 0
   output_ = buffers_.back().get();
   consumers_of_[model.output].push_back(output_);
-  if (machine_)
-    bind(mem2bus, noc_->tile2noc, "memory");
-  else
-    bind(mem2bus, bus_->stage2bus, "memory");
+  bind_interconnect(mem2bus, "memory");
   SC_HAS_PROCESS(Pipeline);
   SC_THREAD(source_process);
   SC_THREAD(sink_process);
@@ -416,7 +403,9 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
   if (!machine_) {
     // One shared bus: a transfer per consumer.
     for (RowBuffer* b : consumers) {
+      const sc_core::sc_time t0 = sc_core::sc_time_stamp();
       for (int q = 0; q < count; ++q) b->reserve();
+      if (!s) result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;  // the input port waited
       tlm::tlm_generic_payload p;
       fill_payload(p, v, b->rows_per_image(), row, count, bytes);
       sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
@@ -534,21 +523,17 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
   if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
     t = r0 == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
   } else if (s.op->kind == OpKind::Linear) {
-    // The group's iterations, split into contiguous shares over the replica processes (those
-    // that have one: a group of fewer iterations than replicas leaves the rest idle).
+    // The group's iterations, split into contiguous shares over the copies (those that have
+    // one: a group of fewer iterations than copies leaves the rest idle). The copies work side
+    // by side, the stage until the slowest is done (a process per copy that waited its share
+    // gave the same times, one delta later, at three times the simulation's cost).
     const int w = s.out_shape.w, n = (r1 - r0) * w;
-    const int nrep = std::max(1, std::min(static_cast<int>(s.replicas.size()), n));
-    std::vector<double>& shares = share_scratch_;
-    shares.assign(nrep, 0.0);
+    const int nrep = std::max(1, std::min(s.stats.replication, n));
     for (int q = 0; q < nrep; ++q) {
-      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) shares[q] += s.ii_ns[k];
-      if (r0 == 0 && q == 0) shares[q] += s.fill_ns;
-      t = std::max(t, shares[q]);
+      double share = r0 == 0 && q == 0 ? s.fill_ns : 0.0;
+      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) share += s.ii_ns[k];
+      t = std::max(t, share);
     }
-    // The copies work side by side: each is busy for its share, the stage until the slowest
-    // is done (a process per copy that waited its share gave the same times, one delta later,
-    // at three times the simulation's cost).
-    for (int q = 0; q < nrep; ++q) s.replicas[q]->busy_ns += shares[q];
   } else {
     const long long ops = row_ops(s) * (r1 - r0);
     if (machine_) {  // the tile's units that perform this operation
@@ -599,21 +584,7 @@ void Pipeline::source() {
     for (int r = 0; r < in.h; ++r) {
       sc_core::wait(sim_delay((r == 0 ? cfg_.memory_latency_ns : 0.0) + offchip_ns(rb)));
       result_.memory_bytes += rb;
-      if (machine_) {  // into the chip at router 0, then over the mesh to the first stages' tiles
-        send_rows(nullptr, -1, img, r, 1, 0, rb);
-        continue;
-      }
-      for (RowBuffer* b : consumers_of_[0]) {
-        const sc_core::sc_time t0 = sc_core::sc_time_stamp();
-        b->reserve();
-        result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
-        tlm::tlm_generic_payload p;
-        fill_payload(p, x, in.h, r, 1, rb);
-        sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
-        mem2bus->b_transport(p, delay);
-        sc_core::wait(delay);
-        b->commit(img, r);
-      }
+      send_rows(nullptr, -1, img, r, 1, 0, rb);  // over the bus, or into the chip at router 0
     }
   }
 }
@@ -667,6 +638,7 @@ const PipelineResult& Pipeline::result() {
     result_.bus_transfers = noc_->transfers();
     result_.bus_busy_ns = noc_->link_busy_ns();
     result_.router_bytes = noc_->router_bytes();
+    result_.noc_links = noc_->links();
     result_.noc_contention_ns = noc_->contention_ns();
     result_.local_bytes = local_bytes_;
   } else {

@@ -57,6 +57,7 @@ struct PipelineResult {
   /// On a machine: bytes times the routers they crossed, the time transfers waited for busy
   /// links, and the bytes that stayed on their tile (written to its eDRAM without the mesh).
   double router_bytes = 0, noc_contention_ns = 0;
+  int noc_links = 0;  ///< the mesh's directed links (bus_busy_ns is summed over them)
   long long local_bytes = 0;
   /// platform.check_protocol: transactions checked and the base-protocol rules they broke.
   long long protocol_transactions = 0;
@@ -137,10 +138,11 @@ class Pipeline : public sc_core::sc_module {
   double offchip_ns(long long bytes) const;
   /// Operations a digital unit performs for one output row.
   long long row_ops(const Stage& s) const;
-  /// Rows [row, row + count) of `value` into every consumer's buffer over the interconnect
-  /// (from tile `source` on a machine; -1: the off-chip port).
+  /// Rows [row, row + count) of `value` into every consumer's buffer over the interconnect,
+  /// sent by stage `s` (from tile `source` on a machine), or by the memory port (s null,
+  /// source -1: its waits for buffer space are the memory stall).
   void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
-  /// Computes output rows [r0, r1) of a stage (replicas for tiles); returns the busy time.
+  /// Computes output rows [r0, r1) of a stage (a tile's copies share them); returns the busy time.
   double busy_time(Stage& s, int r0, int r1);
   /// `ns` of a stage's busy time: waited, or with platform.quantum_ns added to its quantum
   /// keeper's local time and waited when the quantum is used up.
@@ -164,7 +166,6 @@ class Pipeline : public sc_core::sc_module {
   std::vector<std::unique_ptr<ProtocolChecker>>
       checkers_;  ///< platform.check_protocol  ///< on a machine: the tiles a buffer lives on
   long long local_bytes_ = 0;
-  std::vector<double> share_scratch_;  ///< a row group's shares of the replicas
   std::vector<std::unique_ptr<Stage>> stages_;
   std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it
   std::vector<std::unique_ptr<RowBuffer>> buffers_;

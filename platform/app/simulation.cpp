@@ -62,9 +62,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   nlohmann::json layers = nlohmann::json::array();
   CostReport cost;
   long long iterations = 0;
-  int digital_units = 0;
   double macs = 0;
-  ActionCounts platform;
+  PlatformActions platform;        // counted by the simulation
   ComponentBreakdown platform_pj;  // on a machine: its interconnect, digital units and off-chip links
   nlohmann::json digital = nlohmann::json::array();
   for (const StageStats& st : r.stages) {
@@ -76,8 +75,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                          {"busy_us", st.busy_ns / images * 1e-3},
                          {"stall_us", st.stall_ns / images * 1e-3},
                          {"starved_us", st.starved_ns / images * 1e-3}});
-      if (st.digital_ops > 0) ++digital_units;
-      platform.digital_ops += st.digital_ops / images;
+      if (st.digital_ops > 0) ++platform.digital_units;
+      platform.actions.digital_ops += st.digital_ops / images;
       if (machine && st.digital_ops > 0)
         platform_pj.digital += st.digital_ops / images * digital_op_pj(hw.arch, hw.lib, digital_op_name(st.kind));
       continue;
@@ -125,19 +124,17 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
           stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,
                    busy * 1e-3, stall * 1e-3, st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
   }
-  platform.bus_bytes = r.bus_bytes / images;
-  platform.memory_bytes = r.memory_bytes / images;
+  platform.actions.bus_bytes = r.bus_bytes / images;
+  platform.actions.memory_bytes = r.memory_bytes / images;
   if (machine) {
     // The whole chip is the machine's, used or not: its area, peak power and leakage; energy
     // from the actions, the mesh's routers per byte and router crossed, the off-chip links.
     price_whole_machine(cost, hw);
     platform_pj.interconnect += r.router_bytes / images * hw.lib.unit(hw.arch.chip.router.unit).action_pj;
-    platform_pj.memory += platform.memory_bytes * hw.lib.unit(hw.arch.chip.offchip.unit).action_pj;
+    platform_pj.memory += platform.actions.memory_bytes * hw.lib.unit(hw.arch.chip.offchip.unit).action_pj;
     cost.dynamic_energy_uj += platform_pj * 1e-6;
   } else {
-    cost.dynamic_energy_uj += hw.cost.dynamic_energy_pj(platform) * 1e-6;
-    cost.area_mm2 += hw.cost.platform_area_mm2(digital_units);
-    cost.leakage_mw += hw.cost.platform_leakage_mw(digital_units);
+    add_platform_cost(cost, hw, platform);
   }
   cost.time_ns = r.makespan_ns() / images;  // leakage runs for the whole run, shared by its images
   nlohmann::json j;
@@ -147,7 +144,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   j["makespan_us"] = r.makespan_ns() * 1e-3;
   j["throughput_images_per_s"] = r.throughput_per_s();
   j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
-  j["bus_bytes_per_image"] = platform.bus_bytes;
+  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
   j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
   j.update(cost.to_json());
   // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
@@ -172,12 +169,11 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     j["architecture"] = machine->name;
     j["peak_gops"] = machine->peak_gops;
     j["placement"] = machine->mapping.to_json();
-    const double links = 4.0 * hw.arch.chip.routers() + 2.0 * hw.arch.chip.routers() * hw.arch.chip.tiles_per_router;
     j["noc"] = {{"bytes_per_image", r.bus_bytes / images},
                 {"router_bytes_per_image", r.router_bytes / images},
                 {"local_bytes_per_image", r.local_bytes / images},
                 {"contention_us_per_image", r.noc_contention_ns / images * 1e-3},
-                {"link_utilization", r.makespan_ns() > 0 ? r.bus_busy_ns / (links * r.makespan_ns()) : 0.0}};
+                {"link_utilization", r.makespan_ns() > 0 ? r.bus_busy_ns / (r.noc_links * r.makespan_ns()) : 0.0}};
     j.erase("bus_bytes_per_image");
     j.erase("bus_utilization");
   } else {

@@ -22,13 +22,20 @@ void CrossbarBackend::structure_only() {
   const int L = static_cast<int>(model_.linear.size());
   const std::vector<bool> may_be_negative = linear_inputs_signed(model_);
   stats_.assign(L, LayerStatistics{});
-  layers_.clear();
-  layers_.reserve(L);
   for (int l = 0; l < L; ++l) {
     stats_[l].x_max = 1.0;
     stats_[l].signed_inputs = may_be_negative[l];
+  }
+  make_layers();
+}
+
+void CrossbarBackend::make_layers() {
+  const int L = static_cast<int>(model_.linear.size());
+  layers_.clear();
+  layers_.reserve(L);
+  for (int l = 0; l < L; ++l) {
     try {
-      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), 1.0, may_be_negative[l],
+      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
                            static_cast<uint64_t>(l + 1));
     } catch (const std::exception&) {
       rethrow_with_context("layer " + model_.linear[l].name);
@@ -104,16 +111,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
 
 void CrossbarBackend::program_layers(const std::function<void(int, int)>& progress) {
   const int L = static_cast<int>(model_.linear.size());
-  layers_.clear();
-  layers_.reserve(L);
-  for (int l = 0; l < L; ++l) {
-    try {
-      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
-                           static_cast<uint64_t>(l + 1));
-    } catch (const std::exception&) {
-      rethrow_with_context("layer " + model_.linear[l].name);
-    }
-  }
+  make_layers();
   // Layers are independent: program them on all threads (largest first), each serially.
   AnalogConfig serial = cfg_;
   serial.solver.threads = 1;

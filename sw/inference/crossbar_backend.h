@@ -46,6 +46,8 @@ class CrossbarBackend : public LinearBackend {
   static constexpr uint64_t kCalibrationRowStream = 0xCA1B;
   /// Software pass over `calib`: input ranges, output ranges, sampled im2col rows.
   void gather_statistics(const Dataset& calib, int max_samples);
+  /// One unprogrammed AnalogLayer per linear layer, from stats_ (its input range and signedness).
+  void make_layers();
   /// Builds and programs one AnalogLayer per linear layer (in parallel, deterministic).
   void program_layers(const std::function<void(int, int)>& progress);
 

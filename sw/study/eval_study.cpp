@@ -338,7 +338,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     r.cost.time_ns += el.inventory.reads() * clock_ns;
     r.layers.push_back(el);
   }
-  add_platform_cost(r.cost, point.hw, model);
+  add_platform_cost(r.cost, point.hw, platform_actions(model, point.hw.platform.activation_bytes));
   price_whole_machine(r.cost, point.hw);
   return r;
 }

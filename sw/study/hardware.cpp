@@ -61,9 +61,8 @@ void price_whole_machine(CostReport& r, const HardwareContext& hw) {
   r.leakage_mw = bill.chip_leakage_mw;
 }
 
-void add_platform_cost(CostReport& r, const HardwareContext& hw, const Model& m) {
+void add_platform_cost(CostReport& r, const HardwareContext& hw, const PlatformActions& p) {
   if (hw.arch.machine) return;
-  const PlatformActions p = platform_actions(m, hw.platform.activation_bytes);
   r.dynamic_energy_uj += hw.cost.dynamic_energy_pj(p.actions) * 1e-6;
   r.area_mm2 += hw.cost.platform_area_mm2(p.digital_units);
   r.leakage_mw += hw.cost.platform_leakage_mw(p.digital_units);

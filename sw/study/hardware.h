@@ -48,10 +48,11 @@ void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInvento
 /// On a machine (hw.arch.machine) the area, peak power and leakage of `r` are the whole
 /// chip's (its bill, used by the network or not); nothing changes for layer-sized.
 void price_whole_machine(CostReport& r, const HardwareContext& hw);
-/// Adds the layer-sized platform around the layers (its bus, memory port and digital units:
-/// platform_actions, the area and leakage of the bus and digital units), as simulate prices
-/// them. A machine's platform is part of its whole price (price_whole_machine).
-void add_platform_cost(CostReport& r, const HardwareContext& hw, const Model& m);
+/// Adds the layer-sized platform around the layers: the energy of its actions (bus, memory
+/// port, digital operations; counted by simulate, or platform_actions in closed form for eval)
+/// and the area and leakage of the bus and its digital units. A machine's platform is part of
+/// its whole price (price_whole_machine): nothing is added.
+void add_platform_cost(CostReport& r, const HardwareContext& hw, const PlatformActions& p);
 
 /// A machine (architecture.machine) with a network mapped onto it: the chip priced from counts
 /// x components, where the network's layers sit, and the machine's peak throughput for the
