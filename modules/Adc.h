@@ -34,6 +34,21 @@ class Adc : public sc_core::sc_module {
   long long conversions() const { return conversions_; }
   long long shift_adds() const { return shift_adds_; }
 
+  /// The values of a pass: every read's currents converted to codes in place (no timing, no
+  /// counters: safe on any thread).
+  /// Bit-serial reads of crossbar b only (the block job.read_currents[b] holds).
+  static void convert(LayerJob& job, int b) {
+    job.analog->adc_inplace<float>(b, job.read_currents[static_cast<size_t>(b)]);
+  }
+  static void convert(LayerJob& job) {
+    for (int b = 0; b < job.analog->crossbars(); ++b) {
+      if (job.serial())
+        job.analog->adc_inplace<float>(b, job.read_currents[b]);
+      else
+        job.analog->adc_inplace<float>(b, job.currents[b], job.xq);
+    }
+  }
+
   /// ADCs serving a crossbar of `columns` columns.
   int adcs_for(int columns) const { return static_cast<int>(adcs_for_columns(columns, columns_per_adc_)); }
   /// Time of one iteration's conversions on a crossbar of `columns` columns (ns).
@@ -52,12 +67,7 @@ class Adc : public sc_core::sc_module {
     }
     double slowest = 0;
     const long long reads = job->reads();
-    for (int b = 0; b < job->analog->crossbars() && !job->timing_only; ++b) {
-      if (job->serial())
-        job->analog->adc_inplace<float>(b, job->read_currents[b]);
-      else
-        job->analog->adc_inplace<float>(b, job->currents[b], job->xq);
-    }
+    if (!job->timing_only) convert(*job);
     for (int b = 0; b < job->analog->crossbars(); ++b) {
       const int cols = job->physical_columns(b);
       slowest = std::max(slowest, iteration_ns(cols));

@@ -23,6 +23,13 @@ class Dac : public sc_core::sc_module {
   }
   long long conversions() const { return conversions_; }
 
+  /// The values of a pass: job.xq quantized to DAC levels in place and, with bit-serial
+  /// inputs, sliced into the reads' codes (no timing, no counters: safe on any thread).
+  static void convert(LayerJob& job) {
+    if (!job.input_quantized) job.analog->dac_inplace<float>(job.xq);
+    if (job.serial()) job.analog->slice_inputs<float>(job.xq, job.codes);
+  }
+
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
@@ -30,10 +37,7 @@ class Dac : public sc_core::sc_module {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
-    if (!job->timing_only) {
-      job->analog->dac_inplace<float>(job->xq);
-      if (job->serial()) job->analog->slice_inputs<float>(job->xq, job->codes);
-    }
+    if (!job->timing_only) convert(*job);
     long long rows = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) rows += job->analog->block(b).rows;
     const long long n = job->reads() * rows;

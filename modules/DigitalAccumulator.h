@@ -20,6 +20,22 @@ class DigitalAccumulator : public sc_core::sc_module {
   }
   long long accumulations() const { return accumulations_; }
 
+  /// The values of a pass: job.y, the layer's outputs (without bias) recovered from every
+  /// crossbar's codes (no timing, no counters: safe on any thread).
+  /// Bit-serial reads of crossbar b only: the block job.read_currents[b] holds added into its
+  /// rows of job.y (which the caller has zeroed).
+  static void recover(LayerJob& job, int b) {
+    job.analog->recover_add<float>(b, job.read_currents[static_cast<size_t>(b)], job.y);
+  }
+  static void recover(LayerJob& job) {
+    job.y.setZero(job.iterations(), job.analog->outputs());
+    for (int b = 0; b < job.analog->crossbars(); ++b)
+      if (job.serial())
+        job.analog->recover_add<float>(b, job.read_currents[b], job.y);
+      else
+        job.analog->recover_add<float>(b, job.currents[b], job.xq, job.y);
+  }
+
  private:
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
@@ -27,12 +43,7 @@ class DigitalAccumulator : public sc_core::sc_module {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
-    if (!job->timing_only) job->y.setZero(job->iterations(), job->analog->outputs());
-    for (int b = 0; b < job->analog->crossbars() && !job->timing_only; ++b)
-      if (job->serial())
-        job->analog->recover_add<float>(b, job->read_currents[b], job->y);
-      else
-        job->analog->recover_add<float>(b, job->currents[b], job->xq, job->y);
+    if (!job->timing_only) recover(*job);
     // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
     long long per_iteration = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;

@@ -29,6 +29,11 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   /// from the layer's geometry and compute no values (xq, currents and y stay empty).
   bool timing_only = false;
   int replication = 1;
+  /// The activation already holds DAC values (quantized once before the shift register copied
+  /// them into the windows: each value is converted on its own and zero is a level, so this
+  /// gives the DAC's values at a fraction of the work); the DAC stage then only slices them.
+  bool input_quantized = false;
+  std::vector<float> quantized_input;  ///< storage for such an activation (Tile::compute_values)
 
   AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC values
   std::vector<Eigen::MatrixXf> currents;  ///< per crossbar: iterations x physical columns (one read each)

@@ -43,8 +43,7 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
       }
       return;
     }
-    job.xq.resize(n, K);
-    std::vector<float> reg(K, 0.0f);
+    job.xq.resize(n, K);  // row it: the register's contents at iteration it
     auto load_column = [&](float* dst, int oy, int x) {
       for (int ky = 0; ky < L.k_h; ++ky) {
         const int y = oy * L.stride_h - L.pad_t + ky;
@@ -56,21 +55,22 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
     for (int oy = 0; oy < L.out.h; ++oy)
       for (int ox = 0; ox < L.out.w; ++ox) {
         int shifted;
+        const int it = oy * L.out.w + ox;
+        float* reg = job.xq.row(it).data();
         if (ox == 0 || L.stride_w >= L.k_w) {  // (re)load the whole window
-          for (int kx = 0; kx < L.k_w; ++kx) load_column(reg.data() + kx * col, oy, kx - L.pad_l + ox * L.stride_w);
+          for (int kx = 0; kx < L.k_w; ++kx) load_column(reg + kx * col, oy, kx - L.pad_l + ox * L.stride_w);
           shifted = K;
           ++job.refills;
         } else {  // shift by the stride: drop the oldest columns, append the new ones
           const int s = L.stride_w;
-          std::move(reg.begin() + s * col, reg.end(), reg.begin());
+          const float* prev = job.xq.row(it - 1).data();
+          std::copy(prev + s * col, prev + K, reg);
           for (int q = 0; q < s; ++q) {
             const int kx = L.k_w - s + q;
-            load_column(reg.data() + kx * col, oy, ox * L.stride_w - L.pad_l + kx);
+            load_column(reg + kx * col, oy, ox * L.stride_w - L.pad_l + kx);
           }
           shifted = s * col;
         }
-        const int it = oy * L.out.w + ox;
-        std::copy(reg.begin(), reg.end(), job.xq.row(it).data());
         job.shifted_entries += shifted;
         job.stage_ns[kShift][it] = shifted;  // entries; converted to time by the module
       }

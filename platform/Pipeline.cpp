@@ -26,20 +26,55 @@ double PipelineResult::throughput_per_s() const {
   return 1e9 * static_cast<double>(b - a) / std::max(image_out_ns[b] - image_out_ns[a], 1e-9);
 }
 
-/// The activations of the images in flight: one vector per value of the network.
+/// The activations of the images in flight: one vector per value of the network, allocated
+/// (at its size) when the image enters, so that the worker tasks write into storage no other
+/// thread resizes, with the task that produces each value. Timing only: one vector per value
+/// shared by every image (the transfers' data pointers; nothing is computed into it).
 class Pipeline::Values {
  public:
-  explicit Values(size_t values) : values_(values) {}
-  std::vector<float>& at(int image, int value) {
-    auto it = images_.find(image);
-    if (it == images_.end()) it = images_.emplace(image, std::vector<std::vector<float>>(values_)).first;
-    return it->second[value];
+  struct Image {
+    std::vector<std::vector<float>> v;
+    std::vector<TaskGraph::Id> producer;  ///< per value: the task that computes it (-1: none)
+  };
+  Values(const Model& m, bool shared) : model_(m), shared_(shared) {
+    if (shared_) shared_image_ = make();
   }
-  void drop(int image) { images_.erase(image); }
+  /// Image `image` enters the machine.
+  Image& add(int image) {
+    if (shared_) return *shared_image_;
+    std::unique_ptr<Image> im;
+    if (free_.empty()) {
+      im = make();
+    } else {  // a left image's storage: every value is written whole by its producer
+      im = std::move(free_.back());
+      free_.pop_back();
+      im->producer.assign(model_.values.size(), -1);
+    }
+    return *images_.emplace(image, std::move(im)).first->second;
+  }
+  Image& at(int image) {
+    if (shared_) return *shared_image_;
+    return *images_.at(image);
+  }
+  void drop(int image) {
+    auto it = images_.find(image);
+    if (it == images_.end()) return;
+    free_.push_back(std::move(it->second));
+    images_.erase(it);
+  }
 
  private:
-  size_t values_;
-  std::map<int, std::vector<std::vector<float>>> images_;
+  std::unique_ptr<Image> make() const {
+    auto im = std::make_unique<Image>();
+    for (const Shape& sh : model_.values) im->v.emplace_back(sh.size(), 0.0f);
+    im->producer.assign(model_.values.size(), -1);
+    return im;
+  }
+  const Model& model_;
+  bool shared_;
+  std::unique_ptr<Image> shared_image_;
+  std::map<int, std::unique_ptr<Image>> images_;
+  std::vector<std::unique_ptr<Image>> free_;
 };
 
 /// An (image, row) token on a stage's output register.
@@ -179,11 +214,11 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
 
 /// A write of rows [row, row + count) of an activation of `rows` rows (platform/Transfer.h):
 /// its values as data, at their byte offset in the activation, and `wire` bytes on the wire.
-void fill_payload(tlm::tlm_generic_payload& p, std::vector<float>& v, int rows, int row, int count, long long wire) {
-  const size_t per_row = v.size() / static_cast<size_t>(rows), at = static_cast<size_t>(row) * per_row;
+void fill_payload(tlm::tlm_generic_payload& p, float* v, size_t size, int rows, int row, int count, long long wire) {
+  const size_t per_row = size / static_cast<size_t>(rows), at = static_cast<size_t>(row) * per_row;
   p.set_command(tlm::TLM_WRITE_COMMAND);
   p.set_address(static_cast<sc_dt::uint64>(at * sizeof(float)));
-  p.set_data_ptr(reinterpret_cast<unsigned char*>(v.data() + at));
+  p.set_data_ptr(reinterpret_cast<unsigned char*>(v + at));
   p.set_data_length(static_cast<unsigned>(static_cast<size_t>(count) * per_row * sizeof(float)));
   p.set_streaming_width(p.get_data_length());
   p.set_byte_enable_ptr(nullptr);
@@ -193,29 +228,6 @@ void fill_payload(tlm::tlm_generic_payload& p, std::vector<float>& v, int rows, 
 }
 
 }  // namespace
-
-const char* digital_op_name(OpKind k) {
-  switch (k) {
-    case OpKind::Relu:
-      return "relu";
-    case OpKind::Affine:
-      return "affine";
-    case OpKind::Add:
-      return "add";
-    case OpKind::MaxPool:
-      return "maxpool";
-    case OpKind::AvgPool:
-      return "avgpool";
-    case OpKind::GlobalAvgPool:
-      return "globalavgpool";
-    case OpKind::Linear:
-    case OpKind::Flatten:
-    case OpKind::Slice:
-    case OpKind::Pad:
-      return "";
-  }
-  return "";
-}
 
 Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
                    const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
@@ -229,7 +241,17 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       progress_(std::move(progress)),
       machine_(machine),
       consumers_of_(model.values.size()),
-      values_(std::make_unique<Values>(model.values.size())) {
+      values_(std::make_unique<Values>(model, cfg.timing_only)) {
+  if (!cfg.timing_only) {
+    // The values are computed by worker tasks in the order the processes reach them, at most
+    // `window_` images ahead of the last whose values are done (their activations are kept).
+    const int workers = std::max(1, cfg.threads);
+    scratch_.resize(static_cast<size_t>(workers));
+    for (auto& per_worker : scratch_)
+      for (size_t l = 0; l < model.linear.size(); ++l) per_worker.push_back(std::make_unique<LayerJob>());
+    window_ = std::max(4, 4 * workers);
+    tasks_ = std::make_unique<TaskGraph>(workers);
+  }
   if (cfg.quantum_ns > 0)
     tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg.quantum_ns, sc_core::SC_NS));
   if (machine_) {
@@ -255,8 +277,9 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     else
       bind(initiator, bus_->stage2bus, what);
   };
-  // On a machine: the tile each value is produced on (the network's input: router 0).
-  std::vector<int> produced_on(model.values.size(), 0);
+  // On a machine: the tiles every operation sits on (its input buffers'; its outputs leave from the first).
+  const std::vector<std::vector<int>> placed =
+      machine_ ? place_operations(model, machine_->mapping) : std::vector<std::vector<int>>();
   for (size_t k = 0; k < model.ops.size(); ++k) {
     const Op& op = model.ops[k];
     auto s = std::make_unique<Stage>(("stage_" + std::to_string(k)).c_str(), this);
@@ -268,19 +291,12 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     s->stats.linear = op.linear;
     std::vector<int> tiles;  // on a machine: the tiles the stage's input buffers live on
     if (machine_) {
-      if (op.kind == OpKind::Linear) {
-        const Mapping& mp = machine_->mapping;
-        const LayerPlacement& pl = mp.layers.at(op.linear);
-        for (int t = mp.tile_of(pl.first_ima); t <= mp.tile_of(pl.last_ima()); ++t) tiles.push_back(t);
-      } else {
-        tiles.push_back(produced_on[op.in[0]]);
-        const char* kind = digital_op_name(op.kind);
-        if (*kind && machine_->arch.ops_per_ns(kind) <= 0)
-          throw InputError("architecture.machine " + machine_->arch.name + " has no tile unit for '" + kind +
-                           "' (operation '" + op.name + "'): list it in a unit's ops (tile.units.<unit>.ops)");
-      }
+      tiles = placed[k];
+      const char* kind = digital_op_name(op.kind);
+      if (*kind && machine_->arch.ops_per_ns(kind) <= 0)
+        throw InputError("architecture.machine " + machine_->arch.name + " has no tile unit for '" + kind +
+                         "' (operation '" + op.name + "'): list it in a unit's ops (tile.units.<unit>.ops)");
       s->stats.tile = tiles.front();
-      produced_on[op.out] = tiles.front();
     }
     const bool sparse_layer =
         op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
@@ -398,7 +414,8 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
     if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("interconnect transfer failed");
   };
   const long long bytes = row_bytes * count;
-  std::vector<float>& v = values_->at(image, value);
+  float* v = values_->at(image).v[value].data();
+  const size_t size = model_.values[value].size();
   const std::vector<RowBuffer*>& consumers = consumers_of_[value];
   if (!machine_) {
     // One shared bus: a transfer per consumer.
@@ -407,7 +424,7 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
       for (int q = 0; q < count; ++q) b->reserve();
       if (!s) result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;  // the input port waited
       tlm::tlm_generic_payload p;
-      fill_payload(p, v, b->rows_per_image(), row, count, bytes);
+      fill_payload(p, v, size, b->rows_per_image(), row, count, bytes);
       sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
       transport(p, delay);
       sc_core::wait(delay);
@@ -431,7 +448,7 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
     sc_core::wait(sim_delay(static_cast<double>(bytes) / machine_->arch.tile.edram_bytes_per_ns));
   } else {
     tlm::tlm_generic_payload p;
-    fill_payload(p, v, consumers.front()->rows_per_image(), row, count, bytes);
+    fill_payload(p, v, size, consumers.front()->rows_per_image(), row, count, bytes);
     auto* route = new Route;  // owned by the payload
     route->source = source;
     route->destinations = remote;
@@ -446,38 +463,95 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
 
 void Pipeline::compute(Stage& s, int image) {
   const Op& op = *s.op;
-  std::vector<float>& y = values_->at(image, op.out);
-  if (op.kind != OpKind::Linear) {
-    if (cfg_.timing_only) {  // its time comes from its operation count (busy_time); no values
-      y.resize(model_.values[op.out].size());
-      return;
-    }
-    digital_op(op, model_.values[op.in[0]], model_.values[op.out], values_->at(image, op.in[0]),
-               op.in.size() > 1 ? &values_->at(image, op.in[1]) : nullptr, y);
-    return;
-  }
+  if (tasks_) submit_values(s, image);
+  if (op.kind != OpKind::Linear) return;  // its time comes from its operation count (busy_time)
+  // The tile's transaction times the pass and counts its actions, which do not depend on the
+  // values (timing_only); the values are the task's.
   const LinearLayer& L = model_.linear[op.linear];
   LayerJob& job = s.job;
   job.reset_counters();
   job.layer = &L;
   job.analog = &programmed_.layer(op.linear);
-  job.activation = values_->at(image, op.in[0]).data();
+  job.activation = values_->at(image).v[op.in[0]].data();
   job.detailed = true;
-  job.timing_only = cfg_.timing_only;
+  job.timing_only = true;
   tlm::tlm_generic_payload p;
   attach(p, job, 0);
   sc_core::sc_time ignored = sc_core::SC_ZERO_TIME;
   (*s.stage2tile)->b_transport(p, ignored);
   if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("tile transaction failed");
-  y.resize(L.out.size());
-  if (!cfg_.timing_only) {
-    const int pixels = L.out.h * L.out.w;
-    for (int c = 0; c < L.c_out; ++c)
-      for (int q = 0; q < pixels; ++q) y[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
-  }
   const IterationTiming t = iteration_timing(job, cfg_.clock_ns(), cfg_.detailed);
   s.ii_ns = t.ii_ns;
   s.fill_ns = t.fill_ns - t.ii_ns[0];  // added to the first iteration
+}
+
+void Pipeline::submit_values(Stage& s, int image) {
+  const Op& op = *s.op;
+  Values::Image& im = values_->at(image);
+  std::vector<TaskGraph::Id> after;
+  for (int v : op.in) after.push_back(im.producer[v]);
+  const std::vector<float>* x0 = &im.v[op.in[0]];
+  const std::vector<float>* x1 = op.in.size() > 1 ? &im.v[op.in[1]] : nullptr;
+  std::vector<float>* y = &im.v[op.out];
+  TaskGraph::Task task;
+  switch (op.kind) {
+    case OpKind::Linear:
+      // The tile's datapath, by its modules' functions, on this worker's copy of the job.
+      task = [this, &op, x0, y](int worker) {
+        const LinearLayer& L = model_.linear[op.linear];
+        LayerJob& job = *scratch_[static_cast<size_t>(worker)][static_cast<size_t>(op.linear)];
+        job.reset_counters();
+        job.layer = &L;
+        job.analog = &programmed_.layer(op.linear);
+        job.activation = x0->data();
+        job.detailed = true;
+        Tile::compute_values(job);
+        const int pixels = L.out.h * L.out.w;
+        float* out = y->data();
+        for (int c = 0; c < L.c_out; ++c)
+          for (int q = 0; q < pixels; ++q) out[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
+      };
+      break;
+    case OpKind::Relu:
+    case OpKind::Add:
+    case OpKind::Affine:
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+    case OpKind::GlobalAvgPool:
+    case OpKind::Flatten:
+    case OpKind::Pad:
+    case OpKind::Slice:
+      task = [this, &op, x0, x1, y](int) {
+        digital_op(op, model_.values[op.in[0]], model_.values[op.out], *x0, x1, *y);
+      };
+      break;
+  }
+  im.producer[op.out] = tasks_->submit(std::move(task), after);
+}
+
+void Pipeline::reap() {
+  while (reaped_ < images_left_) {
+    Values::Image& im = values_->at(reaped_);
+    if (tasks_) {
+      for (TaskGraph::Id id : im.producer)
+        if (!tasks_->finished(id)) return;
+      const std::vector<float>& y = im.v[model_.output];
+      result_.logits.push_back(Eigen::Map<const Eigen::VectorXf>(y.data(), static_cast<Eigen::Index>(y.size())));
+    }
+    values_->drop(reaped_);
+    ++reaped_;
+    if (progress_) progress_(reaped_);
+  }
+}
+
+void Pipeline::throttle(int image) {
+  // The processes run ahead of the values by at most window_ images: the oldest image that has
+  // left the machine is waited for (in wall-clock time; simulated time does not move).
+  while (tasks_ && image - reaped_ >= window_ && reaped_ < images_left_) {
+    for (TaskGraph::Id id : values_->at(reaped_).producer)
+      if (id >= 0) tasks_->wait(id);
+    reap();
+  }
 }
 
 long long Pipeline::row_ops(const Stage& s) const { return digital_row_ops(*s.op, s.out_shape, s.in_shape[0]); }
@@ -577,10 +651,13 @@ void Pipeline::source() {
   for (int img = 0; img < cfg_.images; ++img) {
     if (!cfg_.pipelined)
       while (images_left_ < img) sc_core::wait(image_left_);
+    throttle(img);
     result_.image_in_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
-    std::vector<float>& x = values_->at(img, 0);
-    x.resize(in.size());
-    if (!cfg_.timing_only) image_(img, x.data());
+    Values::Image& im = values_->add(img);
+    if (tasks_) {
+      float* x = im.v[0].data();
+      im.producer[0] = tasks_->submit([this, img, x](int) { image_(img, x); });
+    }
     for (int r = 0; r < in.h; ++r) {
       sc_core::wait(sim_delay((r == 0 ? cfg_.memory_latency_ns : 0.0) + offchip_ns(rb)));
       result_.memory_bytes += rb;
@@ -605,20 +682,18 @@ void Pipeline::sink() {
     sc_core::wait(sim_delay(cfg_.memory_latency_ns + offchip_ns(bytes)));
     output_->release_before(img, out.h);
     result_.memory_bytes += bytes;
-    const std::vector<float>& y = values_->at(img, model_.output);
-    if (!cfg_.timing_only)
-      result_.logits.push_back(Eigen::Map<const Eigen::VectorXf>(y.data(), static_cast<Eigen::Index>(y.size())));
     result_.image_out_ns.push_back(sc_core::sc_time_stamp().to_seconds() * 1e9);
-    values_->drop(img);
     ++images_left_;
     if (images_left_ >= vcd_images_) tracing_ = false;
     image_left_.notify(sc_core::SC_ZERO_TIME);
-    if (progress_) progress_(img + 1);
+    reap();
   }
 }
 
 const PipelineResult& Pipeline::result() {
   failure_.rethrow();
+  if (tasks_) tasks_->wait_all();  // the values of the images that left; rethrows a task's failure
+  reap();
   result_.completed = images_left_ == cfg_.images;
   result_.stages.clear();
   for (const auto& s : stages_) {

@@ -8,8 +8,11 @@
 /// port. `sequential`: a stage starts an image only when its whole input is present and the
 /// next image enters only when the previous one has left; `pipelined`: line-buffered layers
 /// overlap and several images are in flight. Timing, stalls and throughput emerge from the
-/// processes; the values are computed by the same modules and functions as `eval`, so the
-/// logits are bit-identical.
+/// processes. The values do not set the timing (a tile's transaction times and counts its pass
+/// from the layer's geometry): they are computed beside the simulation, by the tile modules'
+/// own functions (Tile::compute_values) in tasks on platform.threads worker threads, each task
+/// submitted when its stage starts the image and run once its inputs' tasks are done. They are
+/// the functions `eval` runs, so the logits are bit-identical, on any number of threads.
 #include <exception>
 #include <functional>
 #include <map>
@@ -26,6 +29,7 @@
 #include "platform/RowBuffer.h"
 #include "platform/Tile.h"
 #include "sw/hw/mapper.h"
+#include "sw/common/task_graph.h"
 #include "sw/hw/platform_spec.h"
 #include "sw/inference/crossbar_backend.h"
 
@@ -94,9 +98,6 @@ struct MachinePlan {
   Mapping mapping;
 };
 
-/// The name a machine's digital units list an operation by (digital_op_names()), or "" for
-/// operations that only move data.
-const char* digital_op_name(OpKind k);
 
 /// Copies of every linear layer's tile: per-layer list, one value for all, or `auto`
 /// (the slowest stage is replicated while the crossbar budget allows, as ISAAC does).
@@ -134,6 +135,13 @@ class Pipeline : public sc_core::sc_module {
   void sink();
   void stage_process(Stage& s);
   void compute(Stage& s, int image);
+  /// The task that computes stage s's output values for `image` once its inputs' are done.
+  void submit_values(Stage& s, int image);
+  /// Stores the logits of the images that have left and whose values are done, in order, and
+  /// frees their activations.
+  void reap();
+  /// Before image `image` enters: waits (wall clock) while the values lag window_ images behind.
+  void throttle(int image);
   /// Time of `bytes` over the off-chip port (a machine's off-chip links).
   double offchip_ns(long long bytes) const;
   /// Operations a digital unit performs for one output row.
@@ -170,6 +178,11 @@ class Pipeline : public sc_core::sc_module {
   std::vector<std::vector<RowBuffer*>> consumers_of_;  ///< value id -> buffers fed by it
   std::vector<std::unique_ptr<RowBuffer>> buffers_;
   std::unique_ptr<Values> values_;
+  std::vector<std::vector<std::unique_ptr<LayerJob>>> scratch_;  ///< per worker, per linear layer
+  int window_ = 0, reaped_ = 0;
+  /// The value tasks' workers (null when timing only); after the values and scratch jobs, so
+  /// that it is stopped (its running tasks joined) before what they use is destroyed.
+  std::unique_ptr<TaskGraph> tasks_;
   RowBuffer* output_ = nullptr;  ///< the logits on their way to memory
   sc_core::sc_event image_left_;
   int images_left_ = 0;

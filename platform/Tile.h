@@ -90,6 +90,43 @@ class Tile : public sc_core::sc_module {
     a.buffer_write_bytes = static_cast<double>(outputs_written_);
     return a;
   }
+  /// The values of one pass through the datapath, by the modules' own functions in datapath
+  /// order (shift register, DACs, crossbars, ADCs, accumulator) into job.y (without bias): the
+  /// functional half of a transaction, which the platform runs on its worker threads while the
+  /// transaction itself (timing_only) times and counts. Touches only the job: safe on any thread.
+  /// Bit-serial reads go through crossbars, ADCs and accumulator a few iterations at a time
+  /// (as AnalogLayer::forward does), so that their currents stay in cache: every read's
+  /// result is independent of the block it is computed in.
+  static void compute_values(LayerJob& job) {
+    job.timing_only = false;
+    // The DAC's quantization applied to the layer's input once instead of to every window
+    // (the values are the same, as in CrossbarBackend::multiply_activation).
+    job.input_quantized = job.analog->quantizes_inputs();
+    if (job.input_quantized) {
+      job.quantized_input.assign(job.activation, job.activation + job.layer->in.size());
+      job.analog->dac_values<float>(job.quantized_input.data(), static_cast<Eigen::Index>(job.quantized_input.size()));
+      job.activation = job.quantized_input.data();
+    }
+    ShiftRegisterBuffer::fill(job);
+    Dac::convert(job);
+    if (!job.serial()) {
+      CrossbarArray::read(job);
+      Adc::convert(job);
+      DigitalAccumulator::recover(job);
+      return;
+    }
+    constexpr Eigen::Index kBlock = 16;
+    const Eigen::Index n = job.iterations();
+    const bool linear = job.analog->config().xbar.is_linear();
+    const Eigen::Index block = linear ? kBlock : std::max<Eigen::Index>(n, 1);  // nonlinear: one batched solve
+    job.y.setZero(n, job.analog->outputs());
+    for (int b = 0; b < job.analog->crossbars(); ++b)
+      for (Eigen::Index first = 0; first < n; first += block) {
+        CrossbarArray::read(job, b, first, std::min(block, n - first));
+        Adc::convert(job, b);
+        DigitalAccumulator::recover(job, b);
+      }
+  }
   const ShiftRegisterBuffer& shift_register() const { return sr_; }
   const Dac& dac() const { return dac_; }
   const Adc& adc() const { return adc_; }

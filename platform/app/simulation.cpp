@@ -63,8 +63,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   CostReport cost;
   long long iterations = 0;
   double macs = 0;
-  PlatformActions platform;        // counted by the simulation
-  ComponentBreakdown platform_pj;  // on a machine: its interconnect, digital units and off-chip links
+  PlatformActions platform;  // counted by the simulation
+  MachineActions on_machine;  // on a machine: its tile buses, mesh, digital units and off-chip links
   nlohmann::json digital = nlohmann::json::array();
   for (const StageStats& st : r.stages) {
     if (st.linear < 0) {
@@ -77,8 +77,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                          {"starved_us", st.starved_ns / images * 1e-3}});
       if (st.digital_ops > 0) ++platform.digital_units;
       platform.actions.digital_ops += st.digital_ops / images;
-      if (machine && st.digital_ops > 0)
-        platform_pj.digital += st.digital_ops / images * digital_op_pj(hw.arch, hw.lib, digital_op_name(st.kind));
+      if (st.digital_ops > 0) on_machine.digital_ops.push_back({digital_op_name(st.kind), st.digital_ops / images});
       continue;
     }
     const LinearLayer& L = model.linear[st.linear];
@@ -95,8 +94,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
         *x /= images;
     }
     add_layer_cost(cost, hw, v, a);
-    if (machine)  // the layer's eDRAM reads cross its tile's bus
-      platform_pj.interconnect += a.buffer_read_bytes * hw.lib.unit(hw.arch.tile.bus.unit).action_pj;
+    on_machine.edram_read_bytes += a.buffer_read_bytes;  // on a machine they cross its tile's bus
     const double e_uj = hw.cost.dynamic_energy_pj(a).total() * 1e-6;
     macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
@@ -129,10 +127,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   if (machine) {
     // The whole chip is the machine's, used or not: its area, peak power and leakage; energy
     // from the actions, the mesh's routers per byte and router crossed, the off-chip links.
-    price_whole_machine(cost, hw);
-    platform_pj.interconnect += r.router_bytes / images * hw.lib.unit(hw.arch.chip.router.unit).action_pj;
-    platform_pj.memory += platform.actions.memory_bytes * hw.lib.unit(hw.arch.chip.offchip.unit).action_pj;
-    cost.dynamic_energy_uj += platform_pj * 1e-6;
+    on_machine.router_bytes = r.router_bytes / images;
+    on_machine.memory_bytes = platform.actions.memory_bytes;
+    add_machine_cost(cost, hw, on_machine);
   } else {
     add_platform_cost(cost, hw, platform);
   }
@@ -213,6 +210,7 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
   // The images the data holds (a dataset may have fewer than platform.images; its note says so).
   PlatformConfig pc = hw.platform;
   if (!pc.timing_only) pc.images = data.test.count();
+  pc.threads = resolve_threads(cfg.get_int32("solver.threads"));
   if (!ac.xbar.is_linear() && !pc.timing_only)
     std::fprintf(stderr,
                  "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "

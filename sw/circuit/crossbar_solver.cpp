@@ -1,5 +1,7 @@
 #include "sw/circuit/crossbar_solver.h"
 
+#include "sw/common/task_graph.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -90,13 +92,9 @@ Eigen::MatrixXd CrossbarSolver::column_currents(const Eigen::MatrixXd& v_in) con
   return out;
 }
 
-namespace {
-thread_local bool in_parallel_for = false;  ///< this thread is a parallel_for worker
-}  // namespace
-
 void parallel_for(int count, int threads, const std::function<void(int)>& f) {
   threads = std::max(1, std::min(threads, count));
-  if (threads == 1 || in_parallel_for) {  // nested (e.g. a solve inside a parallel image loop): inline
+  if (threads == 1 || on_worker_thread()) {  // nested (e.g. a solve inside a parallel image loop): inline
     for (int k = 0; k < count; ++k) f(k);
     return;
   }
@@ -105,7 +103,7 @@ void parallel_for(int count, int threads, const std::function<void(int)>& f) {
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {
-      in_parallel_for = true;
+      on_worker_thread() = true;
       try {
         for (int k = t; k < count; k += threads) f(k);
       } catch (...) {

@@ -1,5 +1,7 @@
 #include "sw/hw/mapper.h"
 
+#include "sw/hw/cost.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -133,6 +135,81 @@ nlohmann::json Mapping::to_json() const {
                       {"layers", layers_json}};
   if (!fits) j["reason"] = reason;
   return j;
+}
+
+const char* digital_op_name(OpKind k) {
+  switch (k) {
+    case OpKind::Relu:
+      return "relu";
+    case OpKind::Affine:
+      return "affine";
+    case OpKind::Add:
+      return "add";
+    case OpKind::MaxPool:
+      return "maxpool";
+    case OpKind::AvgPool:
+      return "avgpool";
+    case OpKind::GlobalAvgPool:
+      return "globalavgpool";
+    case OpKind::Linear:
+    case OpKind::Flatten:
+    case OpKind::Slice:
+    case OpKind::Pad:
+      return "";
+  }
+  return "";
+}
+
+std::vector<std::vector<int>> place_operations(const Model& m, const Mapping& mp) {
+  std::vector<std::vector<int>> tiles(m.ops.size());
+  std::vector<int> produced_on(m.values.size(), 0);  // the network's input: router 0
+  for (size_t k = 0; k < m.ops.size(); ++k) {
+    const Op& op = m.ops[k];
+    if (op.kind == OpKind::Linear) {
+      const LayerPlacement& pl = mp.layers.at(static_cast<size_t>(op.linear));
+      for (int t = mp.tile_of(pl.first_ima); t <= mp.tile_of(pl.last_ima()); ++t) tiles[k].push_back(t);
+    } else {
+      tiles[k].push_back(produced_on[static_cast<size_t>(op.in[0])]);
+    }
+    produced_on[static_cast<size_t>(op.out)] = tiles[k].front();
+  }
+  return tiles;
+}
+
+MachineTraffic machine_traffic(const Model& m, const std::vector<std::vector<int>>& op_tiles, const MeshGeometry& mesh,
+                               int activation_bytes) {
+  MachineTraffic t;
+  std::vector<int> source(m.values.size(), -1);  // the network's input: the off-chip port
+  for (size_t k = 0; k < m.ops.size(); ++k) source[static_cast<size_t>(m.ops[k].out)] = op_tiles[k].front();
+  std::vector<std::pair<int, int>> tree;
+  std::vector<std::pair<MeshGeometry::Link, int>> path;
+  for (size_t v = 0; v < m.values.size(); ++v) {
+    std::vector<int> remote;  // the consumers' tiles that are not the source's, in network order
+    auto add = [&](int tile) {
+      if (tile != source[v] && std::find(remote.begin(), remote.end(), tile) == remote.end()) remote.push_back(tile);
+    };
+    bool consumed = false;
+    for (size_t k = 0; k < m.ops.size(); ++k)
+      for (int in : m.ops[k].in)
+        if (in == static_cast<int>(v)) {
+          consumed = true;
+          for (int tile : op_tiles[k]) add(tile);
+        }
+    if (static_cast<int>(v) == m.output) {
+      consumed = true;
+      add(-1);  // the logits leave through the off-chip port
+    }
+    if (!consumed) continue;
+    const double bytes = static_cast<double>(activation_row_bytes(m.values[v], activation_bytes)) * m.values[v].h;
+    if (remote.empty()) {
+      t.local_bytes += bytes;
+      continue;
+    }
+    mesh.multicast_tree(source[v], remote, tree, path);
+    t.noc_bytes += bytes;
+    t.router_bytes += bytes * static_cast<double>(tree.size() - 1);
+  }
+  return t;
 }
 
 }  // namespace xbarsim

@@ -14,6 +14,7 @@
 
 #include "sw/hw/architecture.h"
 #include "sw/hw/inventory.h"
+#include "sw/hw/mesh.h"
 #include "sw/hw/platform_spec.h"
 
 namespace xbarsim {
@@ -52,5 +53,27 @@ struct Mapping {
 /// `arch` with the replication `pc` asks for (platform.replication: a number, per layer, or
 /// auto: copies of the slowest compute-bound stage while IMAs remain).
 Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc);
+
+/// The name a machine's digital units list an operation by (tile.units.<unit>.ops), or "" for
+/// operations that only move data (and linear layers, which are the IMAs').
+const char* digital_op_name(OpKind k);
+
+/// Where a network's operations sit on a machine with mapping `mp`: per operation, the tiles
+/// its input buffers live on, the first being the one its outputs leave from. A linear layer
+/// sits on the tiles of its IMAs (its inputs are sent to all of them); any other operation on
+/// the tile its first input comes from (the network's input enters at router 0: tile 0).
+std::vector<std::vector<int>> place_operations(const Model& m, const Mapping& mp);
+
+/// Per image, what a mapped network moves between tiles, in closed form, as the simulation
+/// sends it: every value from its producer's tile (the network's input from the off-chip port,
+/// tile -1) to the tiles of its consumers' buffers (the logits to the off-chip port), as one
+/// multicast over the mesh, or within the tile (its eDRAM) when every consumer is there.
+struct MachineTraffic {
+  double noc_bytes = 0;     ///< bytes injected into the mesh
+  double router_bytes = 0;  ///< bytes x routers crossed (every link of a multicast tree but its injection)
+  double local_bytes = 0;   ///< bytes that stayed on their tile
+};
+MachineTraffic machine_traffic(const Model& m, const std::vector<std::vector<int>>& op_tiles, const MeshGeometry& mesh,
+                               int activation_bytes);
 
 }  // namespace xbarsim

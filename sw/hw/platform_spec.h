@@ -39,6 +39,9 @@ struct PlatformConfig {
   int grain_rows = 1;  ///< output rows per transaction of a stage
   int vcd_images = 1;  ///< images traced into the VCD
   bool check_protocol = false;  ///< platform.check_protocol: a base-protocol checker before every target
+  /// Worker threads computing the values beside the simulation (solver.threads, resolved):
+  /// the wall time only, never the figures.
+  int threads = 1;
   double clock_ns() const { return 1e3 / clock_mhz; }
 };
 

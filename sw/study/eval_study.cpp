@@ -317,6 +317,8 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
   r.crossbar_accuracy = static_cast<double>(xbc) / r.images;
   r.paired = paired_accuracy(t.sw_correct, t.xb_correct);
   const double clock_ns = point.hw.platform.clock_ns();
+  double edram_read_bytes = 0;  // on a machine: the layers' input shifts over their tile's bus
+  std::vector<bool> signed_inputs;
   for (int l = 0; l < L; ++l) {
     EvalLayer el;
     el.layer = &model.linear[l];
@@ -333,13 +335,19 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
       el.cells += static_cast<long long>(rep.block.rows) * rep.physical_cols;
       el.min_column_gain = std::min(el.min_column_gain, rep.min_column_gain);
     }
-    add_layer_cost(r.cost, point.hw, el.inventory,
-                   layer_actions_per_image(el.inventory, dense_shifted_entries(model.linear[l])));
+    const ActionCounts a = layer_actions_per_image(el.inventory, dense_shifted_entries(model.linear[l]));
+    add_layer_cost(r.cost, point.hw, el.inventory, a);
+    edram_read_bytes += a.buffer_read_bytes;
+    signed_inputs.push_back(el.signed_inputs);
     r.cost.time_ns += el.inventory.reads() * clock_ns;
     r.layers.push_back(el);
   }
-  add_platform_cost(r.cost, point.hw, platform_actions(model, point.hw.platform.activation_bytes));
-  price_whole_machine(r.cost, point.hw);
+  if (point.hw.arch.machine) {  // the chip, and the mapped network's traffic on it
+    const MachineReport mr = machine_report(model, point.hw, signed_inputs);
+    add_machine_cost(r.cost, point.hw, machine_actions(model, point.hw, mr.mapping, edram_read_bytes));
+  } else {
+    add_platform_cost(r.cost, point.hw, platform_actions(model, point.hw.platform.activation_bytes));
+  }
   return r;
 }
 

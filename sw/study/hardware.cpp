@@ -39,6 +39,11 @@ nlohmann::json CostReport::to_json() const {
           {"peak_power_breakdown_mw", peak_power_mw.to_json()},
           {"energy_uj_per_image", energy_uj().total()},
           {"energy_breakdown_uj", energy_uj().to_json()},
+          // The actions' energy alone, without the leakage over the command's time per image
+          // (eval's sequential estimate, simulate's simulated schedule).
+          {"dynamic_energy_uj_per_image", dynamic_energy_uj.total()},
+          {"dynamic_energy_breakdown_uj", dynamic_energy_uj.to_json()},
+          {"leakage_mw", leakage_mw.total()},
           {"avg_power_mw", avg_power_mw()},
           {"time_ns_per_image", time_ns}};
 }
@@ -66,6 +71,34 @@ void add_platform_cost(CostReport& r, const HardwareContext& hw, const PlatformA
   r.dynamic_energy_uj += hw.cost.dynamic_energy_pj(p.actions) * 1e-6;
   r.area_mm2 += hw.cost.platform_area_mm2(p.digital_units);
   r.leakage_mw += hw.cost.platform_leakage_mw(p.digital_units);
+}
+
+MachineActions machine_actions(const Model& m, const HardwareContext& hw, const Mapping& mp, double edram_read_bytes) {
+  MachineActions a;
+  a.edram_read_bytes = edram_read_bytes;
+  const Architecture& arch = hw.arch;
+  const MeshGeometry mesh{arch.chip.mesh_rows, arch.chip.mesh_cols, arch.chip.tiles_per_router};
+  if (mp.fits)  // (a network that does not fit has no placement to route between)
+    a.router_bytes = machine_traffic(m, place_operations(m, mp), mesh, hw.platform.activation_bytes).router_bytes;
+  const PlatformActions p = platform_actions(m, hw.platform.activation_bytes);
+  a.memory_bytes = p.actions.memory_bytes;
+  for (const Op& op : m.ops) {
+    const long long ops = digital_row_ops(op, m.values[op.out], m.values[op.in[0]]) * m.values[op.out].h;
+    if (ops > 0) a.digital_ops.push_back({digital_op_name(op.kind), static_cast<double>(ops)});
+  }
+  return a;
+}
+
+void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineActions& a) {
+  if (!hw.arch.machine) return;
+  price_whole_machine(r, hw);
+  const Architecture& arch = hw.arch;
+  ComponentBreakdown pj;
+  pj.interconnect = a.edram_read_bytes * hw.lib.unit(arch.tile.bus.unit).action_pj +
+                    a.router_bytes * hw.lib.unit(arch.chip.router.unit).action_pj;
+  pj.memory = a.memory_bytes * hw.lib.unit(arch.chip.offchip.unit).action_pj;
+  for (const auto& [name, ops] : a.digital_ops) pj.digital += ops * digital_op_pj(arch, hw.lib, name);
+  r.dynamic_energy_uj += pj * 1e-6;
 }
 
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {

@@ -54,6 +54,24 @@ void price_whole_machine(CostReport& r, const HardwareContext& hw);
 /// its whole price (price_whole_machine): nothing is added.
 void add_platform_cost(CostReport& r, const HardwareContext& hw, const PlatformActions& p);
 
+/// What a machine's platform does per image besides its IMAs: counted by simulate, in closed
+/// form by eval (machine_actions), priced by add_machine_cost.
+struct MachineActions {
+  double edram_read_bytes = 0;  ///< the layers' input registers loading from eDRAM over the tile bus
+  double router_bytes = 0;      ///< bytes x routers crossed on the mesh
+  double memory_bytes = 0;      ///< over the off-chip links (the input and the logits)
+  /// Per operation of a tile's digital units: the unit's operation name and its operations.
+  std::vector<std::pair<std::string, double>> digital_ops;
+};
+/// The machine actions of one image of `m` on the mapping `mp` of hw's machine, in closed form
+/// (machine_traffic for the mesh; none when the network does not fit); `edram_read_bytes` is
+/// the layers' (their input shifts).
+MachineActions machine_actions(const Model& m, const HardwareContext& hw, const Mapping& mp, double edram_read_bytes);
+/// A machine run priced: the whole chip's area, peak power and leakage (price_whole_machine)
+/// and the energy of `a` (the tile bus per byte read, the routers per byte and router crossed,
+/// the off-chip links per byte, each digital unit per operation). Nothing for layer-sized.
+void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineActions& a);
+
 /// A machine (architecture.machine) with a network mapped onto it: the chip priced from counts
 /// x components, where the network's layers sit, and the machine's peak throughput for the
 /// configured datapath (weights on cell slices, inputs in reads).

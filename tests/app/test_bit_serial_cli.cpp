@@ -122,6 +122,14 @@ TEST_F(BitSerialCli, SimulateOnIsaacCeGivesOverheadsChip) {
   EXPECT_EQ(sj["placement"]["imas_used"], oj["machine"]["mapping"]["imas_used"]);
   EXPECT_GT(sj["achieved_tops_per_w"].get<double>(), 0);
   EXPECT_TRUE(sj.contains("noc"));
+  // eval counts in closed form what simulate counts on the mesh: the same actions' energy,
+  // part by part (the leakage follows each command's time per image).
+  const double e_sim = sj["dynamic_energy_uj_per_image"].get<double>();
+  EXPECT_GT(sj["dynamic_energy_breakdown_uj"]["interconnect"].get<double>(), 0);
+  EXPECT_GT(sj["dynamic_energy_breakdown_uj"]["digital"].get<double>(), 0);
+  EXPECT_NEAR(ej["dynamic_energy_uj_per_image"].get<double>(), e_sim, 1e-9 * e_sim);
+  for (const auto& [part, v] : sj["dynamic_energy_breakdown_uj"].items())
+    EXPECT_NEAR(ej["dynamic_energy_breakdown_uj"][part].get<double>(), v.get<double>(), 1e-9 * e_sim) << part;
   const auto bad = run("overhead", "--model tiny --set architecture.machine=isaac-ce --set components.library=isaac");
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_NE(bad.out.find("mapping.max_rows"), std::string::npos) << bad.out;

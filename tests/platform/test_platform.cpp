@@ -287,6 +287,7 @@ TEST(Platform, PipelinedThroughputIsTheSlowestStage) {
   const int n = 12;
   PlatformConfig pc = fast_platform(n, true);
   pc.check_protocol = true;
+  pc.threads = 2;  // values on two workers, at most 8 images ahead of them: the processes wait for image 0's
   PipelineRun run(m, pc);
   run.expect_logits_of_the_batch_engine();
   const PipelineResult& r = run.pipe->result();
@@ -461,6 +462,7 @@ TEST(Platform, OnAMachineTheLogitsAreTheBatchEnginesAndRowsCrossTheMesh) {
   pc.images = 3;
   pc.pipelined = true;
   pc.check_protocol = true;
+  pc.threads = 3;  // the values on three workers: the logits do not depend on them
   PipelineRun run(m, pc, {}, &plan);
   run.expect_logits_of_the_batch_engine();
   const PipelineResult& r = run.pipe->result();
