@@ -26,20 +26,26 @@ constexpr Published kEdram{20.7, 0.083}, kBus{7, 0.090}, kRouterPerFourTiles{42,
     kShiftAdd{0.05, 0.00006}, kMaxPool{0.4, 0.00024}, kOutputRegister{1.68, 0.0032};
 
 struct Isaac {
+  /// configs/isaac.yaml as it is (it selects architecture.machine: isaac-ce and ISAAC's
+  /// library and datapath), at ISAAC-CE's 16-bit inputs and weights.
   Isaac() {
-    ConfigTree cfg;
-    cfg.set("architecture.machine", "isaac-ce");
-    cfg.set("components.library", "isaac");
+    const ConfigTree cfg = ConfigTree::load(std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml",
+                                            {"converters.input_bits=16", "mapping.weight_bits=16"});
     arch = load_architecture(cfg);
     cost.lib = load_component_library(cfg);
-    cost.dac_bits = 1;
-    cost.adc_bits = 8;
-    converters.input_bits = 16;
-    converters.dac_bits = 1;
-    converters.adc_bits = 8;
-    mapping.max_rows = mapping.max_cols = 128;
-    mapping.cell_bits = 2;
-    mapping.weight_bits = 16;
+    const AnalogConfig ac = parse_analog_config(cfg);
+    converters = ac.converters;
+    mapping = ac.mapping;
+    cost.dac_bits = converters.dac_bits;
+    cost.adc_bits = converters.adc_bits;
+    // The datapath ISAAC's Table 6 prices: 1-bit DACs, 8-bit ADCs, 128 x 128 crossbars of
+    // 2-bit cells.
+    EXPECT_EQ(arch.name, "isaac-ce");
+    EXPECT_EQ(converters.dac_bits, 1);
+    EXPECT_EQ(converters.adc_bits, 8);
+    EXPECT_EQ(mapping.max_rows, 128);
+    EXPECT_EQ(mapping.max_cols, 128);
+    EXPECT_EQ(mapping.cell_bits, 2);
     bill = price_machine(arch, cost, converters, mapping);
   }
   const BillLine& line(const std::vector<BillLine>& lines, const std::string& unit) const {
@@ -265,18 +271,8 @@ TEST(Mapper, ANetworkThatDoesNotFitIsAStatusWithItsReason) {
 // weights and inputs): every crossbar holds 128 x 16 weights and finishes a vector every 16
 // reads of 100 ns, over the chip's area.
 TEST(IsaacChip, PeakComputationalEfficiencyIsThePublishedOne) {
-  ConfigTree cfg;
-  for (const auto& [k, v] : {std::pair<const char*, const char*>{"architecture.machine", "isaac-ce"},
-                             {"components.library", "isaac"},
-                             {"mapping.max_rows", "128"},
-                             {"mapping.max_cols", "128"},
-                             {"crossbar.cell_bits", "2"},
-                             {"mapping.weight_bits", "16"},
-                             {"converters.input_bits", "16"},
-                             {"converters.dac_bits", "1"},
-                             {"converters.adc_bits", "8"},
-                             {"platform.clock_mhz", "10"}})
-    cfg.set(k, v);
+  const ConfigTree cfg = ConfigTree::load(std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml",
+                                          {"converters.input_bits=16", "mapping.weight_bits=16"});
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
   const Model m = make_preset("resnet20", 3);
