@@ -16,7 +16,7 @@ namespace xbarsim {
 namespace {
 
 /// One simulation in this process: the model and images of the arguments; `vcd`: its trace file or "".
-nlohmann::json simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
+SimulationReport simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
   Model model = model_from_args(args, cfg);
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
   const PlatformConfig pc = make_hardware_context(cfg, parse_analog_config(cfg)).platform;
@@ -39,18 +39,27 @@ void register_point_inputs(const CliArgs& args, const ConfigTree& cfg) {
     for (const std::string& f : dataset_files(args.get("--dataset"), dir, split)) register_input(f, "the dataset file");
 }
 
-void print_summary(const nlohmann::json& j) {
+void print_summary(const SimulationReport& r) {
   std::printf(
-      "\n%s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
-      "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2\n",
-      j["model"].get<std::string>().c_str(), j["timing"].get<std::string>().c_str(),
-      j["schedule"].get<std::string>().c_str(), j["images"].get<int>(), j["iterations_total"].get<long long>(),
-      j["latency_us"].get<double>(), j["makespan_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
-      j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["peak_power_mw"].get<double>(),
-      j["area_mm2"].get<double>());
-  std::printf("simulation: %.2f s wall (%.1f images/s), programming excluded\n",
-              j["simulation_wall_time_s"].get<double>(), j["simulated_images_per_wall_s"].get<double>());
-  if (j.contains("accuracy")) std::printf("accuracy %.2f %%\n", 100 * j["accuracy"].get<double>());
+      "\n%s on %s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
+      "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2, "
+      "%.3f TOPS/W achieved\n",
+      r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(), r.images, r.iterations_total,
+      r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, r.avg_power_mw,
+      r.peak_power_mw, r.area_mm2, r.achieved_tops_per_w);
+  if (!r.bottleneck.empty())
+    std::printf("bottleneck: %s, busy %.3f us per image\n", r.bottleneck.c_str(), r.bottleneck_busy_us);
+  std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,
+              r.images_per_wall_s);
+  if (r.accuracy) std::printf("accuracy %.2f %%\n", 100 * *r.accuracy);
+}
+
+/// The CSV columns after the point's: the figures of the header below.
+void csv_figures(std::ostream& os, const SimulationReport& r) {
+  for (double x : {r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, r.avg_power_mw,
+                   r.peak_power_mw, r.area_mm2})
+    os << "," << nlohmann::json(x).dump();  // shortest text that reads back as the same double
+  os << "\n";
 }
 
 int cmd_simulate(int argc, char** argv) {
@@ -82,14 +91,10 @@ int cmd_simulate(int argc, char** argv) {
                    "area_mm2");
   out.set_report("simulate", base);
   if (points.size() == 1) {
-    const nlohmann::json j = simulate_once(args, base, true, vcd);
-    print_summary(j);
-    if (out.csv().enabled()) {
-      out.csv().row(0, points[0]) << "," << j["latency_us"] << "," << j["makespan_us"] << ","
-                                  << j["throughput_images_per_s"] << "," << j["energy_uj_per_image"] << ","
-                                  << j["avg_power_mw"] << "," << j["peak_power_mw"] << "," << j["area_mm2"] << "\n";
-    }
-    out.add(j, points[0]);
+    const SimulationReport r = simulate_once(args, base, true, vcd);
+    print_summary(r);
+    if (out.csv().enabled()) csv_figures(out.csv().row(0, points[0]), r);
+    out.add(r.json, points[0]);
     out.finish();
     return 0;
   }
@@ -103,18 +108,14 @@ int cmd_simulate(int argc, char** argv) {
   for (size_t k = 0; k < points.size(); ++k) {
     const ConfigTree cfg = sweep_config(base, points[k]);
     const std::string point_vcd = vcds.empty() ? std::string() : vcds[k].second;
-    const nlohmann::json j = run_in_child([&] { return simulate_once(args, cfg, false, point_vcd); });
+    const SimulationReport r = SimulationReport::from_json(
+        run_in_child([&] { return simulate_once(args, cfg, false, point_vcd).json; }));
     if (!point_vcd.empty())
       std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
-    table.print_row(
-        stdout, {sweep_label(points[k]), j["latency_us"].get<double>(), j["throughput_images_per_s"].get<double>(),
-                 j["energy_uj_per_image"].get<double>(), j["avg_power_mw"].get<double>(), j["area_mm2"].get<double>()});
-    if (out.csv().enabled())
-      out.csv().row(static_cast<int>(k), points[k])
-          << "," << j["latency_us"] << "," << j["makespan_us"] << "," << j["throughput_images_per_s"] << ","
-          << j["energy_uj_per_image"] << "," << j["avg_power_mw"] << "," << j["peak_power_mw"] << "," << j["area_mm2"]
-          << "\n";
-    out.add(j, points[k]);
+    table.print_row(stdout, {sweep_label(points[k]), r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image,
+                             r.avg_power_mw, r.area_mm2});
+    if (out.csv().enabled()) csv_figures(out.csv().row(static_cast<int>(k), points[k]), r);
+    out.add(r.json, points[k]);
   }
   out.finish();
   return 0;

@@ -203,8 +203,36 @@ SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg
   return d;
 }
 
-nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
-                              const std::string& vcd, bool print, const CrossbarBackend* given) {
+SimulationReport SimulationReport::from_json(const nlohmann::json& j) {
+  SimulationReport r;
+  r.model = j.at("model").get<std::string>();
+  r.timing = j.at("timing").get<std::string>();
+  r.schedule = j.at("schedule").get<std::string>();
+  r.mode = j.at("mode").get<std::string>();
+  r.architecture = j.at("architecture").get<std::string>();
+  r.images = j.at("images").get<int>();
+  r.iterations_total = j.at("iterations_total").get<long long>();
+  r.latency_us = j.at("latency_us").get<double>();
+  r.makespan_us = j.at("makespan_us").get<double>();
+  r.throughput_images_per_s = j.at("throughput_images_per_s").get<double>();
+  r.energy_uj_per_image = j.at("energy_uj_per_image").get<double>();
+  r.avg_power_mw = j.at("avg_power_mw").get<double>();
+  r.peak_power_mw = j.at("peak_power_mw").get<double>();
+  r.area_mm2 = j.at("area_mm2").get<double>();
+  r.achieved_tops_per_w = j.at("achieved_tops_per_w").get<double>();
+  if (j.contains("bottleneck")) {
+    r.bottleneck = j["bottleneck"].at("stage").get<std::string>();
+    r.bottleneck_busy_us = j["bottleneck"].at("busy_us_per_image").get<double>();
+  }
+  r.wall_time_s = j.at("simulation_wall_time_s").get<double>();
+  r.images_per_wall_s = j.at("simulated_images_per_wall_s").get<double>();
+  if (j.contains("accuracy")) r.accuracy = j["accuracy"].get<double>();
+  r.json = j;
+  return r;
+}
+
+SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
+                                const std::string& vcd, bool print, const CrossbarBackend* given) {
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
   // The images the data holds (a dataset may have fewer than platform.images; its note says so).
@@ -301,7 +329,7 @@ nlohmann::json simulate_model(const ConfigTree& cfg, const Model& model, const S
     }
     j["accuracy"] = static_cast<double>(correct) / r.logits.size();
   }
-  return j;
+  return SimulationReport::from_json(j);
 }
 
 nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
