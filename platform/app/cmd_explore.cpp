@@ -69,10 +69,39 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
   return row;
 }
 
-/// Evaluates one point and simulates its platform; a point that fails is a row with a reason.
+/// The row of a point run without accuracy (explore.accuracy false): the platform's cost and
+/// timing, timing only.
+nlohmann::json timing_row(const SimulationReport& pf) {
+  nlohmann::json row;
+  row["status"] = "ok";
+  row["mode"] = "timing-only";
+  nlohmann::json layers = nlohmann::json::array();
+  for (const auto& l : pf.json["layers"]) {
+    nlohmann::json L = {{"name", l["name"]}};
+    for (const char* k : {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"}) L[k] = l[k];
+    layers.push_back(L);
+  }
+  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw",
+                        "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
+                        "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "iterations_total"})
+    row[k] = pf.json[k];
+  row["warnings"] = nlohmann::json::array();
+  row["layers"] = layers;
+  row["simulation_wall_time_s"] = pf.wall_time_s;
+  return row;
+}
+
+/// Evaluates one point and simulates its platform (or, without accuracy, only simulates its
+/// timing); a point that fails is a row with a reason.
 nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData& data, const EvalSpec& spec,
-                         const std::string& progress_label) {
+                         const std::string& progress_label, bool accuracy) {
   try {
+    if (!accuracy) {
+      ConfigTree cfg = p.cfg;
+      cfg.set("platform.timing_only", "true");
+      return timing_row(SimulationReport::from_json(
+          run_in_child([&] { return simulate_model(cfg, model, SimulationData{}, "", false).json; })));
+    }
     const EvalPoint design = parse_eval_point(p.cfg);
     // The crossbars are programmed once, on the evaluation's calibration images, for both the
     // platform (in a child process, which inherits them) and the evaluation.
@@ -88,7 +117,7 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     sim.test = random_dataset(model.input, design.hw.platform.images,
                               derive_seed(static_cast<uint64_t>(p.cfg.get_int("data.synthetic_seed")), {1}));
     sim.calib = data.calib;
-    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false, &xb); });
+    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false, &xb).json; });
     ProgressBar bar(data.test.count(), "evaluating  " + progress_label);
     const EvalResult r = run_eval(model, design, data.test, xb, program_s, [&](int d, int) { bar.update(d); });
     bar.finish();
@@ -152,7 +181,12 @@ int cmd_explore(int argc, char** argv) {
 
   Model model = load_onnx_model(find_model_file(spec.model, base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
-  const EvalData data = load_eval_data(model, spec.dataset, resolve_data_dir(base), eval_spec);
+  if (!spec.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim explore: %s\n", spec.note.c_str());
+  if (!spec.accuracy && args.has("--dataset"))
+    throw InputError("--dataset with explore.accuracy false: the points run timing only and read no images");
+  EvalData data;  // explore.accuracy false: no images (the journal's keys say "timing-only")
+  data.test.name = "timing-only";
+  if (spec.accuracy) data = load_eval_data(model, spec.dataset, resolve_data_dir(base), eval_spec);
   if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim explore: %s\n", data.note.c_str());
   check_outputs(args, {"--out", "--json", "--csv", "--report"});  // every file it reads is known now
 
@@ -217,7 +251,7 @@ int cmd_explore(int argc, char** argv) {
   for (size_t i = Ranks::rank(); i < pending.size(); i += Ranks::size()) {
     const SpacePoint& p = space[pending[i]];
     if (Ranks::root()) std::fprintf(stderr, "[%zu/%zu] %s\n", i + 1, pending.size(), p.label.c_str());
-    nlohmann::json row = run_point(p, model, data, eval_spec, p.label);
+    nlohmann::json row = run_point(p, model, data, eval_spec, p.label, spec.accuracy);
     row["key"] = p.key;
     row["index"] = pending[i];
     row["label"] = p.label;
@@ -265,13 +299,14 @@ int cmd_explore(int argc, char** argv) {
   int failed = 0;
   for (const auto& row : rows) {
     const bool ok = row["status"] == "ok";
+    const bool acc = ok && row.contains("accuracy");
     failed += !ok;
     const std::string dash = "-";
     table.print_row(
         stdout,
         {row["label"].get<std::string>(), row["status"].get<std::string>(),
-         ok ? Table::Cell(100 * num(row, "accuracy")) : dash, ok ? Table::Cell(100 * num(row, "accuracy_drop")) : dash,
-         ok ? Table::Cell(interval(row)) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
+         acc ? Table::Cell(100 * num(row, "accuracy")) : dash, acc ? Table::Cell(100 * num(row, "accuracy_drop")) : dash,
+         acc ? Table::Cell(interval(row)) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
          ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
          std::string(row["front"].get<bool>() ? "*" : "")});
     if (!ok) std::printf("    reason: %s\n", row["reason"].get<std::string>().c_str());
@@ -315,6 +350,7 @@ int cmd_explore(int argc, char** argv) {
   j["model"] = model.path;
   j["dataset"] = data.test.name;
   j["images"] = data.test.count();
+  j["accuracy"] = spec.accuracy;
   j["combine"] = spec.combine == ExploreSpec::Combine::Zip ? "zip" : "product";
   j["swept_keys"] = base.sweep_keys();
   j["objectives"] = nlohmann::json::array();
@@ -326,8 +362,10 @@ int cmd_explore(int argc, char** argv) {
   if (args.has("--report")) {
     ReportInput rep;
     rep.command = "explore";
-    rep.title = "xbarsim explore: " + model.path + " on " + std::to_string(data.test.count()) + " " + data.test.name +
-                " images, " + std::to_string(rows.size()) + " design points";
+    rep.title = "xbarsim explore: " + model.path +
+                (spec.accuracy ? " on " + std::to_string(data.test.count()) + " " + data.test.name + " images, "
+                               : " (timing only, no accuracy), ") +
+                std::to_string(rows.size()) + " design points";
     rep.config_yaml = base.dump();
     rep.swept_keys = base.sweep_keys();
     rep.color_key = color;

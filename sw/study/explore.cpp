@@ -85,6 +85,12 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
       throw InputError("configuration key 'explore.objectives': '" + name +
                        "' is not one of: accuracy, energy, area, latency, power (comma-separated)");
   }
+  s.accuracy = cfg.get_bool("explore.accuracy");
+  const auto acc = std::find(s.objectives.begin(), s.objectives.end(), Objective::Accuracy);
+  if (!s.accuracy && acc != s.objectives.end()) {
+    s.objectives.erase(acc);
+    s.note = "explore.accuracy is false: accuracy is left out of the objectives";
+  }
   if (s.objectives.size() < 2)
     throw InputError("configuration key 'explore.objectives': '" + list +
                      "' names fewer than two objectives (a front needs two or more)");
@@ -259,6 +265,9 @@ std::string explore_row_problem(const nlohmann::json& row) {
   const std::string status = row["status"];
   if (status == "failed") return text("reason") ? "" : "a failed point's 'reason' is not a text";
   if (status != "ok") return "'status' is '" + excerpt(status) + "', not ok or failed";
+  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw"})
+    if (!number(k, 0, kHuge)) return "'" + std::string(k) + "' is not a finite number >= 0";
+  if (row.value("mode", "") == "timing-only") return "";  // explore.accuracy false: no evaluation
   for (const char* k : {"accuracy", "software_accuracy"})
     if (!number(k, 0, 1)) return "'" + std::string(k) + "' is not an accuracy in [0, 1]";
   if (!number("accuracy_drop", -1, 1)) return "'accuracy_drop' is not in [-1, 1]";

@@ -24,6 +24,10 @@ struct ExploreSpec {
   enum class Combine { Product, Zip } combine = Combine::Product;
   std::vector<Objective> objectives;
   std::string color_by;  ///< a swept key, or "" (the first swept key)
+  /// explore.accuracy: false runs every point's platform timing only (no programming, no
+  /// evaluation, no dataset): cost and timing in seconds, without accuracy.
+  bool accuracy = true;
+  std::string note;  ///< what parsing changed, for the user (an objective left out)
 };
 /// Parses explore.* and checks that the space sweeps nothing an exploration keeps fixed (the
 /// model, the images, the data and preprocessing: explore.*, eval.*, data.*, preprocessing.*).

@@ -169,3 +169,41 @@ TEST(ExploreCommand, TwoMpiRanksEqualOne) {
     }
   }
 }
+
+// explore.accuracy false: no programming, evaluation or dataset; every point's platform runs
+// timing only and reports the cost and timing the full run reports; accuracy leaves the
+// objectives (said on stderr); the journal keys differ, so the two kinds of rows never mix.
+TEST(ExploreCommand, WithoutAccuracyPointsRunTimingOnlyWithTheFullRunsFigures) {
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; test skipped";
+  const std::string space = write_space("fast", 20), full_out = tmp("fast_full.jsonl"), fast_out = tmp("fast.jsonl"),
+                    full_json = tmp("fast_full.json"), fast_json = tmp("fast.json");
+  std::remove(full_out.c_str());
+  std::remove(fast_out.c_str());
+  const auto full = run_xbarsim("explore --config " + space + " --out " + full_out + " --json " + full_json);
+  ASSERT_EQ(full.code, 0) << full.out;
+  const auto fast = run_xbarsim("explore --config " + space + " --set explore.accuracy=false --out " + fast_out +
+                                " --json " + fast_json);
+  ASSERT_EQ(fast.code, 0) << fast.out;
+  EXPECT_NE(fast.out.find("accuracy is left out of the objectives"), std::string::npos) << fast.out;
+  std::ifstream a(full_json), b(fast_json);
+  const auto fj = nlohmann::json::parse(a), tj = nlohmann::json::parse(b);
+  EXPECT_EQ(tj["accuracy"], false);
+  EXPECT_EQ(tj["objectives"], nlohmann::json({"energy", "area", "latency"}));
+  ASSERT_EQ(fj["points"].size(), tj["points"].size());
+  for (size_t k = 0; k < fj["points"].size(); ++k) {
+    const auto &f = fj["points"][k], t = tj["points"][k];
+    SCOPED_TRACE(f["label"].get<std::string>());
+    EXPECT_EQ(f["status"], t["status"]);
+    EXPECT_NE(f["key"], t["key"]);
+    if (t["status"] != "ok") continue;
+    EXPECT_EQ(t["mode"], "timing-only");
+    EXPECT_FALSE(t.contains("accuracy"));
+    for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw"})
+      EXPECT_EQ(f[k], t[k]) << k;
+  }
+  // Accuracy as an objective would leave fewer than two: an input error.
+  const auto bad = run_xbarsim("explore --config " + space +
+                               " --set explore.accuracy=false --set explore.objectives=accuracy,energy --out " +
+                               tmp("bad.jsonl"));
+  EXPECT_EQ(bad.code, 2) << bad.out;
+}
