@@ -16,6 +16,7 @@
 /// tile contend like two over one mesh link.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <systemc>
 #include <tlm>
@@ -64,6 +65,38 @@ class MeshNoc : public sc_core::sc_module {
   /// Time transfers waited for a busy link beyond their unloaded latency (ns).
   double contention_ns() const { return contention_ns_; }
 
+  /// Traces the bytes every link has carried (its slope is the link's utilization) into `tf`
+  /// under `scope`: scope.router_R.{east,west,south,north} for the mesh links, and
+  /// scope.tile_T.{inject,eject} for the tiles' ports (before the simulation starts). `on`:
+  /// tracing continues while it is true.
+  void trace(sc_core::sc_trace_file* tf, const std::string& scope, const bool* on) {
+    static const char* kDir[] = {"east", "west", "south", "north", "inject", "eject"};
+    tracing_ = on;
+    link_sigs_.resize(free_.size());
+    link_bytes_.assign(free_.size(), 0);
+    auto add = [&](int k, const std::string& name) {
+      link_sigs_[static_cast<size_t>(k)] = std::make_unique<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>();
+      sc_core::sc_trace(tf, *link_sigs_[static_cast<size_t>(k)], name);
+    };
+    const int routers = geo_.rows * geo_.cols;
+    auto padded = [](int v, int count) {
+      const std::string s = std::to_string(v), w = std::to_string(std::max(count - 1, 0));
+      return std::string(w.size() > s.size() ? w.size() - s.size() : 0, '0') + s;
+    };
+    for (int r = 0; r < routers; ++r)
+      for (int d = 0; d < 4; ++d) {
+        // Only the links that exist: none leaves the mesh's edge.
+        const int x = geo_.x_of(r), y = geo_.y_of(r);
+        if ((d == 0 && x + 1 >= geo_.cols) || (d == 1 && x == 0) || (d == 2 && y + 1 >= geo_.rows) || (d == 3 && y == 0))
+          continue;
+        add(geo_.link_index({r, d}), scope + ".router_" + padded(r, routers) + "." + kDir[d] + "_bytes");
+      }
+    for (int t = -1; t < geo_.tiles(); ++t)
+      for (int d = 4; d < 6; ++d)
+        add(geo_.link_index({t, d}), scope + (t < 0 ? std::string(".offchip") : ".tile_" + padded(t, geo_.tiles())) +
+                                         "." + kDir[d] + "_bytes");
+  }
+
  private:
   void b_transport(int, tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     Route* route = nullptr;
@@ -86,6 +119,11 @@ class MeshNoc : public sc_core::sc_module {
     for (const auto& [k, depth] : tree_) {
       free_[static_cast<size_t>(k)] = t0 + depth * hop_ns_ + dur;
       busy_ns_ += dur;
+      if (tracing_ && *tracing_ && link_sigs_[static_cast<size_t>(k)]) {
+        long long& carried = link_bytes_[static_cast<size_t>(k)];
+        carried += bytes;
+        link_sigs_[static_cast<size_t>(k)]->write(static_cast<int>(std::min<long long>(carried, 1LL << 30)));
+      }
     }
     // A byte crosses a router once per link leaving one: every link of the tree but the
     // injection.
@@ -105,6 +143,9 @@ class MeshNoc : public sc_core::sc_module {
   std::vector<std::pair<MeshGeometry::Link, int>> path_;         ///< scratch: one path
   long long bytes_ = 0, transfers_ = 0;
   double router_bytes_ = 0, busy_ns_ = 0, contention_ns_ = 0;
+  const bool* tracing_ = nullptr;
+  std::vector<std::unique_ptr<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>> link_sigs_;  ///< per link, traced ones
+  std::vector<long long> link_bytes_;
 };
 
 }  // namespace xbarsim

@@ -395,6 +395,7 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
   }
   trace_buffer(output_, top + ".memory_out.bytes");
   sc_core::sc_trace(vcd_, bus_bytes_sig_, top + (machine_ ? ".noc.bytes_carried" : ".bus.bytes_carried"));
+  if (noc_) noc_->trace(vcd_, top + ".noc", &tracing_);  // every link's bytes: its utilization
 }
 
 void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 namespace {
 
@@ -87,6 +88,34 @@ TEST(Robustness, VcdPathIsCheckedBeforeTheSimulation) {  // items 4 and 11
   EXPECT_LT(in0, in1);
   EXPECT_LT(in1, next);
   EXPECT_EQ(v.substr(0, v.find("$enddefinitions")).find('/'), std::string::npos);  // no raw ONNX names
+}
+
+// On a machine the scopes are chip.tile_T.NN_name and every mesh link is a signal: the
+// off-chip port's injection carries the images in.
+TEST(Robustness, MachineVcdHasTilesAndMeshLinks) {
+  const Result r = run("simulate --preset lenet --config " + std::string(XBARSIM_SOURCE_DIR) +
+                       "/configs/isaac.yaml --timing-only --images 2 --vcd /tmp/xbarsim_rb_machine.vcd");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string v = slurp("/tmp/xbarsim_rb_machine.vcd");
+  const std::string head = v.substr(0, v.find("$enddefinitions"));
+  EXPECT_NE(head.find("$scope module chip $end"), std::string::npos);
+  EXPECT_NE(head.find("$scope module tile_000 $end"), std::string::npos);
+  EXPECT_NE(head.find("$scope module router_00 $end"), std::string::npos);
+  EXPECT_NE(head.find(" east_bytes "), std::string::npos);
+  // The off-chip port's injection signal: its identifier, then a non-zero value change.
+  const size_t port = head.find("$scope module offchip $end");
+  ASSERT_NE(port, std::string::npos);
+  std::istringstream var(head.substr(head.find("$var", port)));
+  std::string tok, kind, width, id, name;
+  var >> tok >> kind >> width >> id >> name;
+  ASSERT_EQ(name, "inject_bytes");
+  bool nonzero = false;
+  std::istringstream changes(v.substr(head.size()));
+  std::string line;
+  while (std::getline(changes, line))
+    if (line.size() > 1 && line[0] == 'b' && line.substr(line.find(' ') + 1) == id)
+      nonzero = nonzero || line.find('1') < line.find(' ');
+  EXPECT_TRUE(nonzero) << "no bytes on the off-chip injection link " << id;
 }
 
 TEST(Robustness, OverheadOnAnInputSmallerThanTheKernel) {  // item 5
