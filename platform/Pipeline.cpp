@@ -177,6 +177,9 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
     case OpKind::Relu:
     case OpKind::Add:
     case OpKind::Affine:
+    case OpKind::Activation:
+    case OpKind::Softmax:
+    case OpKind::Concat:
       return {r, r};
   }
   return {r, r};
@@ -200,11 +203,14 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
     case OpKind::AvgPool:
       return std::min(in.h, op.k_h + op.s_h * grain + grain);
     case OpKind::Add:
+    case OpKind::Concat:
     case OpKind::GlobalAvgPool:
     case OpKind::Flatten:
       return in.h;
     case OpKind::Relu:
     case OpKind::Affine:
+    case OpKind::Activation:
+    case OpKind::Softmax:
     case OpKind::Slice:
     case OpKind::Pad:
       return std::min(in.h, 2 * grain);
@@ -492,7 +498,8 @@ void Pipeline::submit_values(Stage& s, int image) {
   std::vector<TaskGraph::Id> after;
   for (int v : op.in) after.push_back(im.producer[v]);
   const std::vector<float>* x0 = &im.v[op.in[0]];
-  const std::vector<float>* x1 = op.in.size() > 1 ? &im.v[op.in[1]] : nullptr;
+  std::vector<const std::vector<float>*> xs;
+  for (int v : op.in) xs.push_back(&im.v[v]);
   std::vector<float>* y = &im.v[op.out];
   TaskGraph::Task task;
   switch (op.kind) {
@@ -522,9 +529,10 @@ void Pipeline::submit_values(Stage& s, int image) {
     case OpKind::Flatten:
     case OpKind::Pad:
     case OpKind::Slice:
-      task = [this, &op, x0, x1, y](int) {
-        digital_op(op, model_.values[op.in[0]], model_.values[op.out], *x0, x1, *y);
-      };
+    case OpKind::Activation:
+    case OpKind::Softmax:
+    case OpKind::Concat:
+      task = [this, &op, xs, y](int) { digital_op(op, model_.values[op.in[0]], model_.values[op.out], xs, *y); };
       break;
   }
   im.producer[op.out] = tasks_->submit(std::move(task), after);

@@ -112,7 +112,9 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
 }
 
 const std::vector<std::string>& digital_op_names() {
-  static const std::vector<std::string> names = {"relu", "affine", "add", "maxpool", "avgpool", "globalavgpool"};
+  // Every name digital_op_name (sw/hw/mapper.h) gives an operation that computes.
+  static const std::vector<std::string> names = {"relu",    "affine",        "add",        "maxpool",
+                                                 "avgpool", "globalavgpool", "activation", "softmax"};
   return names;
 }
 

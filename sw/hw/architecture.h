@@ -16,7 +16,8 @@ namespace xbarsim {
 
 /// A unit of the library instantiated `count` times, each doing up to `actions_per_ns`
 /// actions (bytes moved, operations) at its peak; a digital unit also names the network
-/// operations it performs (`ops`: relu, affine, add, maxpool, avgpool, globalavgpool).
+/// operations it performs (`ops`: relu, affine, add, maxpool, avgpool, globalavgpool,
+/// activation (Clip, LeakyRelu, Sigmoid, Tanh, HardSigmoid, HardSwish), softmax).
 struct UnitUse {
   std::string unit;
   int count = 1;

@@ -176,7 +176,10 @@ long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
     case OpKind::Relu:
     case OpKind::Affine:
     case OpKind::Add:
+    case OpKind::Activation:
       return static_cast<long long>(out.c) * out.w;
+    case OpKind::Softmax:  // per value: an exponential, its share of the sum, a division
+      return 3LL * out.c * out.w;
     case OpKind::MaxPool:
     case OpKind::AvgPool:
       return static_cast<long long>(out.c) * out.w * op.k_h * op.k_w;
@@ -185,6 +188,7 @@ long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
     case OpKind::Pad:
     case OpKind::Slice:
     case OpKind::Flatten:
+    case OpKind::Concat:
     case OpKind::Linear:  // (a tile's work is its crossbars')
       return 0;
   }

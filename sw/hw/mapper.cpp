@@ -151,10 +151,15 @@ const char* digital_op_name(OpKind k) {
       return "avgpool";
     case OpKind::GlobalAvgPool:
       return "globalavgpool";
+    case OpKind::Activation:
+      return "activation";
+    case OpKind::Softmax:
+      return "softmax";
     case OpKind::Linear:
     case OpKind::Flatten:
     case OpKind::Slice:
     case OpKind::Pad:
+    case OpKind::Concat:
       return "";
   }
   return "";

@@ -33,7 +33,31 @@ struct LinearLayer {
   int iterations() const { return out.h * out.w; }  ///< output pixels (dense mapping)
 };
 
-enum class OpKind { Linear, Relu, Add, MaxPool, AvgPool, GlobalAvgPool, Flatten, Slice, Pad, Affine };
+enum class OpKind {
+  Linear,
+  Relu,
+  Add,
+  MaxPool,
+  AvgPool,
+  GlobalAvgPool,
+  Flatten,
+  Slice,
+  Pad,
+  Affine,
+  Activation,  ///< an element-wise nonlinearity (Op::activation)
+  Softmax,     ///< over the channels of every pixel
+  Concat,      ///< of every input, along the channels
+};
+
+/// The element-wise functions of OpKind::Activation (ONNX semantics, parameters in Op).
+enum class Activation {
+  Clip,         ///< min(max(x, lo), hi): Clip, ReLU6
+  LeakyRelu,    ///< x >= 0 ? x : alpha x
+  Sigmoid,      ///< 1 / (1 + e^-x)
+  Tanh,         ///< tanh x
+  HardSigmoid,  ///< max(0, min(1, alpha x + beta))
+  HardSwish,    ///< x max(0, min(1, x / 6 + 1 / 2))
+};
 
 struct Op {
   OpKind kind = OpKind::Relu;
@@ -46,6 +70,11 @@ struct Op {
   int pad_lo[3] = {0, 0, 0}, pad_hi[3] = {0, 0, 0};                            ///< Pad over (C, H, W)
   float pad_value = 0;
   Eigen::VectorXf scale, shift;  ///< Affine (BatchNormalization): y = x * scale[c] + shift[c]
+  Activation activation = Activation::Clip;
+  float alpha = 0, beta = 0, lo = 0, hi = 0;  ///< Activation parameters (LeakyRelu, HardSigmoid, Clip)
+  /// AvgPool: divide by the whole window, padding included (count_include_pad), not only by
+  /// the input values it covers; the window never reaches past the padding (ceil_mode).
+  bool count_include_pad = false;
 };
 
 /// Input preprocessing from the model's metadata_props: x = (pixel * scale - mean[c]) / std[c].

@@ -1,5 +1,6 @@
 #include "sw/nn/network.h"
 
+#include <cmath>
 #include <algorithm>
 #include <limits>
 
@@ -51,6 +52,9 @@ void pool(const Op& op, const Shape& in, const Shape& out, const std::vector<flo
         for (int ky = 0; ky < op.k_h; ++ky)
           for (int kx = 0; kx < op.k_w; ++kx) {
             const int iy = oy * op.s_h - op.p_t + ky, ix = ox * op.s_w - op.p_l + kx;
+            // count_include_pad: the padding counts, what lies past it (ceil_mode) does not.
+            if (op.count_include_pad && iy < in.h + op.p_b && ix < in.w + op.p_r && !(iy >= 0 && iy < in.h && ix >= 0 && ix < in.w))
+              ++count;
             if (iy < 0 || iy >= in.h || ix < 0 || ix >= in.w) continue;
             const float val = x[(static_cast<size_t>(c) * in.h + iy) * in.w + ix];
             acc = is_max ? std::max(acc, val) : acc + val;
@@ -77,6 +81,37 @@ void pad(const Op& op, const Shape& in, const Shape& out, const std::vector<floa
       for (int xx = 0; xx < in.w; ++xx)
         y[(static_cast<size_t>(c + op.pad_lo[0]) * out.h + yy + op.pad_lo[1]) * out.w + xx + op.pad_lo[2]] =
             x[(static_cast<size_t>(c) * in.h + yy) * in.w + xx];
+}
+
+float activation(const Op& op, float x) {
+  switch (op.activation) {
+    case Activation::Clip:
+      return std::min(std::max(x, op.lo), op.hi);
+    case Activation::LeakyRelu:
+      return x >= 0 ? x : op.alpha * x;
+    case Activation::Sigmoid:
+      return 1.0f / (1.0f + std::exp(-x));
+    case Activation::Tanh:
+      return std::tanh(x);
+    case Activation::HardSigmoid:
+      return std::max(0.0f, std::min(1.0f, op.alpha * x + op.beta));
+    case Activation::HardSwish:
+      return x * std::max(0.0f, std::min(1.0f, x / 6.0f + 0.5f));
+  }
+  return x;
+}
+
+/// Softmax over the channels of every pixel (max subtracted first, summed in double).
+void softmax(const Shape& in, const std::vector<float>& x, std::vector<float>& y) {
+  y.resize(x.size());
+  const size_t hw = static_cast<size_t>(in.h) * in.w;
+  for (size_t p = 0; p < hw; ++p) {
+    float m = -std::numeric_limits<float>::infinity();
+    for (int c = 0; c < in.c; ++c) m = std::max(m, x[c * hw + p]);
+    double s = 0;
+    for (int c = 0; c < in.c; ++c) s += std::exp(static_cast<double>(x[c * hw + p] - m));
+    for (int c = 0; c < in.c; ++c) y[c * hw + p] = static_cast<float>(std::exp(static_cast<double>(x[c * hw + p] - m)) / s);
+  }
 }
 
 void global_avg_pool(const Shape& in, const std::vector<float>& x, std::vector<float>& y) {
@@ -109,8 +144,9 @@ void linear_op(const Model& m, const Op& op, const LinearBackend& backend, const
 
 }  // namespace
 
-void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x,
-                const std::vector<float>* x2, std::vector<float>& y) {
+void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<const std::vector<float>*>& xs,
+                std::vector<float>& y) {
+  const std::vector<float>& x = *xs.at(0);
   switch (op.kind) {
     case OpKind::Relu:
       y.resize(x.size());
@@ -118,7 +154,7 @@ void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vect
       return;
     case OpKind::Add:
       y.resize(x.size());
-      for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] + (*x2)[k];
+      for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] + (*xs.at(1))[k];
       return;
     case OpKind::Affine: {
       y.resize(x.size());
@@ -140,6 +176,21 @@ void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vect
       return slice(op, in, out, x, y);
     case OpKind::Pad:
       return pad(op, in, out, x, y);
+    case OpKind::Activation:
+      y.resize(x.size());
+      for (size_t k = 0; k < x.size(); ++k) y[k] = activation(op, x[k]);
+      return;
+    case OpKind::Softmax:
+      return softmax(in, x, y);
+    case OpKind::Concat: {  // C x H x W blocks one after the other: the channels concatenated
+      y.resize(out.size());
+      size_t at = 0;
+      for (const std::vector<float>* v : xs) {
+        std::copy(v->begin(), v->end(), y.begin() + static_cast<std::ptrdiff_t>(at));
+        at += v->size();
+      }
+      return;
+    }
     case OpKind::Linear:
       throw std::logic_error("digital_op: a linear layer runs on a backend");
   }
@@ -157,9 +208,11 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
   for (const Op& op : m.ops) {
     if (op.kind == OpKind::Linear)
       linear_op(m, op, backend, v[op.in[0]], v[op.out], trace, cols, prod);
-    else
-      digital_op(op, m.values[op.in[0]], m.values[op.out], v[op.in[0]], op.in.size() > 1 ? &v[op.in[1]] : nullptr,
-                 v[op.out]);
+    else {
+      std::vector<const std::vector<float>*> xs;
+      for (int i : op.in) xs.push_back(&v[i]);
+      digital_op(op, m.values[op.in[0]], m.values[op.out], xs, v[op.out]);
+    }
   }
   const std::vector<float>& o = v[m.output];
   return Eigen::Map<const Eigen::VectorXf>(o.data(), static_cast<Eigen::Index>(o.size()));
@@ -194,6 +247,18 @@ std::vector<bool> linear_inputs_signed(const Model& m) {
         break;
       case OpKind::Pad:
         result = in_nonneg(0) && op.pad_value >= 0;
+        break;
+      case OpKind::Concat:
+        result = true;
+        for (size_t k = 0; k < op.in.size(); ++k) result = result && in_nonneg(k);
+        break;
+      case OpKind::Activation:
+        // Clip with a bound >= 0 below, and the sigmoids, never give a negative value.
+        result = (op.activation == Activation::Clip && op.lo >= 0) || op.activation == Activation::Sigmoid ||
+                 op.activation == Activation::HardSigmoid;
+        break;
+      case OpKind::Softmax:
+        result = true;
         break;
       case OpKind::Affine:
         break;

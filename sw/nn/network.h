@@ -50,10 +50,11 @@ struct LayerTrace {
 };
 
 /// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
-/// One digital (non-linear-layer) op on one image: ReLU, Add (second input `x2`),
-/// BatchNorm as affine, max/average pooling, global average pooling, flatten, slice, pad.
-void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<float>& x,
-                const std::vector<float>* x2, std::vector<float>& y);
+/// One digital (non-linear-layer) op on one image: ReLU, Add, BatchNorm as affine, the
+/// element-wise activations, softmax, max/average pooling, global average pooling, flatten,
+/// slice, pad, concatenation. `xs`: its inputs' values, in op.in order; `in` the first's shape.
+void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<const std::vector<float>*>& xs,
+                std::vector<float>& y);
 
 /// Per linear layer: its inputs may be negative. Static: the network input is non-negative
 /// when every preprocessing mean is <= 0; a ReLU's output is non-negative, and pooling,

@@ -1,8 +1,10 @@
 #include <onnx/onnx_pb.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "sw/common/errors.h"
@@ -117,6 +119,22 @@ class Loader {
       }
     if (input_name.empty()) throw InputError(path_ + ": the graph has no input");
     define(input_name, model_.input);
+    // Every node whose operator is not supported, named at once (not only the first).
+    std::vector<std::string> unsupported;
+    for (const auto& node : g.node()) {
+      if (node.op_type() != "Constant" && !ops().count(node.op_type()))
+        unsupported.push_back("'" + node.name() + "' (" + node.op_type() + ")");
+      for (const std::string& in : node.input()) ++uses_[in];
+    }
+    for (const auto& out : g.output()) ++uses_[out.name()];
+    if (!unsupported.empty()) {
+      std::string list, names;
+      for (const std::string& u : unsupported) list += (list.empty() ? "" : ", ") + u;
+      for (const auto& [name, adder] : ops()) names += name + ", ";
+      throw InputError(path_ + ": " + std::to_string(unsupported.size()) + " node" +
+                       (unsupported.size() == 1 ? " has an unsupported operator: " : "s have unsupported operators: ") +
+                       list + " (supported: " + names + "Constant)");
+    }
     for (const auto& node : g.node()) add_node(node);
     if (g.output_size() != 1) throw InputError(path_ + ": expected exactly one graph output");
     if (model_.linear.empty()) throw InputError(path_ + ": the graph has no Conv, Gemm or MatMul layer");
@@ -265,26 +283,40 @@ class Loader {
       return;
     }
     require_io(n, 1);
-    using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
+    (this->*ops().at(t))(n, t, ctx);
+  }
+
+  using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
+  /// The supported operators (besides Constant) and their handlers.
+  static const std::map<std::string, Adder>& ops() {
     static const std::map<std::string, Adder> kOps = {{"Conv", &Loader::add_conv},
                                                       {"Gemm", &Loader::add_gemm},
                                                       {"MatMul", &Loader::add_gemm},
                                                       {"Relu", &Loader::add_relu},
-                                                      {"Add", &Loader::add_add},
+                                                      {"Add", &Loader::add_arith},
+                                                      {"Sub", &Loader::add_arith},
+                                                      {"Mul", &Loader::add_arith},
+                                                      {"Div", &Loader::add_arith},
                                                       {"MaxPool", &Loader::add_pool},
                                                       {"AveragePool", &Loader::add_pool},
                                                       {"GlobalAveragePool", &Loader::add_global_avg_pool},
+                                                      {"ReduceMean", &Loader::add_reduce_mean},
                                                       {"Flatten", &Loader::add_reshape},
                                                       {"Reshape", &Loader::add_reshape},
                                                       {"Slice", &Loader::add_slice},
                                                       {"Pad", &Loader::add_pad},
+                                                      {"Concat", &Loader::add_concat},
+                                                      {"Identity", &Loader::add_identity},
+                                                      {"Dropout", &Loader::add_identity},
+                                                      {"Clip", &Loader::add_activation},
+                                                      {"LeakyRelu", &Loader::add_activation},
+                                                      {"Sigmoid", &Loader::add_activation},
+                                                      {"Tanh", &Loader::add_activation},
+                                                      {"HardSigmoid", &Loader::add_activation},
+                                                      {"HardSwish", &Loader::add_activation},
+                                                      {"Softmax", &Loader::add_softmax},
                                                       {"BatchNormalization", &Loader::add_batch_norm}};
-    const auto it = kOps.find(t);
-    if (it == kOps.end())
-      reject(n,
-             "operator (supported: Conv, Gemm, MatMul, BatchNormalization, Relu, Add, MaxPool, AveragePool, "
-             "GlobalAveragePool, Flatten, Reshape, Slice, Pad, Constant)");
-    (this->*it->second)(n, t, ctx);
+    return kOps;
   }
 
   void add_conv(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
@@ -369,13 +401,155 @@ class Loader {
     model_.ops.push_back(op);
   }
 
-  void add_add(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+  /// Add, Sub, Mul, Div. Of two computed values: Add (same shapes). With a constant operand
+  /// (a scalar or one value per channel): an affine op, or, for an Add of a constant to a linear
+  /// layer's output that nothing else reads (MatMul + Add, a bias), folded into that layer's bias.
+  void add_arith(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
     check_known_attrs(n, {});
     require_io(n, 2);
-    const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
-    if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
-    Op op = make_op(OpKind::Add, n.name(), {a, b});
-    op.out = define(n.output(0), model_.values[a]);
+    const bool c0 = inits_.count(n.input(0)) > 0, c1 = inits_.count(n.input(1)) > 0;
+    if (!c0 && !c1) {
+      if (t != "Add") reject(n, "operator of two computed values (only Add)");
+      const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
+      if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
+      Op op = make_op(OpKind::Add, n.name(), {a, b});
+      op.out = define(n.output(0), model_.values[a]);
+      model_.ops.push_back(op);
+      return;
+    }
+    if (c0 && c1) reject(n, "operator of two constants");
+    const std::string& var = n.input(c0 ? 1 : 0);
+    const int in_id = value(var, ctx);
+    const Shape in = model_.values[in_id];
+    const std::vector<float>& k = floats(n.input(c0 ? 0 : 1), ctx);
+    const Init& kt = init(n.input(c0 ? 0 : 1), ctx);
+    // One value, or one per channel ([C], [1, C], [C, 1, 1] or [1, C, 1, 1]).
+    int channel_dims = 0;
+    for (int64_t d : kt.dims) channel_dims += d != 1;
+    if (!(k.size() == 1 || (static_cast<int>(k.size()) == in.c && channel_dims <= 1 &&
+                            (kt.dims.size() == 1 || (kt.dims.size() >= 2 && kt.dims[kt.dims.size() >= 3 ? kt.dims.size() - 3 : 1] == in.c)))))
+      reject(n, "constant operand of shape other than a scalar or one value per channel");
+    auto at = [&](int c) { return k.size() == 1 ? k[0] : k[static_cast<size_t>(c)]; };
+    // A bias after a linear layer whose output only this node reads: folded into the layer.
+    if (t == "Add" && uses_[var] == 1) {
+      for (Op& op : model_.ops)
+        if (op.out == in_id && op.kind == OpKind::Linear) {
+          LinearLayer& L = model_.linear[static_cast<size_t>(op.linear)];
+          for (int c = 0; c < L.c_out; ++c) L.bias(c) += at(c);
+          ids_[n.output(0)] = in_id;
+          return;
+        }
+    }
+    Op op = make_op(OpKind::Affine, n.name(), {in_id});
+    op.scale = Eigen::VectorXf::Ones(in.c);
+    op.shift = Eigen::VectorXf::Zero(in.c);
+    for (int c = 0; c < in.c; ++c) {
+      const float v = at(c);
+      if (t == "Add") {
+        op.shift(c) = v;
+      } else if (t == "Sub") {  // x - k, or k - x
+        op.scale(c) = c0 ? -1.0f : 1.0f;
+        op.shift(c) = c0 ? v : -v;
+      } else if (t == "Mul") {
+        op.scale(c) = v;
+      } else {  // Div
+        if (c0) reject(n, "division by a computed value");
+        if (v == 0) reject(n, "division by zero");
+        op.scale(c) = 1.0f / v;
+      }
+    }
+    op.out = define(n.output(0), in);
+    model_.ops.push_back(op);
+  }
+
+  /// Identity and (inference) Dropout: the output is the input.
+  void add_identity(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    if (t == "Dropout") {
+      check_known_attrs(n, {"seed", "ratio"});
+      if (has_input(n, 2)) reject(n, "training_mode input (export the model in eval mode)");
+    } else {
+      check_known_attrs(n, {});
+    }
+    ids_[n.output(0)] = value(n.input(0), ctx);
+  }
+
+  void add_activation(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    const int in_id = value(n.input(0), ctx);
+    Op op = make_op(OpKind::Activation, n.name(), {in_id});
+    if (t == "Clip") {  // bounds as inputs (opset 11+) or attributes (opset 6)
+      check_known_attrs(n, {"min", "max"});
+      op.activation = Activation::Clip;
+      op.lo = float_attr(n, "min", -std::numeric_limits<float>::infinity());
+      op.hi = float_attr(n, "max", std::numeric_limits<float>::infinity());
+      if (has_input(n, 1)) op.lo = floats(n.input(1), ctx, 1)[0];
+      if (has_input(n, 2)) op.hi = floats(n.input(2), ctx, 1)[0];
+      if (!(op.lo <= op.hi)) reject(n, "min above max");
+    } else if (t == "LeakyRelu") {
+      check_known_attrs(n, {"alpha"});
+      op.activation = Activation::LeakyRelu;
+      op.alpha = float_attr(n, "alpha", 0.01f);
+    } else if (t == "Sigmoid") {
+      check_known_attrs(n, {});
+      op.activation = Activation::Sigmoid;
+    } else if (t == "Tanh") {
+      check_known_attrs(n, {});
+      op.activation = Activation::Tanh;
+    } else if (t == "HardSigmoid") {
+      check_known_attrs(n, {"alpha", "beta"});
+      op.activation = Activation::HardSigmoid;
+      op.alpha = float_attr(n, "alpha", 0.2f);
+      op.beta = float_attr(n, "beta", 0.5f);
+    } else {
+      check_known_attrs(n, {});
+      op.activation = Activation::HardSwish;
+    }
+    if (!std::isfinite(op.alpha) || !std::isfinite(op.beta)) reject(n, "non-finite alpha or beta");
+    op.out = define(n.output(0), model_.values[in_id]);
+    model_.ops.push_back(op);
+  }
+
+  void add_softmax(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"axis"});
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[in_id];
+    const int64_t axis = int_attr(n, "axis", -1);
+    // Over the channels: axis 1 (or -3 of N x C x H x W), or the last axis of a vector.
+    if (!(axis == 1 || axis == -3 || (axis == -1 && in.h == 1 && in.w == 1))) reject(n, "axis (only the channels)");
+    Op op = make_op(OpKind::Softmax, n.name(), {in_id});
+    op.out = define(n.output(0), in);
+    model_.ops.push_back(op);
+  }
+
+  void add_concat(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"axis"});
+    std::vector<int> in;
+    for (const std::string& name : n.input()) in.push_back(value(name, ctx));
+    const Shape first = model_.values[in.front()];
+    const int64_t axis = int_attr(n, "axis", 1);
+    if (!(axis == 1 || axis == -3 || (axis == -1 && first.h == 1 && first.w == 1))) reject(n, "axis (only the channels)");
+    Shape out{0, first.h, first.w};
+    for (int id : in) {
+      const Shape s = model_.values[id];
+      if (s.h != first.h || s.w != first.w) reject(n, "inputs of different heights or widths");
+      out.c += s.c;
+    }
+    Op op = make_op(OpKind::Concat, n.name(), in);
+    op.out = define(n.output(0), out);
+    model_.ops.push_back(op);
+  }
+
+  /// ReduceMean over the spatial axes: a global average pooling.
+  void add_reduce_mean(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"axes", "keepdims", "noop_with_empty_axes"});
+    std::vector<int64_t> axes = ints(n, "axes", {});
+    if (has_input(n, 1)) axes = integers(n.input(1), ctx);  // opset 18
+    for (int64_t& a : axes)
+      if (a < 0) a += 4;
+    std::sort(axes.begin(), axes.end());
+    if (axes != std::vector<int64_t>{2, 3}) reject(n, "axes (only the spatial axes 2 and 3)");
+    const int in_id = value(n.input(0), ctx);
+    Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
+    op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
     model_.ops.push_back(op);
   }
 
@@ -384,8 +558,7 @@ class Loader {
                           "count_include_pad", "auto_pad"});
     const auto* ap = attr(n, "auto_pad");
     if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
-    if (int_attr(n, "ceil_mode", 0) != 0) reject(n, "ceil_mode = 1");
-    if (int_attr(n, "count_include_pad", 0) != 0) reject(n, "count_include_pad = 1");
+    const bool ceil_mode = int_attr(n, "ceil_mode", 0) != 0;
     checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
     const int in_id = value(n.input(0), ctx);
     const Shape in = model_.values[in_id];
@@ -403,8 +576,21 @@ class Loader {
     op.p_r = p[3];
     if (op.p_t >= op.k_h || op.p_b >= op.k_h || op.p_l >= op.k_w || op.p_r >= op.k_w)
       reject(n, "pads as large as the pooling window");
-    const Shape out{in.c, window_out(n, in.h, op.p_t, op.p_b, op.k_h, op.s_h),
-                    window_out(n, in.w, op.p_l, op.p_r, op.k_w, op.s_w)};
+    op.count_include_pad = t == "AveragePool" && int_attr(n, "count_include_pad", 0) != 0;
+    Shape out{in.c, window_out(n, in.h, op.p_t, op.p_b, op.k_h, op.s_h),
+              window_out(n, in.w, op.p_l, op.p_r, op.k_w, op.s_w)};
+    if (ceil_mode) {
+      // One more window where the stride leaves a remainder, if it starts inside the input or
+      // its leading padding (ONNX and PyTorch drop a window that would start in the trailing pad).
+      auto ceil_out = [](int in_d, int lo, int hi, int k, int s) {
+        const int floor_out = (in_d + lo + hi - k) / s + 1;
+        int o = (in_d + lo + hi - k + s - 1) / s + 1;
+        if (o > floor_out && (o - 1) * s >= in_d + lo) --o;
+        return o;
+      };
+      out.h = ceil_out(in.h, op.p_t, op.p_b, op.k_h, op.s_h);
+      out.w = ceil_out(in.w, op.p_l, op.p_r, op.k_w, op.s_w);
+    }
     op.out = define(n.output(0), out);
     model_.ops.push_back(op);
   }
@@ -547,6 +733,7 @@ class Loader {
   Model& model_;
   std::map<std::string, Init> inits_;
   std::map<std::string, int> ids_;
+  std::map<std::string, int> uses_;  ///< per value name: the nodes (and graph outputs) that read it
 };
 
 }  // namespace

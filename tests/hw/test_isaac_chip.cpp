@@ -281,3 +281,15 @@ TEST(IsaacChip, PeakComputationalEfficiencyIsThePublishedOne) {
   expect_within_1_percent(r.peak_gops / r.area_mm2(), 479, "GOPS/s/mm^2");
   EXPECT_TRUE(r.mapping.fits);
 }
+
+// Every operation that computes has a unit name an architecture can list (tile.units.*.ops).
+TEST(Mapper, EveryComputingOperationHasAUnitNameArchitecturesAccept) {
+  for (OpKind k : {OpKind::Linear, OpKind::Relu, OpKind::Add, OpKind::MaxPool, OpKind::AvgPool, OpKind::GlobalAvgPool,
+                   OpKind::Flatten, OpKind::Slice, OpKind::Pad, OpKind::Affine, OpKind::Activation, OpKind::Softmax,
+                   OpKind::Concat}) {
+    const std::string name = digital_op_name(k);
+    if (name.empty()) continue;
+    const auto& names = digital_op_names();
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+  }
+}

@@ -159,17 +159,23 @@ TEST(Graph, PoolSlicePadAddGemmBatchNorm) {
 }
 
 TEST(Graph, UnsupportedOpNamesNodeAndOp) {
+  // Three unsupported nodes: one message names all three (and the supported set).
   onnx::ModelProto m;
   auto* g = m.mutable_graph();
-  add_node(g, "Sigmoid", "my_sigmoid", {"input"}, "y");
+  add_node(g, "LRN", "my_lrn", {"input"}, "a");
+  add_node(g, "Relu", "ok_relu", {"a"}, "b");
+  add_node(g, "Foo", "my_foo", {"b"}, "c");
+  add_node(g, "GRU", "my_gru", {"c"}, "y");
   const std::string path = save(m, 1, 2, 2, "y", "bad");
   try {
     load_onnx_model(path);
     FAIL();
   } catch (const InputError& e) {
     const std::string w = e.what();
-    EXPECT_NE(w.find("my_sigmoid"), std::string::npos) << w;
-    EXPECT_NE(w.find("Sigmoid"), std::string::npos) << w;
+    for (const char* s : {"3 nodes have unsupported operators", "'my_lrn' (LRN)", "'my_foo' (Foo)", "'my_gru' (GRU)",
+                          "supported: ", "Conv", "Concat"})
+      EXPECT_NE(w.find(s), std::string::npos) << s << " in: " << w;
+    EXPECT_EQ(w.find("ok_relu"), std::string::npos) << w;
   }
   onnx::ModelProto m2;
   auto* g2 = m2.mutable_graph();
@@ -181,6 +187,131 @@ TEST(Graph, UnsupportedOpNamesNodeAndOp) {
   a->set_i(2);
   EXPECT_THROW(load_onnx_model(save(m2, 1, 2, 2, "y", "bad2")), InputError);
   EXPECT_THROW(load_onnx_model("/nonexistent.onnx"), InputError);
+}
+
+// The operators of standard CNNs (issue 26), each against its formula: Clip, Sigmoid, Tanh,
+// LeakyRelu, HardSigmoid, HardSwish, Concat, Mul/Div/Sub by constants, Identity, Dropout,
+// ReduceMean, MatMul + Add (the bias folded into the layer) and Softmax.
+TEST(Graph, ActivationsConcatConstantsReduceMeanMatMulAddSoftmax) {
+  const int H = 3, W = 4;
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  const auto wc = randv(2 * 2, 11), bc = randv(2, 12);
+  add_init(g, "wc", {2, 2, 1, 1}, wc);
+  add_init(g, "bc", {2}, bc);
+  add_node(g, "Conv", "conv", {"input", "wc", "bc"}, "a");
+  add_init(g, "lo", {}, {0.0f});
+  add_init(g, "hi", {}, {0.5f});
+  add_node(g, "Clip", "clip", {"a", "lo", "hi"}, "c1");
+  add_node(g, "Sigmoid", "sig", {"a"}, "c2");
+  add_node(g, "Tanh", "tanh", {"a"}, "c3");
+  auto* lr = add_node(g, "LeakyRelu", "leaky", {"a"}, "c4");
+  auto* al = lr->add_attribute();
+  al->set_name("alpha");
+  al->set_type(onnx::AttributeProto::FLOAT);
+  al->set_f(0.1f);
+  add_node(g, "HardSigmoid", "hsig", {"a"}, "c5");
+  add_node(g, "HardSwish", "hswish", {"a"}, "c6");
+  add_node(g, "Concat", "cat", {"c1", "c2", "c3", "c4", "c5", "c6"}, "cat")->add_attribute()->set_name("axis");
+  g->mutable_node(g->node_size() - 1)->mutable_attribute(0)->set_type(onnx::AttributeProto::INT);
+  g->mutable_node(g->node_size() - 1)->mutable_attribute(0)->set_i(1);
+  add_init(g, "two", {}, {2.0f});
+  add_node(g, "Mul", "mul", {"cat", "two"}, "m");
+  std::vector<float> div(12);
+  for (int c = 0; c < 12; ++c) div[c] = 1.0f + 0.25f * c;
+  add_init(g, "div", {1, 12, 1, 1}, div);
+  add_node(g, "Div", "div", {"m", "div"}, "d");
+  add_init(g, "one", {1}, {1.0f});
+  add_node(g, "Sub", "sub", {"d", "one"}, "s");
+  add_node(g, "Identity", "id", {"s"}, "i");
+  add_node(g, "Dropout", "drop", {"i"}, "dr");
+  auto* rm = add_node(g, "ReduceMean", "mean", {"dr"}, "rm");
+  ints_attr(rm, "axes", {2, 3});
+  add_node(g, "Flatten", "flat", {"rm"}, "f");
+  const auto wm = randv(12 * 3, 13);
+  add_init(g, "wm", {12, 3}, wm);
+  add_node(g, "MatMul", "mm", {"f", "wm"}, "mm");
+  add_init(g, "bm", {3}, {0.5f, -1.0f, 2.0f});
+  add_node(g, "Add", "bias", {"mm", "bm"}, "logits");
+  add_node(g, "Softmax", "softmax", {"logits"}, "out");
+  const Model model = load_onnx_model(save(m, 2, H, W, "out", "ops26"));
+  // The bias is the MatMul layer's, not a digital op; Mul, Div and Sub are affine ops.
+  ASSERT_EQ(model.linear.size(), 2u);
+  EXPECT_FLOAT_EQ(model.linear[1].bias(1), -1.0f);
+  int affine = 0;
+  for (const Op& op : model.ops) affine += op.kind == OpKind::Affine;
+  EXPECT_EQ(affine, 3);
+  const auto x = randv(2 * H * W, 14);
+  SoftwareBackend sw(model);
+  const Eigen::VectorXf y = run_image(model, x.data(), sw);
+  // Direct computation.
+  std::vector<double> feat(12, 0.0);
+  for (int p = 0; p < H * W; ++p)
+    for (int o = 0; o < 2; ++o) {
+      double a = bc[o];
+      for (int c = 0; c < 2; ++c) a += wc[o * 2 + c] * x[c * H * W + p];
+      const double f[6] = {std::min(std::max(a, 0.0), 0.5),
+                           1 / (1 + std::exp(-a)),
+                           std::tanh(a),
+                           a >= 0 ? a : 0.1 * a,
+                           std::max(0.0, std::min(1.0, 0.2 * a + 0.5)),
+                           a * std::max(0.0, std::min(1.0, a / 6 + 0.5))};
+      for (int k = 0; k < 6; ++k) feat[k * 2 + o] += (2 * f[k] / (1.0 + 0.25 * (k * 2 + o)) - 1) / (H * W);
+    }
+  double logit[3], mx = -1e300, sum = 0;
+  for (int j = 0; j < 3; ++j) {
+    logit[j] = j == 0 ? 0.5 : j == 1 ? -1.0 : 2.0;
+    for (int k = 0; k < 12; ++k) logit[j] += feat[k] * wm[k * 3 + j];
+    mx = std::max(mx, logit[j]);
+  }
+  for (double l : logit) sum += std::exp(l - mx);
+  ASSERT_EQ(y.size(), 3);
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(y[j], std::exp(logit[j] - mx) / sum, 1e-5) << j;
+}
+
+// AveragePool with ceil_mode and count_include_pad, MaxPool with ceil_mode, against PyTorch's
+// rules: a last window that starts inside the input or its leading pad is kept; the divisor
+// counts the padding, not what lies past it.
+TEST(Graph, PoolingCeilModeAndCountIncludePad) {
+  const int H = 6, W = 6, k = 3, s = 2, p = 1;
+  for (const char* kind : {"AveragePool", "MaxPool"}) {
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    add_init(g, "w", {1, 1, 1, 1}, {1.0f});
+    add_node(g, "Conv", "conv", {"input", "w"}, "a");
+    auto* n = add_node(g, kind, "pool", {"a"}, "out");
+    ints_attr(n, "kernel_shape", {k, k});
+    ints_attr(n, "strides", {s, s});
+    ints_attr(n, "pads", {p, p, p, p});
+    for (const char* name : {"ceil_mode", "count_include_pad"}) {
+      if (std::string(kind) == "MaxPool" && std::string(name) == "count_include_pad") continue;
+      auto* a = n->add_attribute();
+      a->set_name(name);
+      a->set_type(onnx::AttributeProto::INT);
+      a->set_i(1);
+    }
+    const Model model = load_onnx_model(save(m, 1, H, W, "out", std::string("ceil_") + kind));
+    const int out = 4;  // ceil((6 + 2 - 3) / 2) + 1; floor mode gives 3
+    ASSERT_EQ(model.values[model.output].h, out);
+    ASSERT_EQ(model.values[model.output].w, out);
+    const auto x = randv(H * W, 15);
+    SoftwareBackend sw(model);
+    const Eigen::VectorXf y = run_image(model, x.data(), sw);
+    for (int oy = 0; oy < out; ++oy)
+      for (int ox = 0; ox < out; ++ox) {
+        const int hs = oy * s - p, ws = ox * s - p;
+        const int he = std::min(hs + k, H + p), we = std::min(ws + k, W + p);
+        const int divisor = (he - hs) * (we - ws);  // the window within the padded input
+        double sum = 0, mx = -1e300;
+        for (int yy = std::max(hs, 0); yy < std::min(he, H); ++yy)
+          for (int xx = std::max(ws, 0); xx < std::min(we, W); ++xx) {
+            sum += x[yy * W + xx];
+            mx = std::max(mx, static_cast<double>(x[yy * W + xx]));
+          }
+        const double want = std::string(kind) == "MaxPool" ? mx : sum / divisor;
+        EXPECT_NEAR(y[oy * out + ox], want, 1e-5) << kind << " " << oy << "," << ox;
+      }
+  }
 }
 
 #include "sw/nn/toeplitz.h"
