@@ -85,19 +85,27 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
   if (scheme == MappingScheme::Dense) {
     v = matrix_inventory(L.rows(), L.c_out, L.iterations(), mapping, columns_per_adc);
     v.shift_register_entries = L.rows();
+    // A grouped convolution's block-diagonal matrix: a column's weights are the rows of its
+    // group only.
+    if (L.group > 1) v.cells_used = mul(L.rows() / L.group, v.physical_cols);
   } else {
     // Toeplitz of the valid convolution on the layer's input: every output (pixel, channel)
-    // is one column holding the K weights of its window.
-    if (L.is_conv && (L.in.h < L.k_h || L.in.w < L.k_w))
-      throw InputError(
-          "layer '" + L.name + "': its " + std::to_string(L.in.h) + "x" + std::to_string(L.in.w) +
-          " input is smaller than its " + std::to_string(L.k_h) + "x" + std::to_string(L.k_w) +
-          " kernel, so the sparse (valid-convolution Toeplitz) mapping has no outputs; use a larger input");
-    const long long oh = L.is_conv ? (L.in.h - L.k_h) / L.stride_h + 1 : 1;
-    const long long ow = L.is_conv ? (L.in.w - L.k_w) / L.stride_w + 1 : 1;
-    v = matrix_inventory(mul(mul(L.in.h, L.in.w), L.c_in), mul(mul(oh, ow), L.c_out), 1, mapping, columns_per_adc);
+    // is one column holding the K weights of its window. An input smaller than the kernel
+    // has no valid output: its Toeplitz is then the convolution's on the zero-padded input.
+    long long ih = L.in.h, iw = L.in.w;
+    if (L.is_conv && (ih < L.k_h || iw < L.k_w)) {
+      ih += L.pad_t + L.pad_b;
+      iw += L.pad_l + L.pad_r;
+      if (ih < L.k_h || iw < L.k_w)
+        throw InputError("layer '" + L.name + "': its " + std::to_string(L.in.h) + "x" + std::to_string(L.in.w) +
+                         " input, even padded, is smaller than its " + std::to_string(L.k_h) + "x" +
+                         std::to_string(L.k_w) + " kernel: the sparse (Toeplitz) mapping has no outputs");
+    }
+    const long long oh = L.is_conv ? (ih - L.k_h) / L.stride_h + 1 : 1;
+    const long long ow = L.is_conv ? (iw - L.k_w) / L.stride_w + 1 : 1;
+    v = matrix_inventory(mul(mul(ih, iw), L.c_in), mul(mul(oh, ow), L.c_out), 1, mapping, columns_per_adc);
     // Only the K weights of each column's window are programmed (the rest are zeros).
-    v.cells_used = add(mul(mul(v.cols, L.rows()), mapping.columns_per_weight()),
+    v.cells_used = add(mul(mul(v.cols, L.rows() / L.group), mapping.columns_per_weight()),
                        mapping.analog_sum() ? mul(v.rows, v.col_blocks) : 0);
   }
   v.name = L.name;

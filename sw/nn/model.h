@@ -26,6 +26,11 @@ struct LinearLayer {
   int c_in = 0, c_out = 0, k_h = 1, k_w = 1;
   int stride_h = 1, stride_w = 1;
   int pad_t = 0, pad_l = 0, pad_b = 0, pad_r = 0;
+  /// Grouped (depthwise when group = c_in) convolution: output channel o reads only the input
+  /// channels of its group. `weight` holds the whole K x c_out matrix, block-diagonal (zeros
+  /// outside each group's block): it is mapped onto crossbars as one matrix, so a group's
+  /// cells are a 1/group share of its columns (the inventory counts the used ones).
+  int group = 1;
   Shape in, out;
   Eigen::MatrixXf weight;  ///< K x c_out
   Eigen::VectorXf bias;    ///< c_out (zeros when absent)
@@ -94,6 +99,8 @@ struct Model {
   std::string dataset;             ///< metadata "dataset"
   double reference_accuracy = -1;  ///< metadata "software_accuracy_test_batch"
   std::map<std::string, std::string> metadata;
+  /// The metadata gave input_scale, input_mean or input_std (otherwise `pre` holds defaults).
+  bool preprocessing_in_metadata = false;
 };
 
 /// Loads an ONNX model (opset 13 ops listed in docs/commands.md). Any other op or attribute

@@ -324,7 +324,7 @@ class Loader {
     check_known_attrs(n, {"dilations", "group", "kernel_shape", "pads", "strides", "auto_pad"});
     const auto* ap = attr(n, "auto_pad");
     if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
-    if (int_attr(n, "group", 1) != 1) reject(n, "group != 1");
+    const int64_t group = int_attr(n, "group", 1);
     checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
     const int in_id = value(n.input(0), ctx);
     const Init& w = init(n.input(1), ctx);
@@ -333,7 +333,10 @@ class Loader {
       if (d < 1 || d > kMaxDim) reject(n, "weight dims");
     LinearLayer L;
     L.c_out = static_cast<int>(w.dims[0]);
-    L.c_in = static_cast<int>(w.dims[1]);
+    const int c_in_group = static_cast<int>(w.dims[1]);
+    if (group < 1 || group > kMaxDim || L.c_out % group != 0) reject(n, "group (must divide the output channels)");
+    L.group = static_cast<int>(group);
+    L.c_in = c_in_group * L.group;
     L.k_h = static_cast<int>(w.dims[2]);
     L.k_w = static_cast<int>(w.dims[3]);
     if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{L.k_h, L.k_w})
@@ -350,9 +353,22 @@ class Loader {
     L.pad_r = p[3];
     L.out = {L.c_out, window_out(n, in.h, L.pad_t, L.pad_b, L.k_h, L.stride_h),
              window_out(n, in.w, L.pad_l, L.pad_r, L.k_w, L.stride_w)};
-    const std::vector<float>& wf = floats(n.input(1), ctx, static_cast<int64_t>(L.rows()) * L.c_out);
+    if (static_cast<int64_t>(L.rows()) * L.c_out > kMaxTensorElements / 4) reject(n, "layer size");
+    const std::vector<float>& wg = floats(n.input(1), ctx, static_cast<int64_t>(L.rows() / L.group) * L.c_out);
+    std::vector<float> wf;  // O x C x kh x kw over every input channel: zero outside the group
+    if (L.group > 1) {
+      const size_t kk = static_cast<size_t>(L.k_h) * L.k_w, per_out = static_cast<size_t>(L.c_out / L.group);
+      wf.assign(static_cast<size_t>(L.c_out) * L.c_in * kk, 0.0f);
+      for (int o = 0; o < L.c_out; ++o) {
+        const size_t gi = static_cast<size_t>(o) / per_out;
+        for (int c = 0; c < c_in_group; ++c)
+          std::copy_n(wg.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(o) * c_in_group + c) * kk), kk,
+                      wf.begin() + static_cast<std::ptrdiff_t>((static_cast<size_t>(o) * L.c_in + gi * c_in_group + c) * kk));
+      }
+    }
     const std::vector<float>* b = has_input(n, 2) ? &floats(n.input(2), ctx, L.c_out) : nullptr;
-    add_linear(n, std::move(L), in_id, wf, b);
+    const bool grouped = L.group > 1;
+    add_linear(n, std::move(L), in_id, grouped ? wf : wg, b);
   }
 
   void add_gemm(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
@@ -469,6 +485,12 @@ class Loader {
       if (has_input(n, 2)) reject(n, "training_mode input (export the model in eval mode)");
     } else {
       check_known_attrs(n, {});
+    }
+    const auto c = inits_.find(n.input(0));
+    if (c != inits_.end()) {  // a constant under a second name (exporters share weights so)
+      const Init copy = c->second;
+      inits_[n.output(0)] = copy;
+      return;
     }
     ids_[n.output(0)] = value(n.input(0), ctx);
   }
@@ -757,6 +779,7 @@ namespace {
 /// Preprocessing and reference accuracy from metadata_props, with checked conversions.
 void read_metadata(const onnx::ModelProto& proto, const std::string& path, Model& model) {
   for (const auto& p : proto.metadata_props()) model.metadata[p.key()] = p.value();
+  for (const char* k : {"input_scale", "input_mean", "input_std"}) model.preprocessing_in_metadata |= model.metadata.count(k) > 0;
   auto meta = [&](const char* k) { return model.metadata.count(k) ? model.metadata[k] : std::string(); };
   if (!meta("input_scale").empty()) model.pre.scale = parse_number_list(meta("input_scale"), "input_scale", path).at(0);
   if (!meta("input_mean").empty()) model.pre.mean = parse_number_list(meta("input_mean"), "input_mean", path);
