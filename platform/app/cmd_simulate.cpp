@@ -19,6 +19,8 @@ namespace {
 SimulationReport simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
   Model model = model_from_args(args, cfg);
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
+  if (const std::string w = preprocessing_warning(model, cfg); !w.empty() && args.has("--dataset"))
+    std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
   const PlatformConfig pc = make_hardware_context(cfg, parse_analog_config(cfg)).platform;
   if (pc.timing_only && args.has("--dataset"))
     throw InputError(

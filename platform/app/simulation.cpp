@@ -308,6 +308,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   j["mapping"] = hw.mapping.scheme == MappingScheme::Sparse ? "sparse" : "dense";
   j["images"] = pc.images;
   j["mode"] = pc.timing_only ? "timing-only" : "timing-and-values";
+  j["preprocessing"] = {{"scale", model.pre.scale}, {"mean", model.pre.mean}, {"std", model.pre.std}};
   j["quantum_ns"] = pc.quantum_ns;
   j["stages"] = static_cast<int>(r.stages.size());
   if (pc.check_protocol) {

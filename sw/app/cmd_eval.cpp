@@ -38,6 +38,8 @@ int cmd_eval(int argc, char** argv) {
   const std::vector<EvalPoint> designs = check_sweep<EvalPoint>(base, points, parse_eval_point);
   Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
+  if (const std::string w = preprocessing_warning(model, base); !w.empty() && Ranks::root())
+    std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
   if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
   check_outputs(args, {"--json", "--csv", "--report", "--journal"});  // every file it reads is known now
@@ -116,6 +118,7 @@ int cmd_eval(int argc, char** argv) {
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
     for (const std::string& w : r.warnings()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
     nlohmann::json j = r.to_json();
+    j["preprocessing"] = {{"scale", model.pre.scale}, {"mean", model.pre.mean}, {"std", model.pre.std}};
     long long oor = j["out_of_range_cells"];
     const auto ci = r.paired.drop_ci95();
     table.print_row(stdout,
@@ -143,7 +146,7 @@ int cmd_eval(int argc, char** argv) {
 namespace {
 const CommandRegistrar kRegister{
     "eval", cmd_eval,
-    "eval --model M.onnx [--dataset cifar10|mnist] [--images N] [--offset K] [--config F] [--set k=v]...\n"
+    "eval --model M.onnx [--dataset cifar10|mnist|FILE.npz] [--images N] [--offset K] [--config F] [--set k=v]...\n"
     "     [--json F] [--csv F] [--report F.html] [--journal F.jsonl]\n"
     "      accuracy on crossbars vs software, per-layer error propagation; list values sweep;\n"
     "      under mpirun the images are shared among the ranks; --journal records every finished\n"

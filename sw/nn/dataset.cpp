@@ -2,7 +2,9 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -13,6 +15,7 @@
 
 #include "sw/common/errors.h"
 #include "sw/common/input_file.h"
+#include "sw/nn/npy.h"
 
 namespace xbarsim {
 
@@ -62,10 +65,12 @@ void Dataset::preprocess(int index, const Preprocessing& p, float* out) const {
     throw std::out_of_range("image " + std::to_string(index) + " of a dataset of " + std::to_string(count()));
   const int hw = shape.h * shape.w, n = shape.size();
   const uint8_t* px = pixels.data() + static_cast<size_t>(index) * n;
+  const float* fx = values.empty() ? nullptr : values.data() + static_cast<size_t>(index) * n;
   for (int c = 0; c < shape.c; ++c) {
     const double mean = p.mean.size() == 1 ? p.mean[0] : p.mean.at(c);
     const double sd = p.std.size() == 1 ? p.std[0] : p.std.at(c);
-    for (int k = 0; k < hw; ++k) out[c * hw + k] = static_cast<float>((px[c * hw + k] * p.scale - mean) / sd);
+    for (int k = 0; k < hw; ++k)
+      out[c * hw + k] = static_cast<float>(((fx ? fx[c * hw + k] : px[c * hw + k]) * p.scale - mean) / sd);
   }
 }
 
@@ -157,6 +162,23 @@ std::string resolve_data_dir(const ConfigTree& cfg) {
   throw InputError("no data directory found: set data.dir or XBARSIM_DATA_DIR (looked in:" + list + ")");
 }
 
+std::string preprocessing_text(const Preprocessing& p) {
+  auto list = [](const std::vector<double>& v) {
+    std::string s;
+    for (double x : v) s += (s.empty() ? "" : ",") + std::to_string(x);
+    return s;
+  };
+  return "scale " + std::to_string(p.scale) + ", mean " + list(p.mean) + ", std " + list(p.std);
+}
+
+std::string preprocessing_warning(const Model& m, const ConfigTree& cfg) {
+  if (m.preprocessing_in_metadata) return "";
+  for (const char* k : {"preprocessing.scale", "preprocessing.mean", "preprocessing.std"})
+    if (!cfg.get_string(k).empty()) return "";
+  return "the model has no preprocessing metadata (input_scale, input_mean, input_std): the images are x = pixel x " +
+         preprocessing_text(m.pre) + " (set preprocessing.* to change it)";
+}
+
 void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels) {
   const std::string origin = "configuration";
   const std::string scale = cfg.get_string("preprocessing.scale"), mean = cfg.get_string("preprocessing.mean"),
@@ -227,13 +249,78 @@ std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
   throw InputError("model '" + given + "' not found (looked at:" + list + ")");
 }
 
+bool is_npz_dataset(const std::string& name) {
+  return name.size() > 4 && name.compare(name.size() - 4, 4, ".npz") == 0;
+}
+
+Dataset load_npz_dataset(const std::string& path, const std::string& split, int offset, int count, std::string* note) {
+  std::map<std::string, NpyArray> arrays = read_npz(path);
+  const bool own_calib = split == "calib" && arrays.count("calib_images");
+  const std::string images_key = own_calib ? "calib_images" : "images", labels_key = own_calib ? "calib_labels" : "labels";
+  if (split == "calib" && !own_calib && note)
+    *note = "'" + path + "' has no calib_images: calibrating on its test images";
+  auto it = arrays.find(images_key);
+  if (it == arrays.end()) throw InputError("'" + path + "' has no array '" + images_key + "' (N x C x H x W images)");
+  const NpyArray& im = it->second;
+  const std::string what = "'" + path + "', array '" + images_key + "'";
+  if (im.shape.size() != 3 && im.shape.size() != 4)
+    throw InputError(what + " has " + std::to_string(im.shape.size()) + " dimensions: give N x C x H x W (or N x H x W)");
+  for (int64_t d : im.shape)
+    if (d < 1 || d > (1 << 20)) throw InputError(what + " has an empty or too large dimension");
+  Dataset d;
+  d.name = path;
+  const bool chw = im.shape.size() == 4;
+  d.shape = {chw ? static_cast<int>(im.shape[1]) : 1, static_cast<int>(im.shape[chw ? 2 : 1]),
+             static_cast<int>(im.shape[chw ? 3 : 2])};
+  const int64_t n = im.shape[0];
+  std::vector<int> labels(static_cast<size_t>(n), 0);
+  const auto lt = arrays.find(labels_key);
+  if (lt != arrays.end()) {
+    const NpyArray& lb = lt->second;
+    if (!lb.is_integer() || lb.elements() != n)
+      throw InputError("'" + path + "', array '" + labels_key + "' must hold " + std::to_string(n) +
+                       " integer labels (one per image)");
+    for (int64_t k = 0; k < n; ++k) {
+      const double v = lb.at(k);
+      if (v < 0 || v > 1e9) throw InputError("'" + path + "', array '" + labels_key + "': label " +
+                                             std::to_string(v) + " of image " + std::to_string(k) + " is negative or too large");
+      labels[static_cast<size_t>(k)] = static_cast<int>(v);
+    }
+  } else if (!own_calib) {
+    throw InputError("'" + path + "' has no array '" + labels_key + "' (N integer labels)");
+  }
+  if (offset < 0 || offset > n) throw InputError("offset " + std::to_string(offset) + " is past the " +
+                                                 std::to_string(n) + " images of '" + path + "'");
+  const int64_t take = count < 0 ? n - offset : std::min<int64_t>(count, n - offset);
+  const size_t per = static_cast<size_t>(d.shape.size());
+  d.first = offset;
+  d.labels.assign(labels.begin() + offset, labels.begin() + offset + take);
+  if (im.dtype == "u1") {
+    d.pixels.assign(im.data.begin() + static_cast<std::ptrdiff_t>(offset * per),
+                    im.data.begin() + static_cast<std::ptrdiff_t>((offset + take) * per));
+  } else if (im.dtype == "f4" || im.dtype == "f8") {
+    d.values.resize(static_cast<size_t>(take) * per);
+    for (size_t k = 0; k < d.values.size(); ++k) {
+      const double v = im.at(static_cast<int64_t>(offset * per + k));
+      if (!std::isfinite(v)) throw InputError(what + " holds a non-finite value at element " + std::to_string(offset * per + k));
+      d.values[k] = static_cast<float>(v);
+    }
+    d.pixels.assign(d.values.size(), 0);  // (the uint8 view is unused for float images)
+  } else {
+    throw InputError(what + " has dtype " + im.dtype + ": give uint8 pixels or float32 values");
+  }
+  return d;
+}
+
 std::vector<std::string> dataset_files(const std::string& name, const std::string& dir, const std::string& split) {
+  if (is_npz_dataset(name)) return {name};
   if (name == "cifar10") return {dir + "/cifar10/" + (split == "calib" ? "calib_batch.bin" : "test_batch.bin")};
   if (name == "mnist") return {dir + "/mnist/t10k-images-idx3-ubyte.gz", dir + "/mnist/t10k-labels-idx1-ubyte.gz"};
-  throw InputError("unknown dataset '" + name + "' (cifar10 or mnist)");
+  throw InputError("unknown dataset '" + name + "' (cifar10, mnist or a .npz file)");
 }
 
 Dataset load_dataset(const std::string& name, const std::string& dir, const std::string& split, int offset, int count) {
+  if (is_npz_dataset(name)) return load_npz_dataset(name, split, offset, count, nullptr);
   const std::vector<std::string> files = dataset_files(name, dir, split);
   for (const auto& f : files)
     if (!exists(f))

@@ -13,6 +13,7 @@ struct Dataset {
   std::string name;
   Shape shape;                  ///< C x H x W of one image
   std::vector<uint8_t> pixels;  ///< count x (C*H*W), C planes row-major
+  std::vector<float> values;    ///< float images (a .npz of float32): used instead of pixels
   std::vector<int> labels;
   int first = 0;  ///< the index of image 0 in its file (a range's offset)
   int count() const { return static_cast<int>(labels.size()); }
@@ -31,6 +32,14 @@ Dataset load_cifar10(const std::string& file, int offset = 0, int count = -1);
 /// MNIST idx3 images + idx1 labels, gzip-compressed or plain.
 Dataset load_mnist(const std::string& images, const std::string& labels, int offset = 0, int count = -1);
 
+/// A dataset a user writes from NumPy (numpy.savez or savez_compressed): `images`, N x C x H x
+/// W (or N x H x W: one channel) of uint8 pixels or float32/float64 values, and `labels`, N
+/// integers; the calibration split is `calib_images` (labels optional) when the file has it,
+/// else the test images themselves (`note` says so). Images [offset, offset + count).
+Dataset load_npz_dataset(const std::string& path, const std::string& split, int offset, int count, std::string* note);
+/// Whether a --dataset value names such a file (it ends in .npz).
+bool is_npz_dataset(const std::string& name);
+
 /// The data directory: config `data.dir`, else $XBARSIM_DATA_DIR, else the first existing of
 /// ./../shared/data, ../shared/data beside the source tree. Throws InputError listing every
 /// place it looked when none exists.
@@ -39,6 +48,12 @@ std::string resolve_data_dir(const ConfigTree& cfg);
 /// Applies the `preprocessing.` overrides (scale, mean, std; "" = keep the model's metadata)
 /// and checks that mean/std have 1 or `channels` entries and std > 0.
 void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels);
+
+/// A warning when the images are preprocessed with defaults nobody chose: the model has no
+/// preprocessing metadata and the configuration sets none of preprocessing.* ("" otherwise).
+std::string preprocessing_warning(const Model& m, const ConfigTree& cfg);
+/// The preprocessing as the JSON reports record it.
+std::string preprocessing_text(const Preprocessing& p);
 
 /// The models directory: `data.models_dir`, else <data dir>/../models.
 std::string resolve_models_dir(const ConfigTree& cfg);

@@ -39,7 +39,9 @@ EvalData load_eval_data(const Model& model, std::string dataset, const std::stri
     if (count < 0 || count > limit) count = limit;
   }
   d.test = load_dataset(dataset, data_dir, "test", spec.offset, count);
-  d.calib = load_dataset(dataset, data_dir, "calib", 0, spec.calibration_images);
+  std::string calib_note;
+  d.calib = is_npz_dataset(dataset) ? load_npz_dataset(dataset, "calib", 0, spec.calibration_images, &calib_note)
+                                    : load_dataset(dataset, data_dir, "calib", 0, spec.calibration_images);
   // Fewer images than asked for (the end of the test set, MNIST's calibration images) is said,
   // never silent.
   const int n = d.test.count();
@@ -50,6 +52,7 @@ EvalData load_eval_data(const Model& model, std::string dataset, const std::stri
         ": using " + range + " (" + std::to_string(n) + " of the " + std::to_string(spec.images) + " images asked for)";
   else if (mnist && spec.images < 0)
     d.note = "MNIST test images 9000-9999 are the calibration set: using " + range;
+  if (!calib_note.empty()) d.note += std::string(d.note.empty() ? "" : "; ") + calib_note;
   if (d.calib.count() < spec.calibration_images)
     d.note += std::string(d.note.empty() ? "" : "; ") + "calibrating on " + std::to_string(d.calib.count()) +
               " of the " + std::to_string(spec.calibration_images) +

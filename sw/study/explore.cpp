@@ -60,7 +60,8 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
     }
   }
   s.dataset = cfg.get_string("explore.dataset");
-  if (!s.dataset.empty()) require_one_of(cfg, "explore.dataset", {"cifar10", "mnist"});
+  if (!s.dataset.empty() && !is_npz_dataset(s.dataset))
+    require_one_of(cfg, "explore.dataset", {"cifar10", "mnist"});
   s.combine = require_enum<ExploreSpec::Combine>(
       cfg, "explore.combine", {{"product", ExploreSpec::Combine::Product}, {"zip", ExploreSpec::Combine::Zip}});
   const std::string list = cfg.get_string("explore.objectives");
