@@ -175,8 +175,8 @@ std::string preprocessing_warning(const Model& m, const ConfigTree& cfg) {
   if (m.preprocessing_in_metadata) return "";
   for (const char* k : {"preprocessing.scale", "preprocessing.mean", "preprocessing.std"})
     if (!cfg.get_string(k).empty()) return "";
-  return "the model has no preprocessing metadata (input_scale, input_mean, input_std): the images are x = pixel x " +
-         preprocessing_text(m.pre) + " (set preprocessing.* to change it)";
+  return "the model has no preprocessing metadata (input_scale, input_mean, input_std): using the defaults " +
+         preprocessing_text(m.pre) + ", x = (pixel * scale - mean) / std (set preprocessing.* to change them)";
 }
 
 void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels) {
