@@ -34,16 +34,17 @@ class Adc : public sc_core::sc_module {
   long long conversions() const { return conversions_; }
   long long shift_adds() const { return shift_adds_; }
 
-  /// The values of a pass: every read's currents converted to codes in place (no timing, no
-  /// counters: safe on any thread).
-  /// Bit-serial reads of crossbar b only (the block job.read_currents[b] holds).
+  /// Bit-serial reads of crossbar b only (the block job.read_currents[b] holds), converted to
+  /// codes in place (no timing, no counters: safe on any thread).
   static void convert(LayerJob& job, int b) {
     job.analog->adc_inplace<float>(b, job.read_currents[static_cast<size_t>(b)]);
   }
+  /// The values of a pass: every read's currents converted to codes in place (no timing, no
+  /// counters: safe on any thread).
   static void convert(LayerJob& job) {
     for (int b = 0; b < job.analog->crossbars(); ++b) {
       if (job.serial())
-        job.analog->adc_inplace<float>(b, job.read_currents[b]);
+        convert(job, b);
       else
         job.analog->adc_inplace<float>(b, job.currents[b], job.xq);
     }

@@ -25,23 +25,21 @@ class CrossbarArray : public sc_core::sc_module {
   long long evaluations() const { return evaluations_; }
   long long cell_reads() const { return cell_reads_; }
 
-  /// The values of a pass: every crossbar's column currents for every read, from the circuit
-  /// solver (no timing, no counters: safe on any thread).
   /// Bit-serial reads of vectors [first, first + count) on crossbar b only, into
-  /// job.read_currents[b] (a block of a pass, see Tile::compute_values).
+  /// job.read_currents[b] (a block of a pass, see Tile::compute_values; no timing, no
+  /// counters: safe on any thread).
   static void read(LayerJob& job, int b, Eigen::Index first, Eigen::Index count) {
     job.read_currents.resize(static_cast<size_t>(job.analog->crossbars()));
     job.analog->analog<float>(b, job.codes, first, count, job.read_currents[static_cast<size_t>(b)]);
   }
+  /// The values of a pass: every crossbar's column currents for every read, from the circuit
+  /// solver (no timing, no counters: safe on any thread).
   static void read(LayerJob& job) {
     const int nb = job.analog->crossbars();
-    if (job.serial())
-      job.read_currents.resize(nb);
-    else
-      job.currents.resize(nb);
+    if (!job.serial()) job.currents.resize(nb);
     for (int b = 0; b < nb; ++b) {
       if (job.serial())
-        job.analog->analog<float>(b, job.codes, 0, job.iterations(), job.read_currents[b]);
+        read(job, b, 0, job.iterations());
       else
         job.analog->analog<float>(b, job.xq, job.currents[b]);
     }

@@ -20,18 +20,18 @@ class DigitalAccumulator : public sc_core::sc_module {
   }
   long long accumulations() const { return accumulations_; }
 
-  /// The values of a pass: job.y, the layer's outputs (without bias) recovered from every
-  /// crossbar's codes (no timing, no counters: safe on any thread).
   /// Bit-serial reads of crossbar b only: the block job.read_currents[b] holds added into its
-  /// rows of job.y (which the caller has zeroed).
+  /// rows of job.y, which the caller has zeroed (no timing, no counters: safe on any thread).
   static void recover(LayerJob& job, int b) {
     job.analog->recover_add<float>(b, job.read_currents[static_cast<size_t>(b)], job.y);
   }
+  /// The values of a pass: job.y, the layer's outputs (without bias) recovered from every
+  /// crossbar's codes (no timing, no counters: safe on any thread).
   static void recover(LayerJob& job) {
     job.y.setZero(job.iterations(), job.analog->outputs());
     for (int b = 0; b < job.analog->crossbars(); ++b)
       if (job.serial())
-        job.analog->recover_add<float>(b, job.read_currents[b], job.y);
+        recover(job, b);
       else
         job.analog->recover_add<float>(b, job.currents[b], job.xq, job.y);
   }

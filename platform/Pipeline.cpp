@@ -497,7 +497,6 @@ void Pipeline::submit_values(Stage& s, int image) {
   Values::Image& im = values_->at(image);
   std::vector<TaskGraph::Id> after;
   for (int v : op.in) after.push_back(im.producer[v]);
-  const std::vector<float>* x0 = &im.v[op.in[0]];
   std::vector<const std::vector<float>*> xs;
   for (int v : op.in) xs.push_back(&im.v[v]);
   std::vector<float>* y = &im.v[op.out];
@@ -505,7 +504,7 @@ void Pipeline::submit_values(Stage& s, int image) {
   switch (op.kind) {
     case OpKind::Linear:
       // The tile's datapath, by its modules' functions, on this worker's copy of the job.
-      task = [this, &op, x0, y](int worker) {
+      task = [this, &op, x0 = xs.front(), y](int worker) {
         const LinearLayer& L = model_.linear[op.linear];
         LayerJob& job = *scratch_[static_cast<size_t>(worker)][static_cast<size_t>(op.linear)];
         job.reset_counters();

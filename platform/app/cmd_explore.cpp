@@ -29,6 +29,13 @@ struct SpacePoint {
   std::string key, label;
 };
 
+/// What a row takes from the platform's report: the point's figures and, per layer, its own.
+constexpr const char* kPlatformFields[] = {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s",
+                                           "avg_power_mw", "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj",
+                                           "area_breakdown_mm2", "peak_power_breakdown_mw", "crossbars", "adcs", "dacs",
+                                           "tiles", "iterations_total"};
+constexpr const char* kLayerPlatformFields[] = {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"};
+
 /// The row of a finished point: the evaluation's accuracy and per-layer error, the platform's
 /// energy, area, latency and per-layer busy/stall.
 nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
@@ -47,17 +54,14 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
                         {"mean_relative_error", el[l]["mean_relative_error"]},
                         {"worst_relative_error", el[l]["worst_relative_error"]}};
     if (l < pl.size() && pl[l]["name"] == el[l]["name"])
-      for (const char* k : {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"}) L[k] = pl[l][k];
+      for (const char* k : kLayerPlatformFields) L[k] = pl[l][k];
     layers.push_back(L);
   }
   double mean = 0, worst = 0;
   network_errors(el, mean, worst);
   row["mean_relative_error"] = mean;
   row["worst_relative_error"] = worst;
-  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw",
-                        "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
-                        "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "tiles", "iterations_total"})
-    row[k] = pf[k];
+  for (const char* k : kPlatformFields) row[k] = pf[k];
   for (const char* k : {"adc_bits", "dac_bits", "input_bits", "cell_bits", "weight_bits", "adc_range", "method",
                         "max_rows", "max_cols", "out_of_range_cells"})
     row[k] = ev[k];
@@ -78,13 +82,10 @@ nlohmann::json timing_row(const SimulationReport& pf) {
   nlohmann::json layers = nlohmann::json::array();
   for (const auto& l : pf.json["layers"]) {
     nlohmann::json L = {{"name", l["name"]}};
-    for (const char* k : {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"}) L[k] = l[k];
+    for (const char* k : kLayerPlatformFields) L[k] = l[k];
     layers.push_back(L);
   }
-  for (const char* k : {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s", "avg_power_mw",
-                        "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj", "area_breakdown_mm2",
-                        "peak_power_breakdown_mw", "crossbars", "adcs", "dacs", "iterations_total"})
-    row[k] = pf.json[k];
+  for (const char* k : kPlatformFields) row[k] = pf.json[k];
   row["warnings"] = nlohmann::json::array();
   row["layers"] = layers;
   row["simulation_wall_time_s"] = pf.wall_time_s;
