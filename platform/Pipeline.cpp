@@ -180,6 +180,7 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
     case OpKind::Activation:
     case OpKind::Softmax:
     case OpKind::Concat:
+    case OpKind::Shuffle:
       return {r, r};
   }
   return {r, r};
@@ -213,6 +214,7 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
     case OpKind::Softmax:
     case OpKind::Slice:
     case OpKind::Pad:
+    case OpKind::Shuffle:
       return std::min(in.h, 2 * grain);
   }
   return in.h;
@@ -531,6 +533,7 @@ void Pipeline::submit_values(Stage& s, int image) {
     case OpKind::Activation:
     case OpKind::Softmax:
     case OpKind::Concat:
+    case OpKind::Shuffle:
       task = [this, &op, xs, y](int) { digital_op(op, model_.values[op.in[0]], model_.values[op.out], xs, *y); };
       break;
   }

@@ -31,7 +31,7 @@ ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& 
   if (fallback == 0) fallback = 1;
   double total = 0;
   for (Eigen::Index j = 0; j < n; ++j) {
-    const ErrorTally t = column_error(actual.col(j), ideal.col(j), range(j) > 0 ? range(j) : fallback);
+    const ErrorTally t = column_error(actual.col(j), ideal.col(j), range(j) > 1e-6 * fallback ? range(j) : fallback);
     s.column_mean(j) = t.mean();
     s.column_worst(j) = t.worst;
     total += t.sum;

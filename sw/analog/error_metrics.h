@@ -20,7 +20,7 @@ struct ErrorStats {
 };
 
 /// Statistics of `actual` against `ideal` (vectors x columns). Columns whose ideal output
-/// range is zero use the largest range of the other columns (or 1 if all are constant).
+/// range is below 1e-6 of the largest range use the largest (or 1 if all are constant).
 ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal);
 
 /// Sum, worst and count of relative errors |actual - ideal| / range(column), for streaming

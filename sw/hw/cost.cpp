@@ -189,6 +189,7 @@ long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
     case OpKind::Slice:
     case OpKind::Flatten:
     case OpKind::Concat:
+    case OpKind::Shuffle:
     case OpKind::Linear:  // (a tile's work is its crossbars')
       return 0;
   }

@@ -160,6 +160,7 @@ const char* digital_op_name(OpKind k) {
     case OpKind::Slice:
     case OpKind::Pad:
     case OpKind::Concat:
+    case OpKind::Shuffle:
       return "";
   }
   return "";

@@ -52,6 +52,7 @@ enum class OpKind {
   Activation,  ///< an element-wise nonlinearity (Op::activation)
   Softmax,     ///< over the channels of every pixel
   Concat,      ///< of every input, along the channels
+  Shuffle,     ///< a permutation of the channels (Op::perm): a channel shuffle
 };
 
 /// The element-wise functions of OpKind::Activation (ONNX semantics, parameters in Op).
@@ -80,6 +81,7 @@ struct Op {
   /// AvgPool: divide by the whole window, padding included (count_include_pad), not only by
   /// the input values it covers; the window never reaches past the padding (ceil_mode).
   bool count_include_pad = false;
+  std::vector<int> perm;  ///< Shuffle: output channel c is input channel perm[c]
 };
 
 /// Input preprocessing from the model's metadata_props: x = (pixel * scale - mean[c]) / std[c].

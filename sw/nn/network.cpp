@@ -191,6 +191,14 @@ void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vect
       }
       return;
     }
+    case OpKind::Shuffle: {
+      const size_t plane = static_cast<size_t>(in.h) * in.w;
+      y.resize(x.size());
+      for (int c = 0; c < out.c; ++c)
+        std::copy_n(x.begin() + static_cast<std::ptrdiff_t>(op.perm[static_cast<size_t>(c)] * plane), plane,
+                    y.begin() + static_cast<std::ptrdiff_t>(c * plane));
+      return;
+    }
     case OpKind::Linear:
       throw std::logic_error("digital_op: a linear layer runs on a backend");
   }
@@ -243,6 +251,7 @@ std::vector<bool> linear_inputs_signed(const Model& m) {
       case OpKind::GlobalAvgPool:
       case OpKind::Flatten:
       case OpKind::Slice:
+      case OpKind::Shuffle:
         result = in_nonneg(0);
         break;
       case OpKind::Pad:

@@ -154,10 +154,32 @@ class Loader {
     model_.values.push_back(s);
     return ids_[name];
   }
+  /// The id of computed value `name`, of rank 2 (N x K) or 4 (N x C x H x W).
   int value(const std::string& name, const std::string& ctx) const {
+    const int id = view(name, ctx);
+    const size_t rank = dims_of(name).size();
+    if (rank != 2 && rank != 4)
+      throw InputError(ctx + ": input '" + name + "' has rank " + std::to_string(rank) +
+                       " (only Reshape, Flatten, Transpose, Squeeze, Unsqueeze and Shape read values of rank other "
+                       "than 2 and 4)");
+    return id;
+  }
+  /// The id of computed value `name`, of any rank (its data are the id's, in C, H, W order).
+  int view(const std::string& name, const std::string& ctx) const {
     auto it = ids_.find(name);
-    if (it == ids_.end()) throw InputError(ctx + ": input '" + name + "' is not computed by an earlier node");
+    if (it == ids_.end()) {
+      if (inits_.count(name))
+        throw InputError(ctx + ": input '" + name + "' is a constant where this operator needs a computed value");
+      throw InputError(ctx + ": input '" + name + "' is not computed by an earlier node");
+    }
     return it->second;
+  }
+  /// The ONNX dims of computed value `name`, batch first (N = 1).
+  std::vector<int64_t> dims_of(const std::string& name) const {
+    const auto d = dims_.find(name);
+    if (d != dims_.end()) return d->second;
+    const Shape s = model_.values[static_cast<size_t>(ids_.at(name))];
+    return {1, s.c, s.h, s.w};
   }
   const Init& init(const std::string& name, const std::string& ctx) const {
     auto it = inits_.find(name);
@@ -284,6 +306,12 @@ class Loader {
     }
     require_io(n, 1);
     (this->*ops().at(t))(n, t, ctx);
+    // A vector in (N x K) gives vectors out, unless the node said otherwise.
+    for (const std::string& out : n.output())
+      if (ids_.count(out) && !dims_.count(out) && dims_.count(n.input(0)) && dims_.at(n.input(0)).size() == 2) {
+        const Shape o = model_.values[static_cast<size_t>(ids_.at(out))];
+        if (o.h == 1 && o.w == 1) dims_[out] = {1, o.c};
+      }
   }
 
   using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
@@ -315,6 +343,13 @@ class Loader {
                                                       {"HardSigmoid", &Loader::add_activation},
                                                       {"HardSwish", &Loader::add_activation},
                                                       {"Softmax", &Loader::add_softmax},
+                                                      {"Shape", &Loader::add_shape},
+                                                      {"Gather", &Loader::add_gather},
+                                                      {"Unsqueeze", &Loader::add_squeeze},
+                                                      {"Squeeze", &Loader::add_squeeze},
+                                                      {"Cast", &Loader::add_cast},
+                                                      {"Transpose", &Loader::add_transpose},
+                                                      {"Split", &Loader::add_split},
                                                       {"BatchNormalization", &Loader::add_batch_norm}};
     return kOps;
   }
@@ -325,7 +360,7 @@ class Loader {
     const auto* ap = attr(n, "auto_pad");
     if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
     const int64_t group = int_attr(n, "group", 1);
-    checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
+    const auto dil = checked_ints(n, "dilations", {1, 1}, 2, 1, kMaxDim);
     const int in_id = value(n.input(0), ctx);
     const Init& w = init(n.input(1), ctx);
     if (w.dims.size() != 4) reject(n, "weight rank");
@@ -337,10 +372,14 @@ class Loader {
     if (group < 1 || group > kMaxDim || L.c_out % group != 0) reject(n, "group (must divide the output channels)");
     L.group = static_cast<int>(group);
     L.c_in = c_in_group * L.group;
-    L.k_h = static_cast<int>(w.dims[2]);
-    L.k_w = static_cast<int>(w.dims[3]);
-    if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{L.k_h, L.k_w})
+    const int kh = static_cast<int>(w.dims[2]), kw = static_cast<int>(w.dims[3]);
+    if (attr(n, "kernel_shape") && checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim) != std::vector<int>{kh, kw})
       reject(n, "kernel_shape that differs from the weight");
+    // A dilated kernel is mapped as the dense kernel it spans, zeros between its taps.
+    if (static_cast<int64_t>(kh - 1) * dil[0] + 1 > kMaxDim || static_cast<int64_t>(kw - 1) * dil[1] + 1 > kMaxDim)
+      reject(n, "dilated kernel extent");
+    L.k_h = (kh - 1) * dil[0] + 1;
+    L.k_w = (kw - 1) * dil[1] + 1;
     const Shape in = model_.values[in_id];
     if (in.c != L.c_in) reject(n, "input channels (" + std::to_string(in.c) + ") != weight channels");
     const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
@@ -354,7 +393,18 @@ class Loader {
     L.out = {L.c_out, window_out(n, in.h, L.pad_t, L.pad_b, L.k_h, L.stride_h),
              window_out(n, in.w, L.pad_l, L.pad_r, L.k_w, L.stride_w)};
     if (static_cast<int64_t>(L.rows()) * L.c_out > kMaxTensorElements / 4) reject(n, "layer size");
-    const std::vector<float>& wg = floats(n.input(1), ctx, static_cast<int64_t>(L.rows() / L.group) * L.c_out);
+    const std::vector<float>& w0 = floats(n.input(1), ctx, static_cast<int64_t>(c_in_group) * kh * kw * L.c_out);
+    std::vector<float> wd;  // the dilated kernel spread over its extent
+    if (L.k_h != kh || L.k_w != kw) {
+      if (static_cast<int64_t>(L.rows() / L.group) * L.c_out > kMaxTensorElements / 4) reject(n, "dilated layer size");
+      wd.assign(static_cast<size_t>(L.c_out) * c_in_group * L.k_h * L.k_w, 0.0f);
+      for (size_t oc = 0; oc < static_cast<size_t>(L.c_out) * c_in_group; ++oc)
+        for (int y = 0; y < kh; ++y)
+          for (int x = 0; x < kw; ++x)
+            wd[(oc * L.k_h + static_cast<size_t>(y) * dil[0]) * L.k_w + static_cast<size_t>(x) * dil[1]] =
+                w0[(oc * kh + y) * kw + x];
+    }
+    const std::vector<float>& wg = wd.empty() ? w0 : wd;
     std::vector<float> wf;  // O x C x kh x kw over every input channel: zero outside the group
     if (L.group > 1) {
       const size_t kk = static_cast<size_t>(L.k_h) * L.k_w, per_out = static_cast<size_t>(L.c_out / L.group);
@@ -433,7 +483,7 @@ class Loader {
       model_.ops.push_back(op);
       return;
     }
-    if (c0 && c1) reject(n, "operator of two constants");
+    if (c0 && c1) return fold_arith(n, t, ctx);
     const std::string& var = n.input(c0 ? 1 : 0);
     const int in_id = value(var, ctx);
     const Shape in = model_.values[in_id];
@@ -476,6 +526,35 @@ class Loader {
     }
     op.out = define(n.output(0), in);
     model_.ops.push_back(op);
+  }
+
+  /// Add, Sub, Mul, Div of two constants (shape arithmetic): a scalar with a vector, or two of
+  /// the same length; integers stay integers (Div truncates), floats if either is.
+  void fold_arith(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    const Init &a = init(n.input(0), ctx), &b = init(n.input(1), ctx);
+    const size_t na = a.f.empty() ? a.i.size() : a.f.size(), nb = b.f.empty() ? b.i.size() : b.f.size();
+    if (!(na == nb || na == 1 || nb == 1) || na == 0 || nb == 0) reject(n, "broadcasting of constants other than a scalar");
+    Init out;
+    out.dims = na >= nb ? a.dims : b.dims;
+    const size_t len = std::max(na, nb);
+    const bool fl = !a.f.empty() || !b.f.empty();
+    for (size_t k = 0; k < len; ++k) {
+      const size_t ka = na == 1 ? 0 : k, kb = nb == 1 ? 0 : k;
+      if (fl) {
+        const double x = a.f.empty() ? static_cast<double>(a.i[ka]) : a.f[ka];
+        const double y = b.f.empty() ? static_cast<double>(b.i[kb]) : b.f[kb];
+        const double r = t == "Add" ? x + y : t == "Sub" ? x - y : t == "Mul" ? x * y : x / y;
+        if (!std::isfinite(r)) reject(n, "constant arithmetic with a non-finite result");
+        out.f.push_back(static_cast<float>(r));
+      } else {
+        const int64_t x = a.i[ka], y = b.i[kb];
+        constexpr int64_t kBig = int64_t{1} << 40;  // shapes are far below this
+        if (std::llabs(x) > kBig || std::llabs(y) > kBig) reject(n, "constant arithmetic on integers beyond 2^40");
+        if (t == "Div" && y == 0) reject(n, "integer division by zero");
+        out.i.push_back(t == "Add" ? x + y : t == "Sub" ? x - y : t == "Mul" ? x * y : x / y);
+      }
+    }
+    inits_[n.output(0)] = std::move(out);
   }
 
   /// Identity and (inference) Dropout: the output is the input.
@@ -544,6 +623,17 @@ class Loader {
 
   void add_concat(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
     check_known_attrs(n, {"axis"});
+    if (std::all_of(n.input().begin(), n.input().end(), [&](const std::string& x) { return inits_.count(x) > 0; })) {
+      Init out;  // shape arithmetic: vectors joined end to end
+      for (const std::string& name : n.input()) {
+        const Init& c = init(name, ctx);
+        if (c.dims.size() > 1 || !c.f.empty()) reject(n, "concatenation of constants other than integer vectors");
+        out.i.insert(out.i.end(), c.i.begin(), c.i.end());
+      }
+      out.dims = {static_cast<int64_t>(out.i.size())};
+      inits_[n.output(0)] = std::move(out);
+      return;
+    }
     std::vector<int> in;
     for (const std::string& name : n.input()) in.push_back(value(name, ctx));
     const Shape first = model_.values[in.front()];
@@ -572,6 +662,7 @@ class Loader {
     const int in_id = value(n.input(0), ctx);
     Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
     op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
+    if (int_attr(n, "keepdims", 1) == 0) dims_[n.output(0)] = {1, model_.values[in_id].c};
     model_.ops.push_back(op);
   }
 
@@ -625,48 +716,291 @@ class Loader {
     model_.ops.push_back(op);
   }
 
+  /// Gives computed value `in_name` the dims `d` (batch first, N = 1) under the name `out`:
+  /// the data keep their C, H, W order. Rank 2 is a vector, rank 4 a C x H x W map; other
+  /// ranks are views that only Reshape, Transpose, Squeeze, Unsqueeze and Shape read.
+  void relabel(const onnx::NodeProto& n, const std::string& in_name, std::vector<int64_t> d, const std::string& out) {
+    const int in_id = view(in_name, where(n));
+    const Shape in = model_.values[static_cast<size_t>(in_id)];
+    if (d.empty() || d[0] != 1) reject(n, "result whose first (batch) dimension is not 1");
+    int64_t count = 1;
+    for (int64_t x : d) {
+      if (x < 1 || x > kMaxDim * 64 || count > kMaxTensorElements / x) reject(n, "target shape");
+      count *= x;
+    }
+    if (count != in.size())
+      reject(n, "reshape to " + std::to_string(count) + " elements of a value of " + std::to_string(in.size()));
+    Shape s = in;
+    if (d.size() == 2) s = Shape{static_cast<int>(d[1]), 1, 1};
+    if (d.size() == 4) s = Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
+    const size_t in_rank = dims_of(in_name).size();
+    dims_[out] = d;
+    // To or from a view, the same data under another name: no operation. (Between ranks 2
+    // and 4 a Flatten op remains, as it always did: a pipeline stage of its own.)
+    const bool view_involved = (in_rank != 2 && in_rank != 4) || (d.size() != 2 && d.size() != 4);
+    if (s == in && view_involved) {
+      ids_[out] = in_id;
+      return;
+    }
+    Op op = make_op(OpKind::Flatten, n.name(), {in_id});
+    op.out = define(out, s);
+    model_.ops.push_back(op);
+  }
+
   void add_reshape(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
-    const int in_id = value(n.input(0), ctx);
-    const Shape in = model_.values[in_id];
-    Shape out{in.size(), 1, 1};
+    view(n.input(0), ctx);
+    const std::vector<int64_t> in = dims_of(n.input(0));
+    std::vector<int64_t> d;
     if (t == "Flatten") {
       check_known_attrs(n, {"axis"});
-      if (int_attr(n, "axis", 1) != 1) reject(n, "axis != 1");
+      int64_t axis = int_attr(n, "axis", 1);
+      if (axis < 0) axis += static_cast<int64_t>(in.size());
+      if (axis != 1) reject(n, "axis (only 1: N x everything else)");
+      int64_t k = 1;
+      for (size_t q = 1; q < in.size(); ++q) k *= in[q];
+      d = {1, k};
     } else {
       check_known_attrs(n, {"allowzero"});
       require_io(n, 2);
-      std::vector<int64_t> d = integers(n.input(1), ctx);
-      if (d.size() == 2 || d.size() == 4) {
-        int64_t known = 1, infer = -1;
-        for (size_t q = 1; q < d.size(); ++q) {
-          if (d[q] == 0) d[q] = q == 1 ? in.c : q == 2 ? in.h : in.w;
-          if (d[q] == -1 && infer < 0)
-            infer = static_cast<int64_t>(q);
-          else if (d[q] < 1 || d[q] > kMaxDim * 64 || (known *= d[q]) > in.size())
-            reject(n, "target shape");
+      d = integers(n.input(1), ctx);
+      const bool allowzero = int_attr(n, "allowzero", 0) != 0;
+      if (d.size() < 2 || d.size() > 8) reject(n, "target rank " + std::to_string(d.size()) + " (2 to 8)");
+      int64_t known = 1, infer = -1, count = 1;
+      for (int64_t x : in) count *= x;
+      for (size_t q = 0; q < d.size(); ++q) {
+        if (d[q] == 0 && !allowzero) {
+          if (q >= in.size()) reject(n, "target shape (a 0 past the input's rank)");
+          d[q] = in[q];
         }
-        if (infer > 0) {
-          if (in.size() % known != 0) reject(n, "target shape that does not divide the input");
-          d[infer] = in.size() / known;
-        }
-        for (size_t q = 1; q < d.size(); ++q)
-          if (d[q] > kMaxDim * 64) reject(n, "target shape");
-        out = d.size() == 2 ? Shape{static_cast<int>(d[1]), 1, 1}
-                            : Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
-      } else {
-        reject(n, "target rank (only N x K or N x C x H x W)");
+        if (d[q] == -1 && infer < 0)
+          infer = static_cast<int64_t>(q);
+        else if (d[q] < 1 || d[q] > kMaxDim * 64 || (known *= d[q]) > count)
+          reject(n, "target shape");
       }
-      if (out.size() != in.size()) reject(n, "reshape that changes the element count");
+      if (infer >= 0) {
+        if (count % known != 0) reject(n, "target shape that does not divide the input");
+        d[static_cast<size_t>(infer)] = count / known;
+      }
     }
-    // Data stay in C, H, W order: a pure relabelling of the shape.
-    Op op = make_op(OpKind::Flatten, n.name(), {in_id});
-    op.out = define(n.output(0), out);
+    relabel(n, n.input(0), d, n.output(0));
+  }
+
+  // ---- Shape arithmetic, folded at load time: the operands are constants. ----
+
+  /// Stores the integer constant `v` of dims `d` under `name`.
+  void define_ints(const std::string& name, std::vector<int64_t> d, std::vector<int64_t> v) {
+    Init t;
+    t.dims = std::move(d);
+    t.i = std::move(v);
+    inits_[name] = std::move(t);
+  }
+
+  /// Shape: the dims of a computed value (optionally [start, end) of them, opset 15).
+  void add_shape(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"start", "end"});
+    view(n.input(0), ctx);
+    const std::vector<int64_t> d = dims_of(n.input(0));
+    const int64_t r = static_cast<int64_t>(d.size());
+    auto clampi = [&](int64_t v) { return std::clamp<int64_t>(v < 0 ? v + r : v, 0, r); };
+    const int64_t b = clampi(int_attr(n, "start", 0)), e = clampi(int_attr(n, "end", r));
+    std::vector<int64_t> v(d.begin() + b, d.begin() + std::max(b, e));
+    define_ints(n.output(0), {static_cast<int64_t>(v.size())}, v);
+  }
+
+  /// Gather of a constant (a shape) along axis 0.
+  void add_gather(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"axis"});
+    require_io(n, 2);
+    if (!inits_.count(n.input(0))) reject(n, "gather from a computed value (only from constants such as shapes)");
+    const Init& data = init(n.input(0), ctx);
+    const Init& idx = init(n.input(1), ctx);
+    if (int_attr(n, "axis", 0) != 0 || data.dims.size() != 1) reject(n, "gather other than along axis 0 of a vector");
+    if (!idx.f.empty()) reject(n, "float indices");
+    const int64_t len = data.dims[0];
+    Init out;
+    out.dims = idx.dims;
+    for (int64_t k : idx.i) {
+      if (k < -len || k >= len) reject(n, "index " + std::to_string(k) + " outside a vector of " + std::to_string(len));
+      const size_t q = static_cast<size_t>(k < 0 ? k + len : k);
+      if (data.f.empty())
+        out.i.push_back(data.i[q]);
+      else
+        out.f.push_back(data.f[q]);
+    }
+    inits_[n.output(0)] = std::move(out);
+  }
+
+  /// Squeeze and Unsqueeze: of a constant, its dims change; of a computed value, a relabelling.
+  void add_squeeze(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    check_known_attrs(n, {"axes"});
+    std::vector<int64_t> axes = ints(n, "axes", {});
+    if (has_input(n, 1)) axes = integers(n.input(1), ctx);  // opset 13
+    const bool constant = inits_.count(n.input(0)) > 0;
+    if (!constant) view(n.input(0), ctx);
+    std::vector<int64_t> d = constant ? init(n.input(0), ctx).dims : dims_of(n.input(0));
+    const int64_t r = static_cast<int64_t>(d.size()) + (t == "Unsqueeze" ? static_cast<int64_t>(axes.size()) : 0);
+    for (int64_t& a : axes) {
+      if (a < -r || a >= r) reject(n, "axis " + std::to_string(a) + " for rank " + std::to_string(r));
+      if (a < 0) a += r;
+    }
+    std::sort(axes.begin(), axes.end());
+    if (std::adjacent_find(axes.begin(), axes.end()) != axes.end()) reject(n, "repeated axes");
+    if (t == "Unsqueeze") {
+      if (axes.empty()) reject(n, "Unsqueeze without axes");
+      for (int64_t a : axes) d.insert(d.begin() + a, 1);
+    } else if (axes.empty()) {
+      d.erase(std::remove(d.begin(), d.end(), int64_t{1}), d.end());
+    } else {
+      for (auto a = axes.rbegin(); a != axes.rend(); ++a) {
+        if (d[static_cast<size_t>(*a)] != 1) reject(n, "squeeze of an axis of size " + std::to_string(d[static_cast<size_t>(*a)]));
+        d.erase(d.begin() + *a);
+      }
+    }
+    if (constant) {
+      Init c = init(n.input(0), ctx);
+      c.dims = d;
+      inits_[n.output(0)] = std::move(c);
+      return;
+    }
+    relabel(n, n.input(0), d, n.output(0));
+  }
+
+  /// Cast: of a constant, converted; of a computed value, only to float (the identity).
+  void add_cast(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"to", "saturate"});
+    const int64_t to = int_attr(n, "to", 0);
+    const bool to_float = to == onnx::TensorProto::FLOAT;
+    const bool to_int = to == onnx::TensorProto::INT64 || to == onnx::TensorProto::INT32;
+    if (!inits_.count(n.input(0))) {
+      if (!to_float) reject(n, "cast of a computed value to a type other than float32");
+      ids_[n.output(0)] = view(n.input(0), ctx);
+      if (dims_.count(n.input(0))) dims_[n.output(0)] = dims_.at(n.input(0));
+      return;
+    }
+    if (!to_float && !to_int) reject(n, "cast to type " + std::to_string(to) + " (only float32, int32, int64)");
+    Init c = init(n.input(0), ctx);
+    if (to_float && c.f.empty()) {
+      c.f.assign(c.i.begin(), c.i.end());
+      c.i.clear();
+    } else if (to_int && !c.f.empty()) {
+      for (float v : c.f) {
+        if (!std::isfinite(v) || std::fabs(v) > 9e15f) reject(n, "cast of a non-finite or huge value to an integer");
+        c.i.push_back(static_cast<int64_t>(v));  // toward zero
+      }
+      c.f.clear();
+    }
+    c.is_int32 = to == onnx::TensorProto::INT32;
+    inits_[n.output(0)] = std::move(c);
+  }
+
+  /// Transpose of a value whose trailing axes are its H and W and whose leading axes (after
+  /// the batch) split its channels: a channel permutation, such as a channel shuffle
+  /// (N, g, C/g, H, W) -> (N, C/g, g, H, W).
+  void add_transpose(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"perm"});
+    const int in_id = view(n.input(0), ctx);
+    const Shape in = model_.values[static_cast<size_t>(in_id)];
+    const std::vector<int64_t> d = dims_of(n.input(0));
+    const size_t r = d.size();
+    std::vector<int64_t> perm = ints(n, "perm", {});
+    if (perm.empty())
+      for (size_t q = r; q-- > 0;) perm.push_back(static_cast<int64_t>(q));
+    std::vector<int64_t> sorted = perm;
+    std::sort(sorted.begin(), sorted.end());
+    for (size_t q = 0; q < r; ++q)
+      if (sorted.size() != r || sorted[q] != static_cast<int64_t>(q)) reject(n, "perm that is not a permutation of the axes");
+    // The channel axes: 1 .. t-1, with the axes from t on holding H x W. Take the largest t.
+    size_t t = r;
+    int64_t spatial = 1;
+    while (t > 1 && spatial < static_cast<int64_t>(in.h) * in.w) spatial *= d[--t];
+    while (t < r && d[t] == 1 && spatial == static_cast<int64_t>(in.h) * in.w && t + 1 < r) ++t;
+    bool ok = perm[0] == 0 && spatial == static_cast<int64_t>(in.h) * in.w;
+    for (size_t q = t; q < r && ok; ++q) ok = perm[q] == static_cast<int64_t>(q);
+    if (!ok) reject(n, "transpose that moves the batch or spatial axes (only channel permutations such as a channel shuffle)");
+    std::vector<int64_t> e(r);
+    for (size_t q = 0; q < r; ++q) e[q] = d[static_cast<size_t>(perm[q])];
+    // Output channel index (e_1 .. e_{t-1}, row-major) -> input channel index.
+    std::vector<int64_t> stride_in(r, 1);
+    for (size_t q = t - 1; q-- > 1;) stride_in[q] = stride_in[q + 1] * d[q + 1];
+    Op op = make_op(OpKind::Shuffle, n.name(), {in_id});
+    op.perm.resize(static_cast<size_t>(in.c));
+    bool identity = true;
+    for (int c = 0; c < in.c; ++c) {
+      int64_t rest = c, src = 0;
+      for (size_t q = t - 1; q >= 1; --q) {
+        const int64_t idx = rest % e[q];
+        rest /= e[q];
+        src += idx * stride_in[static_cast<size_t>(perm[q])];
+      }
+      op.perm[static_cast<size_t>(c)] = static_cast<int>(src);
+      identity = identity && src == c;
+    }
+    dims_[n.output(0)] = e;
+    if (identity) {
+      ids_[n.output(0)] = in_id;
+      return;
+    }
+    op.out = define(n.output(0), in);
+    dims_[n.output(0)] = e;
     model_.ops.push_back(op);
+  }
+
+  /// Split of a computed value along the channels, height or width: one Slice per output.
+  void add_split(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+    check_known_attrs(n, {"axis", "split", "num_outputs"});
+    const int in_id = value(n.input(0), ctx);
+    const Shape in = model_.values[static_cast<size_t>(in_id)];
+    const std::vector<int64_t> d = dims_of(n.input(0));
+    int64_t axis = int_attr(n, "axis", 0);
+    if (axis < 0) axis += static_cast<int64_t>(d.size());
+    if (axis < 1 || axis >= static_cast<int64_t>(d.size())) reject(n, "axis (not the batch)");
+    const int64_t len = d[static_cast<size_t>(axis)];
+    std::vector<int64_t> split = ints(n, "split", {});
+    if (has_input(n, 1)) split = integers(n.input(1), ctx);  // opset 13
+    const int64_t parts = n.output_size();
+    if (split.empty()) {  // equal parts, the last one smaller when they do not divide
+      const int64_t each = (len + parts - 1) / parts;
+      for (int64_t q = 0, at = 0; q < parts; ++q, at += each) split.push_back(std::max<int64_t>(0, std::min(each, len - at)));
+    }
+    if (static_cast<int64_t>(split.size()) != parts) reject(n, "split with a length per output");
+    int64_t at = 0;
+    for (int64_t q = 0; q < parts; ++q) {
+      if (split[static_cast<size_t>(q)] < 1) reject(n, "empty split part");
+      Op op = make_op(OpKind::Slice, n.name(), {in_id});
+      int out_dims[3] = {in.c, in.h, in.w};
+      const size_t ax = d.size() == 2 ? 0 : static_cast<size_t>(axis - 1);
+      op.start[ax] = static_cast<int>(at);
+      out_dims[ax] = static_cast<int>(split[static_cast<size_t>(q)]);
+      at += split[static_cast<size_t>(q)];
+      if (at > len) reject(n, "split lengths that add up to more than the axis (" + std::to_string(len) + ")");
+      if (n.output(static_cast<int>(q)).empty()) continue;
+      op.out = define(n.output(static_cast<int>(q)), Shape{out_dims[0], out_dims[1], out_dims[2]});
+      model_.ops.push_back(op);
+    }
+    if (at != len) reject(n, "split lengths that do not add up to the axis (" + std::to_string(len) + ")");
+  }
+
+  /// Slice of an integer vector constant (a shape), along its only axis.
+  void fold_slice(const onnx::NodeProto& n, const std::string& ctx) {
+    const Init& c = init(n.input(0), ctx);
+    if (c.dims.size() != 1 || !c.f.empty()) reject(n, "slice of a constant other than an integer vector");
+    const std::vector<int64_t>&b = integers(n.input(1), ctx), &e = integers(n.input(2), ctx);
+    if (has_input(n, 3)) {
+      const std::vector<int64_t>& axes = integers(n.input(3), ctx);
+      if (axes.size() != 1 || (axes[0] != 0 && axes[0] != -1)) reject(n, "axes of a vector slice");
+    }
+    const int64_t step = has_input(n, 4) ? integers(n.input(4), ctx).at(0) : 1;
+    if (b.size() != 1 || e.size() != 1 || step != 1) reject(n, "vector slice other than [start, end) with step 1");
+    const int64_t len = c.dims[0];
+    auto clampi = [&](int64_t v) { return std::clamp<int64_t>(v < 0 ? v + len : v, 0, len); };
+    const int64_t lo = clampi(b[0]), hi = std::max(lo, clampi(e[0]));
+    define_ints(n.output(0), {hi - lo}, std::vector<int64_t>(c.i.begin() + lo, c.i.begin() + hi));
   }
 
   void add_slice(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
     check_known_attrs(n, {});
     require_io(n, 3);
+    if (inits_.count(n.input(0))) return fold_slice(n, ctx);
     const int in_id = value(n.input(0), ctx);
     const Shape in = model_.values[in_id];
     const std::vector<int64_t>& starts = integers(n.input(1), ctx);
@@ -682,7 +1016,8 @@ class Loader {
     const int dims[3] = {in.c, in.h, in.w};
     int out_dims[3] = {in.c, in.h, in.w};
     for (size_t q = 0; q < starts.size(); ++q) {
-      int64_t ax = axes[q] < 0 ? axes[q] + 4 : axes[q];
+      const int64_t rank = static_cast<int64_t>(dims_of(n.input(0)).size());
+      int64_t ax = axes[q] < 0 ? axes[q] + rank : axes[q];
       if (ax == 0) {
         if (starts[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
         continue;
@@ -756,6 +1091,9 @@ class Loader {
   std::map<std::string, Init> inits_;
   std::map<std::string, int> ids_;
   std::map<std::string, int> uses_;  ///< per value name: the nodes (and graph outputs) that read it
+  /// ONNX dims (batch first) of computed values that are not N x C x H x W: vectors (N x K)
+  /// and views of other ranks; the rest are [1, C, H, W] of their Shape.
+  std::map<std::string, std::vector<int64_t>> dims_;
 };
 
 }  // namespace

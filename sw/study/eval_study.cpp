@@ -83,11 +83,15 @@ namespace {
 constexpr double kMaxJournalError = 1e100;
 
 /// Relative errors of one image's layer output (crossbar vs software), each normalised by
-/// the output channel's range over the calibration images.
+/// the output channel's range over the calibration images. A channel that (nearly) never
+/// varied there (below 1e-6 of the layer's widest range: a channel the ReLUs silenced) is
+/// normalised by the widest range, as relative_error() does, instead of by its ~0.
 ErrorTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
+  const Eigen::VectorXd range = st.out_hi - st.out_lo;
+  const double widest = range.size() && range.maxCoeff() > 0 ? range.maxCoeff() : 1.0;
   ErrorTally t;
   for (Eigen::Index col = 0; col < s.cols(); ++col)
-    t += column_error(c.col(col), s.col(col), std::max(st.out_hi(col) - st.out_lo(col), 1e-30));
+    t += column_error(c.col(col), s.col(col), range(col) > 1e-6 * widest ? range(col) : widest);
   return t;
 }
 

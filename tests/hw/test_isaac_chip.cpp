@@ -286,7 +286,7 @@ TEST(IsaacChip, PeakComputationalEfficiencyIsThePublishedOne) {
 TEST(Mapper, EveryComputingOperationHasAUnitNameArchitecturesAccept) {
   for (OpKind k : {OpKind::Linear, OpKind::Relu, OpKind::Add, OpKind::MaxPool, OpKind::AvgPool, OpKind::GlobalAvgPool,
                    OpKind::Flatten, OpKind::Slice, OpKind::Pad, OpKind::Affine, OpKind::Activation, OpKind::Softmax,
-                   OpKind::Concat}) {
+                   OpKind::Concat, OpKind::Shuffle}) {
     const std::string name = digital_op_name(k);
     if (name.empty()) continue;
     const auto& names = digital_op_names();

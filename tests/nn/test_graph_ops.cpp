@@ -63,36 +63,42 @@ std::vector<float> randv(size_t n, unsigned seed) {
 
 }  // namespace
 
+// With dilations 1 and (2, 3): a dilated kernel maps as the dense kernel it spans.
 TEST(Graph, ConvStridePadMatchesDirectLoops) {
-  const int C = 3, H = 7, W = 6, O = 4, K = 3;
-  onnx::ModelProto m;
-  auto* g = m.mutable_graph();
-  const auto w = randv(O * C * K * K, 1), b = randv(O, 2);
-  add_init(g, "w", {O, C, K, K}, w);
-  add_init(g, "b", {O}, b);
-  auto* n = add_node(g, "Conv", "conv", {"input", "w", "b"}, "y");
-  ints_attr(n, "kernel_shape", {K, K});
-  ints_attr(n, "strides", {2, 1});
-  ints_attr(n, "pads", {1, 0, 1, 2});
-  const Model model = load_onnx_model(save(m, C, H, W, "y", "conv"));
-  const auto x = randv(C * H * W, 3);
-  SoftwareBackend sw(model);
-  const Eigen::VectorXf y = run_image(model, x.data(), sw);
-  const int oh = (H + 2 - K) / 2 + 1, ow = (W + 2 - K) / 1 + 1;
-  ASSERT_EQ(y.size(), O * oh * ow);
-  for (int o = 0; o < O; ++o)
-    for (int oy = 0; oy < oh; ++oy)
-      for (int ox = 0; ox < ow; ++ox) {
-        double s = b[o];
-        for (int c = 0; c < C; ++c)
-          for (int ky = 0; ky < K; ++ky)
-            for (int kx = 0; kx < K; ++kx) {
-              const int iy = oy * 2 - 1 + ky, ix = ox - 0 + kx;
-              if (iy < 0 || iy >= H || ix < 0 || ix >= W) continue;
-              s += w[((o * C + c) * K + ky) * K + kx] * x[(c * H + iy) * W + ix];
-            }
-        EXPECT_NEAR(y[(o * oh + oy) * ow + ox], s, 1e-4);
-      }
+  const int C = 3, H = 9, W = 10, O = 4, K = 3;
+  for (const auto& dil : {std::vector<int64_t>{1, 1}, std::vector<int64_t>{2, 3}}) {
+    SCOPED_TRACE(dil[1]);
+    const int dh = static_cast<int>(dil[0]), dw = static_cast<int>(dil[1]);
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    const auto w = randv(O * C * K * K, 1), b = randv(O, 2);
+    add_init(g, "w", {O, C, K, K}, w);
+    add_init(g, "b", {O}, b);
+    auto* n = add_node(g, "Conv", "conv", {"input", "w", "b"}, "y");
+    ints_attr(n, "kernel_shape", {K, K});
+    ints_attr(n, "strides", {2, 1});
+    ints_attr(n, "pads", {1, 0, 1, 2});
+    ints_attr(n, "dilations", dil);
+    const Model model = load_onnx_model(save(m, C, H, W, "y", "conv"));
+    const auto x = randv(C * H * W, 3);
+    SoftwareBackend sw(model);
+    const Eigen::VectorXf y = run_image(model, x.data(), sw);
+    const int oh = (H + 2 - (K - 1) * dh - 1) / 2 + 1, ow = (W + 2 - (K - 1) * dw - 1) / 1 + 1;
+    ASSERT_EQ(y.size(), O * oh * ow);
+    for (int o = 0; o < O; ++o)
+      for (int oy = 0; oy < oh; ++oy)
+        for (int ox = 0; ox < ow; ++ox) {
+          double s = b[o];
+          for (int c = 0; c < C; ++c)
+            for (int ky = 0; ky < K; ++ky)
+              for (int kx = 0; kx < K; ++kx) {
+                const int iy = oy * 2 - 1 + ky * dh, ix = ox - 0 + kx * dw;
+                if (iy < 0 || iy >= H || ix < 0 || ix >= W) continue;
+                s += w[((o * C + c) * K + ky) * K + kx] * x[(c * H + iy) * W + ix];
+              }
+          EXPECT_NEAR(y[(o * oh + oy) * ow + ox], s, 1e-4);
+        }
+  }
 }
 
 TEST(Graph, PoolSlicePadAddGemmBatchNorm) {
@@ -363,4 +369,78 @@ TEST(Mapping, DenseAndToeplitzMatchDirectConvolution) {
         EXPECT_EQ(toeplitz_matrix(L, true).cols(), T.cols());
       }
     }
+}
+
+// ShuffleNet's channel shuffle as exporters write it: the target shapes computed from Shape,
+// Gather, Div, Unsqueeze, Cast and Concat (folded at load time), a Reshape to 5-D, a Transpose
+// of the two channel axes, a Reshape back, then Split; checked against the permutation by hand.
+TEST(Graph, ChannelShuffleFromShapeArithmeticAndSplit) {
+  const int C = 6, H = 2, W = 3;
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  std::vector<float> eye(C * C, 0.0f);  // a 1x1 identity convolution first: a model needs a layer
+  for (int c = 0; c < C; ++c) eye[c * C + c] = 1.0f;
+  add_init(g, "eye", {C, C, 1, 1}, eye);
+  add_node(g, "Conv", "conv", {"input", "eye"}, "xc");
+  add_node(g, "Shape", "shape", {"xc"}, "shp");
+  add_init_i64(g, "i1", {1});
+  add_node(g, "Gather", "gather_c", {"shp", "i1"}, "c");  // [6]
+  add_init_i64(g, "two", {2});
+  add_node(g, "Div", "cpg", {"c", "two"}, "cpg");  // [3]
+  auto* i2 = g->add_initializer();                  // a scalar index: a scalar result
+  i2->set_name("i2");
+  i2->set_data_type(onnx::TensorProto::INT64);
+  i2->add_int64_data(2);
+  add_node(g, "Gather", "gather_h", {"shp", "i2"}, "h");  // 2
+  add_init_i64(g, "ax0", {0});
+  add_node(g, "Unsqueeze", "unsq", {"h", "ax0"}, "hv");  // [2]
+  add_init(g, "wf", {1}, {3.0f});
+  auto* cast = add_node(g, "Cast", "cast", {"wf"}, "wv");  // [3]
+  auto* to = cast->add_attribute();
+  to->set_name("to");
+  to->set_type(onnx::AttributeProto::INT);
+  to->set_i(onnx::TensorProto::INT64);
+  add_init_i64(g, "head", {1, 2});
+  auto* cat = add_node(g, "Concat", "target", {"head", "cpg", "hv", "wv"}, "t5");  // [1, 2, 3, 2, 3]
+  auto* ax = cat->add_attribute();
+  ax->set_name("axis");
+  ax->set_type(onnx::AttributeProto::INT);
+  ax->set_i(0);
+  add_node(g, "Reshape", "r5", {"xc", "t5"}, "x5");
+  ints_attr(add_node(g, "Transpose", "shuffle", {"x5"}, "y5"), "perm", {0, 2, 1, 3, 4});
+  add_init_i64(g, "t4", {1, -1, 0, 3});
+  add_node(g, "Reshape", "r4", {"y5", "t4"}, "y");
+  add_init_i64(g, "parts", {2, 4});
+  auto* split = add_node(g, "Split", "split", {"y", "parts"}, "a");
+  split->add_output("b");
+  auto* sa = split->add_attribute();
+  sa->set_name("axis");
+  sa->set_type(onnx::AttributeProto::INT);
+  sa->set_i(1);
+  add_node(g, "Concat", "join", {"b", "a"}, "out")->add_attribute()->CopyFrom(*ax);
+  g->mutable_node(g->node_size() - 1)->mutable_attribute(0)->set_i(1);
+  const Model model = load_onnx_model(save(m, C, H, W, "out", "shuffle"));
+  // Only data movement: the shuffle, two slices and a concatenation.
+  std::vector<OpKind> kinds;
+  for (const Op& op : model.ops) kinds.push_back(op.kind);
+  EXPECT_EQ(kinds, (std::vector<OpKind>{OpKind::Linear, OpKind::Shuffle, OpKind::Slice, OpKind::Slice, OpKind::Concat}));
+  // Shuffled: channel j * 2 + i is input channel i * 3 + j -> 0 3 1 4 2 5; split (2, 4) and
+  // joined the other way round -> 1 4 2 5 0 3.
+  const int want[C] = {1, 4, 2, 5, 0, 3};
+  const auto x = randv(C * H * W, 21);
+  SoftwareBackend sw(model);
+  const Eigen::VectorXf y = run_image(model, x.data(), sw);
+  ASSERT_EQ(y.size(), C * H * W);
+  for (int c = 0; c < C; ++c)
+    for (int p = 0; p < H * W; ++p) EXPECT_EQ(y[c * H * W + p], x[want[c] * H * W + p]) << c << " " << p;
+
+  // A transpose that moves the spatial axes is refused, naming what is supported.
+  onnx::ModelProto m2;
+  ints_attr(add_node(m2.mutable_graph(), "Transpose", "hw", {"input"}, "y"), "perm", {0, 1, 3, 2});
+  try {
+    load_onnx_model(save(m2, C, H, W, "y", "transpose_hw"));
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("only channel permutations"), std::string::npos) << e.what();
+  }
 }

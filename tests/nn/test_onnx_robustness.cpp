@@ -199,8 +199,9 @@ TEST(OnnxRobustness, SliceAndReshapeArguments) {
     f->add_input("shape");
   };
   expect_rejected([&](auto& m) { reshape(m, {1, -2, 4, 1}); }, "target shape");
-  expect_rejected([&](auto& m) { reshape(m, {1, -1, -1}); }, "target rank");
-  expect_rejected([&](auto& m) { reshape(m, {1, 3}); }, "element count");
+  expect_rejected([&](auto& m) { reshape(m, {1, 2, 2, 2, 1, 1, 1, 1, 1}); }, "target rank 9");
+  expect_rejected([&](auto& m) { reshape(m, {1, -1, -1}); }, "target shape");
+  expect_rejected([&](auto& m) { reshape(m, {1, 3}); }, "reshape to 3 elements of a value of 8");
 }
 
 TEST(OnnxRobustness, MetadataIsParsedWithCheckedConversions) {

@@ -9,27 +9,11 @@
 #include "sw/common/errors.h"
 #include "sw/nn/network.h"
 #include "sw/nn/npy.h"
+#include "tests/nn/torch_zoo.h"
 
 using namespace xbarsim;
 
 namespace {
-
-/// The Python that has torch and torchvision (Debian's, not a user's virtual environment).
-std::string torch_python() {
-  for (const char* py : {"/usr/bin/python3", "python3"}) {
-    const std::string cmd = std::string(py) + " -c 'import torch, torchvision' > /dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) return py;
-  }
-  return "";
-}
-
-/// Exports `names` at `size` into a fresh directory; "" when it failed.
-std::string export_zoo(const std::string& py, int size, const std::string& names) {
-  const std::string dir = ::testing::TempDir() + "xbarsim_zoo_" + std::to_string(size);
-  const std::string cmd = "mkdir -p " + dir + " && " + py + " " + XBARSIM_SOURCE_DIR_NN + "/tests/nn/torch_zoo.py " +
-                          dir + " " + std::to_string(size) + " " + names + " > " + dir + "/export.log 2>&1";
-  return std::system(cmd.c_str()) == 0 ? dir : "";
-}
 
 void expect_torch_logits(const std::string& dir, const std::string& name) {
   SCOPED_TRACE(name);
@@ -49,21 +33,23 @@ void expect_torch_logits(const std::string& dir, const std::string& name) {
 
 }  // namespace
 
-// ResNet-18, MobileNetV2 (depthwise convolutions), SqueezeNet 1.1 and DenseNet-121 at 32 x 32;
-// ShuffleNetV2's channel shuffle (Shape, Gather, Transpose, ...) is not folded yet: it is
-// refused once, naming its nodes.
+// ResNet-18, MobileNetV2 (depthwise convolutions), SqueezeNet 1.1, DenseNet-121 and
+// ShuffleNetV2 (its channel shuffle: Shape, Gather, Reshape to 5-D, Transpose, Split) at 32 x 32.
 TEST(TorchZoo, TorchvisionTopologiesAt32x32ImportAndGiveTorchsLogits) {
-  const std::string py = torch_python();
+  const std::string py = xbarsim_test::torch_python();
   if (py.empty()) GTEST_SKIP() << "python3-torch / python3-torchvision not installed; test skipped";
-  const std::string dir = export_zoo(py, 32, "resnet18 mobilenet_v2 squeezenet1_1 densenet121 shufflenet_v2_x0_5");
-  ASSERT_FALSE(dir.empty()) << "the export failed (see its export.log)";
-  for (const char* n : {"resnet18", "mobilenet_v2", "squeezenet1_1", "densenet121"}) expect_torch_logits(dir, n);
-  try {
-    load_onnx_model(dir + "/shufflenet_v2_x0_5.onnx");
-    FAIL() << "ShuffleNetV2 imported: extend this test to its logits";
-  } catch (const InputError& e) {
-    const std::string w = e.what();
-    EXPECT_NE(w.find("have unsupported operators"), std::string::npos) << w;
-    EXPECT_NE(w.find("(Transpose)"), std::string::npos) << w;
-  }
+  const std::string dir = ::testing::TempDir() + "xbarsim_zoo_32";
+  ASSERT_TRUE(xbarsim_test::export_zoo(py, dir, 32, "resnet18 mobilenet_v2 squeezenet1_1 densenet121 shufflenet_v2_x0_5"))
+      << "the export failed (see " << dir << "/export.log)";
+  for (const char* n : {"resnet18", "mobilenet_v2", "squeezenet1_1", "densenet121", "shufflenet_v2_x0_5"})
+    expect_torch_logits(dir, n);
+}
+
+// One network at ImageNet size: SqueezeNet 1.1 at 224 x 224 (ceil-mode pooling, Concat).
+TEST(TorchZoo, SqueezeNetAt224x224GivesTorchsLogits) {
+  const std::string py = xbarsim_test::torch_python();
+  if (py.empty()) GTEST_SKIP() << "python3-torch / python3-torchvision not installed; test skipped";
+  const std::string dir = ::testing::TempDir() + "xbarsim_zoo_224";
+  ASSERT_TRUE(xbarsim_test::export_zoo(py, dir, 224, "squeezenet1_1")) << "see " << dir << "/export.log";
+  expect_torch_logits(dir, "squeezenet1_1");
 }

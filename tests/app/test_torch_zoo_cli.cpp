@@ -1,0 +1,76 @@
+// torchvision topologies through every command (issue 26): at 32 x 32, `overhead` and
+// `simulate --timing-only` on ISAAC-CE cost every layer (grouped ones included), and `eval`
+// runs SqueezeNet 1.1 and ShuffleNetV2 through crossbars on images the test writes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "sw/nn/model.h"
+#include "tests/app/cli_test_util.h"
+#include "tests/app/tiny_network.h"
+#include "tests/nn/torch_zoo.h"
+
+namespace {
+
+nlohmann::json read_json(const std::string& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+}  // namespace
+
+TEST(TorchZooCli, EveryCommandCostsEveryLayerOfTheZoo) {
+  const std::string py = xbarsim_test::torch_python();
+  if (py.empty()) GTEST_SKIP() << "python3-torch / python3-torchvision not installed; test skipped";
+  const std::string dir = ::testing::TempDir() + "xbarsim_zoo_cli";
+  ASSERT_TRUE(xbarsim_test::export_zoo(py, dir, 32, "resnet18 mobilenet_v2 squeezenet1_1 densenet121 shufflenet_v2_x0_5"))
+      << "see " << dir << "/export.log";
+  xbarsim_test::write_tiny_cifar(dir + "/data", 4);
+  const std::string isaac = std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml";
+  for (const std::string name : {"resnet18", "mobilenet_v2", "squeezenet1_1", "densenet121", "shufflenet_v2_x0_5"}) {
+    SCOPED_TRACE(name);
+    const std::string model = dir + "/" + name + ".onnx";
+    const xbarsim::Model m = xbarsim::load_onnx_model(model);
+    int grouped = 0;
+    for (const auto& L : m.linear) grouped += L.group > 1;
+    EXPECT_EQ(grouped > 0, name == "mobilenet_v2" || name == "shufflenet_v2_x0_5");
+
+    auto r = xbarsim_test::run_xbarsim("overhead --model " + model + " --json " + dir + "/o.json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto o = read_json(dir + "/o.json");
+    ASSERT_EQ(o["layers"].size(), m.linear.size());
+    for (size_t l = 0; l < m.linear.size(); ++l) {
+      const auto& d = o["layers"][l]["dense"];
+      EXPECT_EQ(o["layers"][l]["name"], m.linear[l].name);
+      EXPECT_GT(d["crossbars"].get<double>(), 0);
+      // A grouped layer uses 1/group of its block-diagonal matrix's cells.
+      const double used = d["cells_used"].get<double>(), rows = d["rows"].get<double>();
+      if (m.linear[l].group > 1) {
+        EXPECT_LE(used, rows * m.linear[l].c_out / m.linear[l].group) << l;
+      }
+    }
+
+    r = xbarsim_test::run_xbarsim("simulate --model " + model + " --config " + isaac + " --timing-only --json " + dir +
+                                  "/s.json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto s = read_json(dir + "/s.json");
+    ASSERT_EQ(s["layers"].size(), m.linear.size());
+    for (const auto& layer : s["layers"]) {
+      EXPECT_GT(layer["crossbars"].get<double>(), 0) << layer["name"];
+      EXPECT_GT(layer["busy_us"].get<double>(), 0) << layer["name"];
+      EXPECT_GT(layer["energy_uj"].get<double>(), 0) << layer["name"];
+    }
+    EXPECT_GT(s["throughput_images_per_s"].get<double>(), 0);
+
+    if (name != "squeezenet1_1" && name != "shufflenet_v2_x0_5") continue;  // the others take minutes
+    r = xbarsim_test::run_xbarsim("eval --model " + model + " --dataset cifar10 --images 2 --set data.dir=" + dir +
+                                  "/data --set eval.calibration_images=4 --json " + dir + "/e.json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto e = read_json(dir + "/e.json");
+    ASSERT_EQ(e["layers"].size(), m.linear.size());
+    for (const auto& layer : e["layers"]) EXPECT_TRUE(std::isfinite(layer["mean_relative_error"].get<double>()));
+  }
+}
