@@ -1,0 +1,182 @@
+// The `xbarsim._core` extension: the configuration and the exact crossbar solver on NumPy
+// arrays. Whole commands (eval, simulate, explore, overhead) are run by python/xbarsim/__init__.py
+// through the xbarsim executable, so their results are the CLI's JSON by construction.
+#include <pybind11/eigen.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstdlib>
+#include <sstream>
+
+#include "sw/circuit/crossbar_params.h"
+#include "sw/circuit/crossbar_solver.h"
+#include "sw/circuit/spice_netlist.h"
+#include "sw/common/config.h"
+#include "sw/common/errors.h"
+
+namespace py = pybind11;
+using namespace xbarsim;
+
+namespace {
+
+/// A Python value as the YAML text --set takes: lists as [a, b], booleans as true/false.
+std::string yaml_text(const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "true" : "false";
+  if (py::isinstance<py::int_>(v)) return std::to_string(v.cast<long long>());
+  if (py::isinstance<py::float_>(v)) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v.cast<double>();
+    return s.str();
+  }
+  if (py::isinstance<py::str>(v)) return v.cast<std::string>();
+  if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+    std::string out = "[";
+    for (const py::handle& x : v) out += (out.size() > 1 ? ", " : "") + yaml_text(x);
+    return out + "]";
+  }
+  if (v.is_none()) return "none";
+  throw InputError("a configuration value must be a number, string, bool, None or list (got " +
+                   py::str(v.get_type()).cast<std::string>() + ")");
+}
+
+/// The value at `key`, typed: a list, an int, a float, a bool or a string.
+py::object typed_value(const ConfigTree& cfg, const std::string& key) {
+  if (cfg.is_list(key)) {
+    py::list out;
+    for (const std::string& item : cfg.list_items(key)) out.append(item);
+    return std::move(out);
+  }
+  const std::string text = cfg.get_string(key);
+  if (text == "true" || text == "false") return py::bool_(text == "true");
+  if (ConfigTree::is_integer(key)) {
+    try {
+      return py::int_(cfg.get_int(key));
+    } catch (const InputError&) {  // a word such as `none` or `unbounded`
+      return py::str(text);
+    }
+  }
+  if (ConfigTree::is_numeric(key)) {
+    try {
+      return py::float_(cfg.get_double(key));
+    } catch (const InputError&) {
+      return py::str(text);
+    }
+  }
+  return py::str(text);
+}
+
+/// Checks every numeric value against its documented range, as the commands do when they read
+/// it (words such as `none` are checked by the command that reads the key).
+void check_ranges(const ConfigTree& cfg) {
+  for (const std::string& key : cfg.leaf_keys()) {
+    if (!ConfigTree::is_numeric(key) || cfg.is_list(key)) continue;
+    const std::string text = cfg.get_string(key);
+    char* end = nullptr;
+    std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size()) continue;
+    if (ConfigTree::is_integer(key))
+      cfg.get_int(key);
+    else
+      cfg.get_double(key);
+  }
+}
+
+Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const ConfigTree& cfg) {
+  const CrossbarParams params = parse_crossbar_params(cfg);
+  const SolverOptions opts = parse_solver_options(cfg);
+  if (g.size() == 0) throw InputError("the conductance matrix is empty");
+  if (v.cols() != g.rows())
+    throw InputError("the input vectors have " + std::to_string(v.cols()) + " voltages each, but the conductance matrix has " +
+                     std::to_string(g.rows()) + " rows (one voltage per row is needed)");
+  if (!g.allFinite() || !v.allFinite()) throw InputError("conductances and voltages must be finite");
+  if (g.minCoeff() <= 0) throw InputError("conductances must be > 0");
+  py::gil_scoped_release release;  // the solve runs on this thread (and the solver's) without the GIL
+  auto solver = make_crossbar_solver(params, opts);
+  solver->program(g);
+  return solver->column_currents(v);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "xbarsim's C++ core: configuration and the exact crossbar circuit solver";
+  m.attr("__version__") = XBARSIM_VERSION;
+  m.attr("_binary") = XBARSIM_BINARY_PATH;
+  m.attr("_installed_binary") = XBARSIM_INSTALLED_BINARY;
+  static py::exception<SolverError> solver_error(m, "SolverError", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const SolverError& e) {
+      solver_error(e.what());
+    }
+  });
+
+  py::class_<ConfigTree>(m, "Config",
+                         "Configuration: the documented defaults (configs/default.yaml), then a YAML file, then "
+                         "overrides; validated as the CLI validates it.")
+      .def(py::init([](const std::string& path, const py::dict& overrides) {
+             std::vector<std::string> sets;
+             for (const auto& [k, v] : overrides) sets.push_back(py::str(k).cast<std::string>() + "=" + yaml_text(v));
+             ConfigTree cfg = ConfigTree::load(path, sets);
+             check_ranges(cfg);
+             return cfg;
+           }),
+           py::arg("path") = "", py::arg("overrides") = py::dict(),
+           "Config(path='', overrides={}): defaults, the YAML file at `path`, then {'dotted.key': value}")
+      .def(
+          "set",
+          [](ConfigTree& c, const std::string& key, const py::handle& v) {
+            ConfigTree next = c;
+            next.set(key, yaml_text(v));
+            check_ranges(next);
+            c = next;
+          },
+          py::arg("key"), py::arg("value"), "Set a dotted key (a list value is a sweep)")
+      .def("get", &typed_value, py::arg("key"), "The value at a dotted key, typed")
+      .def(
+          "to_dict",
+          [](const ConfigTree& c) {
+            py::dict root;
+            for (const std::string& key : c.leaf_keys()) {
+              py::dict node = root;
+              size_t at = 0, dot;
+              while ((dot = key.find('.', at)) != std::string::npos) {
+                const py::str part(key.substr(at, dot - at));
+                if (!node.contains(part)) node[part] = py::dict();
+                node = node[part].cast<py::dict>();
+                at = dot + 1;
+              }
+              node[py::str(key.substr(at))] = typed_value(c, key);
+            }
+            return root;
+          },
+          "Every key as nested dicts")
+      .def("dump", &ConfigTree::dump, "The effective configuration as YAML text")
+      .def("sweep_points", &ConfigTree::sweep_points, "Points of the sweep its list values span")
+      .def("__repr__", [](const ConfigTree& c) {
+        return "<xbarsim.Config: " + std::to_string(c.sweep_points()) + " point(s)>";
+      });
+
+  m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
+        "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
+        "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "
+        "Releases the GIL.");
+  m.def(
+      "netlist",
+      [](const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const ConfigTree& cfg) {
+        const CrossbarParams params = parse_crossbar_params(cfg);
+        if (v.cols() != g.rows())
+          throw InputError("input vectors have " + std::to_string(v.cols()) + " voltages but the crossbar has " +
+                           std::to_string(g.rows()) + " rows");
+        if (g.size() == 0 || g.minCoeff() <= 0) throw InputError("conductances must be > 0");
+        std::ostringstream out;
+        write_spice_netlist(out, params, g, v);
+        return out.str();
+      },
+      py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
+      "The equivalent SPICE netlist (text); `ngspice -b` on it prints the column currents");
+}
