@@ -5,9 +5,14 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <memory>
+#include <optional>
+
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 
+#include "sw/analog/analog_layer.h"
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
@@ -159,6 +164,59 @@ PYBIND11_MODULE(_core, m) {
       .def("sweep_points", &ConfigTree::sweep_points, "Points of the sweep its list values span")
       .def("__repr__", [](const ConfigTree& c) {
         return "<xbarsim.Config: " + std::to_string(c.sweep_points()) + " point(s)>";
+      });
+
+  py::class_<AnalogLayer>(m, "Crossbar",
+                          "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
+                          "mitigation, programming noise, converters (config's sections).")
+      .def(py::init([](const Eigen::MatrixXd& w, const ConfigTree& cfg, double x_max, bool signed_inputs,
+                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt) {
+             const AnalogConfig ac = parse_analog_config(cfg);
+             if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
+             if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
+             if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("x_max must be a finite number > 0");
+             if (calib && calib->size() && calib->cols() != w.rows())
+               throw InputError("the calibration vectors have " + std::to_string(calib->cols()) +
+                                " values each, but the weight matrix has " + std::to_string(w.rows()) + " rows");
+             if (calib && !calib->allFinite()) throw InputError("the calibration vectors hold a non-finite value");
+             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt);
+             py::gil_scoped_release release;
+             layer->program(calib ? *calib : Eigen::MatrixXd());
+             return layer;
+           }),
+           py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
+           py::arg("calibration") = std::nullopt, py::arg("salt") = 0,
+           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0): W is inputs x outputs; "
+           "inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration "
+           "images (random vectors when None). Releases the GIL while programming.")
+      .def(
+          "matvec",
+          [](const AnalogLayer& layer, const Eigen::MatrixXd& x) {
+            if (x.cols() != layer.inputs())
+              throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
+                               std::to_string(layer.inputs()) + " inputs");
+            if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
+            py::gil_scoped_release release;
+            return layer.forward(x);
+          },
+          py::arg("X"), "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery")
+      .def_property_readonly("inputs", &AnalogLayer::inputs)
+      .def_property_readonly("outputs", &AnalogLayer::outputs)
+      .def_property_readonly("crossbars", &AnalogLayer::crossbars)
+      .def("reports", [](const AnalogLayer& layer) {
+        py::list out;
+        for (const CrossbarReport& r : layer.reports()) {
+          py::dict d;
+          d["row0"] = r.block.row0;
+          d["rows"] = r.block.rows;
+          d["col0"] = r.block.col0;
+          d["cols"] = r.block.cols;
+          d["physical_cols"] = r.physical_cols;
+          d["out_of_range_cells"] = r.out_of_range_cells;
+          d["min_column_gain"] = r.min_column_gain;
+          out.append(d);
+        }
+        return out;
       });
 
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),

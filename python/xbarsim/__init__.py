@@ -13,10 +13,10 @@ import os
 import subprocess
 import tempfile
 
-from ._core import Config, SolverError, __version__, netlist, solve  # noqa: F401
+from ._core import Config, Crossbar, SolverError, __version__, netlist, solve  # noqa: F401
 from . import _core
 
-__all__ = ["Config", "SolverError", "solve", "netlist", "eval", "simulate", "explore", "overhead", "run",
+__all__ = ["Config", "Crossbar", "SolverError", "solve", "netlist", "eval", "simulate", "explore", "overhead", "run",
            "__version__"]
 
 

@@ -119,7 +119,7 @@ def test_overhead_dict_equals_the_cli_json(tmp_path):
     assert got == want
 
 
-@pytest.mark.parametrize("script", ["solve_crossbar.py", "sweep_adc_bits.py"])
+@pytest.mark.parametrize("script", ["solve_crossbar.py", "sweep_adc_bits.py", "convert_torchvision.py"])
 def test_examples_run(script, tmp_path):
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     r = subprocess.run([sys.executable, os.path.join(root, "examples", "python", script)], capture_output=True,

@@ -1,0 +1,60 @@
+"""xbarsim.torch (issue 27): a torch model's Conv2d and Linear layers on crossbars. Skipped
+where Debian's python3-torch is absent."""
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch", reason="python3-torch not installed")
+import xbarsim  # noqa: E402
+import xbarsim.torch as xtorch  # noqa: E402
+
+
+def small_net():
+    torch.manual_seed(0)
+    return torch.nn.Sequential(
+        torch.nn.Conv2d(3, 8, 3, padding=1), torch.nn.ReLU(),
+        torch.nn.Conv2d(8, 8, 3, stride=2, padding=2, dilation=2, groups=8, bias=False), torch.nn.ReLU(),
+        torch.nn.Conv2d(8, 6, (1, 3), groups=2), torch.nn.Flatten(),
+        torch.nn.LazyLinear(5)).eval()
+
+
+def test_an_ideal_crossbar_gives_torchs_outputs():
+    # Near-ideal circuit and converters: the crossbars compute X W to ~1e-9, so the converted
+    # model's outputs are torch's. This checks the layouts (im2col order, grouped blocks,
+    # dilation, the Linear transposition) against torch itself.
+    net = small_net()
+    x = torch.rand(4, 3, 9, 10)
+    with torch.no_grad():
+        want = net(x)
+    cfg = xbarsim.Config(overrides={"crossbar.r_wire": 1e-6, "crossbar.r_in": 1e-6, "crossbar.r_out": 1e-6,
+                                    "converters.dac_bits": "none", "converters.adc_bits": "none",
+                                    "mitigation.method": "none"})
+    analog = xtorch.convert(net, cfg, calibration=x)
+    with torch.no_grad():
+        got = analog(x)
+    np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=0, atol=1e-5 * float(want.abs().max()))
+    assert isinstance(analog[0], xtorch.AnalogConv2d) and isinstance(analog[6], xtorch.AnalogLinear)
+    assert isinstance(net[0], torch.nn.Conv2d)  # the original is left as it was
+
+
+def test_the_default_design_runs_and_records_per_layer_errors():
+    net = small_net()
+    x = torch.rand(8, 3, 9, 10)
+    with torch.no_grad():
+        net(x)
+    analog = xtorch.convert(net, xbarsim.Config(), calibration=x)
+    labels = torch.zeros(8, dtype=torch.long)
+    r = xtorch.evaluate(analog, [(x, labels)], reference=net)
+    assert r["images"] == 8
+    assert 0 <= r["agreeing_predictions"] <= 8
+    errors = r["layer_mean_relative_error"]
+    assert len(errors) == 4
+    assert all(0 < e < 0.5 for e in errors.values()), errors  # the parasitics show, but bounded
+
+
+def test_crossbar_matvec_errors():
+    xb = xbarsim.Crossbar(np.random.default_rng(0).normal(size=(20, 4)), xbarsim.Config())
+    assert (xb.inputs, xb.outputs) == (20, 4) and xb.crossbars >= 1
+    with pytest.raises(ValueError, match="20 inputs"):
+        xb.matvec(np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="x_max"):
+        xbarsim.Crossbar(np.ones((2, 2)), xbarsim.Config(), x_max=0)
