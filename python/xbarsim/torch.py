@@ -87,12 +87,16 @@ class AnalogLinear(AnalogConv2d):
         return y
 
 
-def convert(model, config=None, calibration=None, max_calibration_vectors=512):
+def convert(model, config=None, calibration=None, max_calibration_vectors=512, max_calibration_batches=None,
+            progress=None):
     """A copy of `model` whose Conv2d and Linear layers run on crossbars.
 
-    `calibration`: a batch of inputs (a tensor), run through the model to find each layer's
-    input range and calibration vectors (at most `max_calibration_vectors` per layer, evenly
-    spread). Without it the ranges are [0, 1] and calibration uses random vectors.
+    `calibration`: a batch of inputs (a tensor), or an iterable of batches (a DataLoader of
+    tensors or of (inputs, labels)), at most `max_calibration_batches` of them, run through
+    the model to find each layer's input range and calibration vectors (at most
+    `max_calibration_vectors` per layer, evenly spread). Without it the ranges are [0, 1] and
+    calibration uses random vectors. `progress(name, done, total)` is called after each layer
+    is programmed.
     """
     config = config if config is not None else Config()
     model = copy.deepcopy(model).eval()
@@ -101,14 +105,19 @@ def convert(model, config=None, calibration=None, max_calibration_vectors=512):
     if calibration is not None:
         def keep(name):
             def hook(module, inputs, output):  # returns None: the output stays the layer's
-                seen.setdefault(name, inputs[0].detach())
+                seen.setdefault(name, []).append(inputs[0].detach())
             return hook
 
         hooks = [m.register_forward_hook(keep(name)) for name, m in layers]
+        batches = [calibration] if torch.is_tensor(calibration) else calibration
         with torch.no_grad():
-            model(calibration)
+            for k, batch in enumerate(batches):
+                if max_calibration_batches is not None and k >= max_calibration_batches:
+                    break
+                model(batch[0] if isinstance(batch, (tuple, list)) else batch)
         for h in hooks:
             h.remove()
+        seen = {name: torch.cat(inputs) for name, inputs in seen.items()}
     for salt, (name, m) in enumerate(layers):
         calib, x_max, signed = None, 1.0, False
         if name in seen:
@@ -124,6 +133,8 @@ def convert(model, config=None, calibration=None, max_calibration_vectors=512):
         for part in path:
             parent = getattr(parent, part)
         setattr(parent, last, analog)
+        if progress is not None:
+            progress(name, salt + 1, len(layers))
     return model
 
 

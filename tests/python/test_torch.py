@@ -51,6 +51,23 @@ def test_the_default_design_runs_and_records_per_layer_errors():
     assert all(0 < e < 0.5 for e in errors.values()), errors  # the parasitics show, but bounded
 
 
+def test_calibration_from_a_loader_and_progress():
+    # Batches of (inputs, labels), as a DataLoader gives them, calibrate as their concatenation.
+    net = small_net()
+    x = torch.rand(6, 3, 9, 10)
+    with torch.no_grad():
+        net(x)
+    cfg = xbarsim.Config()
+    seen = []
+    one = xtorch.convert(net, cfg, calibration=x)
+    loader = [(x[:3], torch.zeros(3)), (x[3:], torch.zeros(3)), (torch.full((3, 3, 9, 10), 1e3), torch.zeros(3))]
+    two = xtorch.convert(net, cfg, calibration=loader, max_calibration_batches=2,
+                         progress=lambda name, done, total: seen.append((name, done, total)))
+    with torch.no_grad():
+        np.testing.assert_array_equal(one(x).numpy(), two(x).numpy())  # the third batch was not read
+    assert seen == [("0", 1, 4), ("2", 2, 4), ("4", 3, 4), ("6", 4, 4)]
+
+
 def test_crossbar_matvec_errors():
     xb = xbarsim.Crossbar(np.random.default_rng(0).normal(size=(20, 4)), xbarsim.Config())
     assert (xb.inputs, xb.outputs) == (20, 4) and xb.crossbars >= 1
