@@ -109,6 +109,8 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = XBARSIM_VERSION;
   m.attr("_binary") = XBARSIM_BINARY_PATH;
   m.attr("_installed_binary") = XBARSIM_INSTALLED_BINARY;
+  m.def("_yaml_text", [](const py::handle& v) { return yaml_text(v); },
+        "A Python value as the YAML text --set takes (the package's one conversion)");
   static py::exception<SolverError> solver_error(m, "SolverError", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {

@@ -45,20 +45,8 @@ def _config_args(config, overrides, tmp):
         else:  # a path to a YAML file
             args += ["--config", os.fspath(config)]
     for key, value in (overrides or {}).items():
-        if isinstance(value, (list, tuple)):
-            value = "[" + ",".join(_scalar(v) for v in value) + "]"
-        else:
-            value = _scalar(value)
-        args += ["--set", f"{key}={value}"]
+        args += ["--set", f"{key}={_core._yaml_text(value)}"]
     return args
-
-
-def _scalar(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if v is None:
-        return "none"
-    return repr(v) if isinstance(v, float) else str(v)
 
 
 def run(command, *args, config=None, overrides=None, progress=None):

@@ -941,7 +941,6 @@ class Loader {
       return;
     }
     op.out = define(n.output(0), in);
-    dims_[n.output(0)] = e;
     model_.ops.push_back(op);
   }
 
