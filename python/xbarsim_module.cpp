@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "sw/analog/analog_layer.h"
+#include "sw/analog/calibration.h"
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
@@ -100,6 +101,19 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
   auto solver = make_crossbar_solver(params, opts);
   solver->program(g);
   return solver->column_currents(v);
+}
+
+/// X (vectors x inputs) through every stage of the layer, in precision S (float: as eval).
+template <typename S>
+AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, const AnalogLayer::RowMat<S>& x) {
+  if (x.cols() != layer.inputs())
+    throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
+                     std::to_string(layer.inputs()) + " inputs");
+  if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
+  py::gil_scoped_release release;
+  AnalogLayer::Mat<S> y;
+  layer.forward<S>(x, y);
+  return y;
 }
 
 }  // namespace
@@ -191,17 +205,10 @@ PYBIND11_MODULE(_core, m) {
            "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0): W is inputs x outputs; "
            "inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration "
            "images (random vectors when None). Releases the GIL while programming.")
-      .def(
-          "matvec",
-          [](const AnalogLayer& layer, const Eigen::MatrixXd& x) {
-            if (x.cols() != layer.inputs())
-              throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
-                               std::to_string(layer.inputs()) + " inputs");
-            if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
-            py::gil_scoped_release release;
-            return layer.forward(x);
-          },
-          py::arg("X"), "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery")
+      .def("matvec", &matvec<double>, py::arg("X"),
+           "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery. float64 "
+           "arrays compute in double precision; float32 arrays in single, as eval computes a network.")
+      .def("matvec", &matvec<float>, py::arg("X"))
       .def_property_readonly("inputs", &AnalogLayer::inputs)
       .def_property_readonly("outputs", &AnalogLayer::outputs)
       .def_property_readonly("crossbars", &AnalogLayer::crossbars)
@@ -221,6 +228,17 @@ PYBIND11_MODULE(_core, m) {
         return out;
       });
 
+  m.def("calibration_rows_per_image", &calibration_rows_per_image, py::arg("samples"), py::arg("images"),
+        "How many calibration vectors eval draws from each calibration image when it keeps `samples` "
+        "(eval.calibration_samples) over `images` images");
+  m.def(
+      "calibration_row_picks",
+      [](uint64_t seed, int image, int layer, Eigen::Index rows, int count) {
+        return calibration_row_picks(seed, image, layer, rows, count);
+      },
+      py::arg("seed"), py::arg("image"), py::arg("layer"), py::arg("rows"), py::arg("count"),
+      "Which of a calibration image's `rows` input vectors eval samples for linear layer `layer` (its "
+      "place among the network's Conv/Gemm layers): `count` indices from calibration.seed's stream");
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
         "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
         "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "

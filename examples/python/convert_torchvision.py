@@ -16,7 +16,7 @@ model = torchvision.models.resnet18(num_classes=10).eval()
 images = torch.rand(4, 3, 32, 32)
 
 t = time.perf_counter()
-analog = xbarsim.torch.convert(model, xbarsim.Config(), calibration=images, max_calibration_vectors=64)
+analog = xbarsim.torch.convert(model, xbarsim.Config(), calibration=images, calibration_samples=64)
 print(f"programmed {sum(isinstance(m, xbarsim.torch.AnalogConv2d) for m in analog.modules())} layers "
       f"in {time.perf_counter() - t:.1f} s")
 result = xbarsim.torch.evaluate(analog, [(images, torch.zeros(4, dtype=torch.long))], reference=model)

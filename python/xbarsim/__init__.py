@@ -13,7 +13,8 @@ import os
 import subprocess
 import tempfile
 
-from ._core import Config, Crossbar, SolverError, __version__, netlist, solve  # noqa: F401
+from ._core import (Config, Crossbar, SolverError, __version__, calibration_row_picks,  # noqa: F401
+                    calibration_rows_per_image, netlist, solve)
 from . import _core
 
 __all__ = ["Config", "Crossbar", "SolverError", "solve", "netlist", "eval", "simulate", "explore", "overhead", "run",

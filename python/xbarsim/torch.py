@@ -6,46 +6,63 @@
     result = xbarsim.torch.evaluate(analog, loader, reference=model)
 
 Each Conv2d (any stride, padding, dilation and groups) and Linear becomes an xbarsim.Crossbar
-programmed as eval programs a layer: its weight matrix (inputs x outputs; grouped convolutions
-as one block-diagonal matrix, as the ONNX import maps them), its inputs' range [0, x_max] (or
-signed) taken from the calibration batch, and that batch's vectors for calibration. The
+programmed as eval programs the same layer of the model's ONNX export: the same matrix rows on
+the crossbars (eval's im2col order; grouped and dilated convolutions as the ONNX import maps
+them), the same input range [0, x_max] (or signed) and calibration vectors (eval's picks from
+the calibration images, by calibration.seed) and the same salt. The
 values cross between torch and xbarsim as NumPy arrays (no libtorch link); any torch model
 works, exportable or not.
 """
 import copy
+import warnings
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 
-from . import Config, Crossbar
+from . import Config, Crossbar, calibration_row_picks, calibration_rows_per_image
 
 __all__ = ["convert", "evaluate", "AnalogConv2d", "AnalogLinear"]
 
 
+def _span(module):
+    """A convolution's kernel as eval maps it: (k - 1) * dilation + 1 on a side."""
+    return tuple((k - 1) * d + 1 for k, d in zip(module.kernel_size, module.dilation))
+
+
 def _weight_matrix(module):
-    """The layer's weight as inputs x outputs (im2col order: channel, then kernel row, column)."""
+    """The layer's weight as inputs x outputs, rows in eval's im2col order (kernel column, then
+    kernel row, then input channel: the row a weight has on the crossbar, which the wire
+    resistances see). A grouped convolution's matrix is zero where an input channel is outside
+    an output's group, and a dilated one is the dense kernel its taps span, zero between the
+    taps: both as the ONNX import maps them."""
     w = module.weight.detach().double().cpu().numpy()
     if isinstance(module, torch.nn.Linear):
         return w.T.copy()
-    out_c, in_per_group = w.shape[0], w.shape[1]
-    kk = w.shape[2] * w.shape[3]
+    out_c, in_per_group = w.shape[:2]
+    kh, kw = _span(module)
+    dense = np.zeros((out_c, in_per_group, kh, kw))
+    dense[:, :, ::module.dilation[0], ::module.dilation[1]] = w
+    w = dense
     groups = module.groups
-    in_c = in_per_group * groups
-    m = np.zeros((in_c * kk, out_c))
     per_out = out_c // groups
+    full = np.zeros((in_per_group * groups, kh, kw, out_c))
     for g in range(groups):
-        block = w[g * per_out:(g + 1) * per_out].reshape(per_out, in_per_group * kk).T
-        m[g * in_per_group * kk:(g + 1) * in_per_group * kk, g * per_out:(g + 1) * per_out] = block
-    return m
+        full[g * in_per_group:(g + 1) * in_per_group, :, :, g * per_out:(g + 1) * per_out] = \
+            w[g * per_out:(g + 1) * per_out].transpose(1, 2, 3, 0)
+    return np.ascontiguousarray(full.transpose(2, 1, 0, 3).reshape(kw * kh * in_per_group * groups, out_c))
 
 
 def _columns(module, x):
-    """The layer's input vectors, one per row: unfolded windows for a convolution."""
+    """The layer's input vectors, one per row, in eval's im2col order: a convolution's windows
+    (one per output position, row-major) with values ordered as _weight_matrix's rows."""
     if isinstance(module, torch.nn.Linear):
         return x.reshape(-1, x.shape[-1])
-    cols = F.unfold(x, module.kernel_size, dilation=module.dilation, padding=module.padding, stride=module.stride)
-    return cols.transpose(1, 2).reshape(-1, cols.shape[1])
+    kh, kw = _span(module)
+    cols = F.unfold(x, (kh, kw), padding=module.padding, stride=module.stride)
+    n, _, positions = cols.shape
+    cols = cols.reshape(n, -1, kh, kw, positions).permute(0, 4, 3, 2, 1)
+    return cols.reshape(n * positions, -1)
 
 
 class _Analog(torch.nn.Module):
@@ -56,7 +73,9 @@ class _Analog(torch.nn.Module):
         self.errors = []  # per forward: mean |analog - software| / the software output's range
 
     def _matmul(self, cols):
-        y = self.crossbar.matvec(cols.detach().double().cpu().numpy())
+        # float32 vectors compute in single precision, as eval's network inference; others in double.
+        cols = cols.detach().cpu()
+        y = self.crossbar.matvec((cols if cols.dtype == torch.float32 else cols.double()).numpy())
         return torch.from_numpy(y)
 
 
@@ -87,46 +106,82 @@ class AnalogLinear(AnalogConv2d):
         return y
 
 
-def convert(model, config=None, calibration=None, max_calibration_vectors=512, max_calibration_batches=None,
+def _calibration_statistics(modules, inputs, seed, samples):
+    """Per layer, as eval gathers them from its calibration images: the largest |input|, whether
+    an input was negative, and the calibration vectors (eval's picks: the layer's share of each
+    image's draws, kept in image order up to `samples`). `inputs[l]`: the layer's inputs, one
+    tensor per batch, images in calibration-set order."""
+    stats = []
+    for l, (m, batches) in enumerate(zip(modules, inputs)):
+        images = sum(len(b) for b in batches)
+        if images == 0:
+            stats.append((1.0, False, None))
+            continue
+        per_image = calibration_rows_per_image(samples, images)
+        keep = min(per_image * images, samples)
+        x_max, signed, rows, k = 0.0, False, [], 0
+        for batch in batches:
+            for image in batch:
+                cols = _columns(m, image.unsqueeze(0))  # this image's input vectors (im2col rows)
+                x_max = max(x_max, float(cols.abs().max()))
+                signed = signed or bool(cols.min() < 0)
+                if k * per_image < keep:
+                    picks = calibration_row_picks(seed, k, l, cols.shape[0], per_image)
+                    rows.append(cols[torch.as_tensor(picks, dtype=torch.long)].double())
+                k += 1
+        calib = torch.cat(rows)[:keep].numpy() if rows else None
+        stats.append((x_max if x_max > 0 else 1.0, signed, calib))
+    return stats
+
+
+def convert(model, config=None, calibration=None, calibration_samples=None, max_calibration_batches=None,
             progress=None):
     """A copy of `model` whose Conv2d and Linear layers run on crossbars.
 
     `calibration`: a batch of inputs (a tensor), or an iterable of batches (a DataLoader of
     tensors or of (inputs, labels)), at most `max_calibration_batches` of them, run through
-    the model to find each layer's input range and calibration vectors (at most
-    `max_calibration_vectors` per layer, evenly spread). Without it the ranges are [0, 1] and
-    calibration uses random vectors. `progress(name, done, total)` is called after each layer
-    is programmed.
+    the model (in its dtype; float32 computes as eval) to find each layer's input range and
+    calibration vectors exactly as eval does from its calibration images: the same ranges and,
+    with the same `calibration.seed`, the same vectors, at most `calibration_samples`
+    (default: the config's eval.calibration_samples) per layer. Layers count in the order
+    `model.named_modules()` lists them (eval: the ONNX graph's order); the l-th is programmed
+    with salt l + 1, as eval's. Without `calibration` the ranges are [0, 1] and calibration
+    uses random vectors. `progress(name, done, total)` is called after each layer is programmed.
     """
     config = config if config is not None else Config()
+    samples = int(config.get("eval.calibration_samples") if calibration_samples is None else calibration_samples)
+    if samples < 1:
+        raise ValueError("calibration_samples must be >= 1")
     model = copy.deepcopy(model).eval()
     layers = [(name, m) for name, m in model.named_modules() if isinstance(m, (torch.nn.Conv2d, torch.nn.Linear))]
-    seen = {}
+    stats = [(1.0, False, None)] * len(layers)
     if calibration is not None:
-        def keep(name):
+        seen = [[] for _ in layers]
+
+        def keep(l):
             def hook(module, inputs, output):  # returns None: the output stays the layer's
-                seen.setdefault(name, []).append(inputs[0].detach())
+                seen[l].append(inputs[0].detach())
             return hook
 
-        hooks = [m.register_forward_hook(keep(name)) for name, m in layers]
+        hooks = [m.register_forward_hook(keep(l)) for l, (_, m) in enumerate(layers)]
         batches = [calibration] if torch.is_tensor(calibration) else calibration
-        with torch.no_grad():
-            for k, batch in enumerate(batches):
-                if max_calibration_batches is not None and k >= max_calibration_batches:
-                    break
-                model(batch[0] if isinstance(batch, (tuple, list)) else batch)
-        for h in hooks:
-            h.remove()
-        seen = {name: torch.cat(inputs) for name, inputs in seen.items()}
-    for salt, (name, m) in enumerate(layers):
-        calib, x_max, signed = None, 1.0, False
-        if name in seen:
-            cols = _columns(m, seen[name]).double().cpu().numpy()
-            step = max(1, len(cols) // max_calibration_vectors)
-            calib = np.ascontiguousarray(cols[::step][:max_calibration_vectors])
-            x_max = float(np.abs(cols).max()) or 1.0
-            signed = bool(cols.min() < 0)
-        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=salt)
+        try:
+            with torch.no_grad():
+                for k, batch in enumerate(batches):
+                    if max_calibration_batches is not None and k >= max_calibration_batches:
+                        break
+                    model(batch[0] if isinstance(batch, (tuple, list)) else batch)
+        finally:
+            for h in hooks:
+                h.remove()
+        stats = _calibration_statistics([m for _, m in layers], seen, int(config.get("calibration.seed")), samples)
+        unused = [name for (name, _), s in zip(layers, seen) if not s]
+        if unused:  # an auxiliary head, say: programmed for inputs in [0, 1], random calibration
+            warnings.warn("the calibration batches never reached layer(s) " + ", ".join(unused) +
+                          ": they are programmed for inputs in [0, 1]")
+    for l, (name, m) in enumerate(layers):
+        x_max, signed, calib = stats[l]
+        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1)
         analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb)
         parent = model
         *path, last = name.split(".")
@@ -134,7 +189,7 @@ def convert(model, config=None, calibration=None, max_calibration_vectors=512, m
             parent = getattr(parent, part)
         setattr(parent, last, analog)
         if progress is not None:
-            progress(name, salt + 1, len(layers))
+            progress(name, l + 1, len(layers))
     return model
 
 

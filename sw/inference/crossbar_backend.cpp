@@ -4,10 +4,9 @@
 #include <algorithm>
 #include <exception>
 #include <mutex>
-#include <random>
 #include <thread>
 
-#include "sw/common/seed.h"
+#include "sw/analog/calibration.h"
 
 namespace xbarsim {
 
@@ -57,7 +56,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     std::vector<Eigen::VectorXd> lo, hi;
   };
   std::vector<ImageTally> tally(images);
-  const int per_image = std::max(1, max_samples / images + 1);
+  const int per_image = calibration_rows_per_image(max_samples, images);
   const int threads = std::max(1, std::min(resolve_threads(cfg_.solver.threads), images));
   parallel_for(threads, threads, [&](int t) {
     SoftwareBackend sw(model_);
@@ -65,7 +64,6 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     std::vector<float> x(model_.input.size());
     for (int k = t; k < images; k += threads) {
       ImageTally& ty = tally[k];
-      std::mt19937_64 rng(derive_seed(cfg_.calibration.seed, {kCalibrationRowStream, static_cast<uint64_t>(k)}));
       calib.preprocess(k, model_.pre, x.data());
       run_image(model_, x.data(), sw, &trace);
       ty.x_max.resize(L);
@@ -78,8 +76,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
         ty.x_max[l] = static_cast<double>(in.cwiseAbs().maxCoeff());
         ty.sign[l] = in.minCoeff() < 0;
         ty.rows[l].resize(per_image, in.cols());
-        for (int s = 0; s < per_image; ++s)
-          ty.rows[l].row(s) = in.row(static_cast<Eigen::Index>(rng() % in.rows())).cast<double>();
+        const std::vector<Eigen::Index> picks = calibration_row_picks(cfg_.calibration.seed, k, l, in.rows(), per_image);
+        for (int s = 0; s < per_image; ++s) ty.rows[l].row(s) = in.row(picks[s]).cast<double>();
         const Eigen::MatrixXf& out = trace.outputs[l];
         ty.lo[l] = out.colwise().minCoeff().transpose().cast<double>();
         ty.hi[l] = out.colwise().maxCoeff().transpose().cast<double>();

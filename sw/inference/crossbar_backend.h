@@ -42,8 +42,6 @@ class CrossbarBackend : public LinearBackend {
   int layers() const { return static_cast<int>(layers_.size()); }
 
  private:
-  /// Stream id of the calibration-row picks (derived with calibration.seed and the image).
-  static constexpr uint64_t kCalibrationRowStream = 0xCA1B;
   /// Software pass over `calib`: input ranges, output ranges, sampled im2col rows.
   void gather_statistics(const Dataset& calib, int max_samples);
   /// One unprogrammed AnalogLayer per linear layer, from stats_ (its input range and signedness).

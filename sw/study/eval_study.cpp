@@ -100,6 +100,14 @@ ErrorTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, cons
 struct ImageTallies {
   std::vector<ErrorTally> layer;  // images x L
   std::vector<char> sw_correct, xb_correct;
+  std::vector<int32_t> sw_class, xb_class;  // the predicted classes (-1: a journal line without them)
+
+  ImageTallies(int images, int L)
+      : layer(static_cast<size_t>(images) * L),
+        sw_correct(images, 0),
+        xb_correct(images, 0),
+        sw_class(images, -1),
+        xb_class(images, -1) {}
 };
 
 /// Fills `t` with the journal's images of this run; returns which images it had.
@@ -131,6 +139,9 @@ std::vector<char> read_journal(const EvalJournal& j, const Model& model, ImageTa
     line_of[k] = &line;
     t.sw_correct[k] = row["sw"].get<int>() != 0;
     t.xb_correct[k] = row["xb"].get<int>() != 0;
+    // Journals written before the classes were recorded lack them: the image keeps -1.
+    if (row.contains("sw_class") && row["sw_class"].is_number_integer()) t.sw_class[k] = row["sw_class"].get<int32_t>();
+    if (row.contains("xb_class") && row["xb_class"].is_number_integer()) t.xb_class[k] = row["xb_class"].get<int32_t>();
     for (int l = 0; l < L; ++l) {
       const auto& e = row["layers"][l];
       // A layer's tally is over its output values (a fixed count); its errors are finite, at
@@ -165,6 +176,8 @@ std::string journal_line(const EvalJournal& j, const ImageTallies& t, int k, int
                         {"image", j.offset + k},
                         {"sw", static_cast<int>(t.sw_correct[k])},
                         {"xb", static_cast<int>(t.xb_correct[k])},
+                        {"sw_class", t.sw_class[k]},
+                        {"xb_class", t.xb_class[k]},
                         {"layers", layers}}
              .dump() +
          "\n";
@@ -174,8 +187,7 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
                              int threads, const ImageShard& shard, const std::function<void(int, int)>& progress,
                              const EvalJournal* journal, int& from_journal) {
   const int L = static_cast<int>(model.linear.size());
-  ImageTallies t{std::vector<ErrorTally>(static_cast<size_t>(images) * L), std::vector<char>(images, 0),
-                 std::vector<char>(images, 0)};
+  ImageTallies t(images, L);
   const std::vector<char> have = journal ? read_journal(*journal, model, t, images) : std::vector<char>(images, 0);
   from_journal = static_cast<int>(std::count(have.begin(), have.end(), 1));
   std::mutex mu;
@@ -214,6 +226,8 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
         }
         t.sw_correct[k] = a == test.labels[k];
         t.xb_correct[k] = b == test.labels[k];
+        t.sw_class[k] = static_cast<int32_t>(a);
+        t.xb_class[k] = static_cast<int32_t>(b);
         for (int l = 0; l < L; ++l)
           t.layer[static_cast<size_t>(k) * L + l] =
               layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
@@ -242,23 +256,32 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
 /// Brings every share's tallies to share 0: each sends its arrays whole (the images of
 /// other shares are zero) and share 0 takes image k from share k % count.
 void gather_tallies(ImageTallies& t, int images, int L, const ImageShard& shard) {
-  auto bytes = [](const auto& v) { return v.size() * sizeof(v[0]); };
-  std::string mine(bytes(t.layer) + bytes(t.sw_correct) + bytes(t.xb_correct), '\0');
-  std::memcpy(&mine[0], t.layer.data(), bytes(t.layer));
-  std::memcpy(&mine[bytes(t.layer)], t.sw_correct.data(), bytes(t.sw_correct));
-  std::memcpy(&mine[bytes(t.layer) + bytes(t.sw_correct)], t.xb_correct.data(), bytes(t.xb_correct));
+  // Every array of the tallies, packed in this order.
+  auto each_array = [](ImageTallies& x, const auto& f) {
+    f(x.layer);
+    f(x.sw_correct);
+    f(x.xb_correct);
+    f(x.sw_class);
+    f(x.xb_class);
+  };
+  std::string mine;
+  each_array(t, [&](const auto& v) { mine.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])); });
   const std::vector<std::string> all = shard.gather(mine);
   if (shard.index != 0) return;
   if (static_cast<int>(all.size()) != shard.count) throw std::runtime_error("gather returned the wrong share count");
   for (int s = 1; s < shard.count; ++s) {
     if (all[s].size() != mine.size()) throw std::runtime_error("a share's tallies have the wrong size");
-    ImageTallies o{std::vector<ErrorTally>(t.layer.size()), std::vector<char>(images), std::vector<char>(images)};
-    std::memcpy(o.layer.data(), all[s].data(), bytes(o.layer));
-    std::memcpy(o.sw_correct.data(), all[s].data() + bytes(o.layer), bytes(o.sw_correct));
-    std::memcpy(o.xb_correct.data(), all[s].data() + bytes(o.layer) + bytes(o.sw_correct), bytes(o.xb_correct));
+    ImageTallies o(images, L);
+    size_t at = 0;
+    each_array(o, [&](auto& v) {
+      std::memcpy(v.data(), all[s].data() + at, v.size() * sizeof(v[0]));
+      at += v.size() * sizeof(v[0]);
+    });
     for (int k = s; k < images; k += shard.count) {
       t.sw_correct[k] = o.sw_correct[k];
       t.xb_correct[k] = o.xb_correct[k];
+      t.sw_class[k] = o.sw_class[k];
+      t.xb_class[k] = o.xb_class[k];
       for (int l = 0; l < L; ++l) t.layer[static_cast<size_t>(k) * L + l] = o.layer[static_cast<size_t>(k) * L + l];
     }
   }
