@@ -17,7 +17,7 @@ rounds = int(sys.argv[1])
 rng = np.random.default_rng(5)
 w = rng.normal(size=(576, 64))
 x = np.where(rng.random((1024, 576)) < 0.5, 0.0, np.minimum(1.0, rng.exponential(1 / 8, size=(1024, 576))))
-cfg = xbarsim.Config(overrides={"mitigation.method": "calibration"})
+cfg = xbarsim.Config(overrides={"mitigation.method": "calibration", "solver.threads": 1})  # one core, as the C++ side
 xb = xbarsim.Crossbar(w, cfg, calibration=x[:512])
 best = float("inf")
 for _ in range(rounds):
