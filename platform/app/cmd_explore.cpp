@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -274,10 +275,14 @@ int cmd_explore(int argc, char** argv) {
     row["index"] = k;  // its place in this space (the journal may come from a reordered one)
     rows.push_back(std::move(row));
   }
+  // A point below the accuracy floor (a collapsed design) has no cost: never on the front.
+  const double floor = spec.accuracy ? accuracy_floor(spec, rows) : 0;
   std::vector<std::vector<double>> costs;
   for (const auto& row : rows) {
     std::vector<double> c;
-    for (Objective o : spec.objectives) c.push_back(objective_cost(row, o));
+    const bool below = row.contains("accuracy") && row["accuracy"].is_number() && row["accuracy"].get<double>() < floor;
+    for (Objective o : spec.objectives)
+      c.push_back(below ? std::numeric_limits<double>::quiet_NaN() : objective_cost(row, o));
     costs.push_back(c);
   }
   const std::vector<bool> front = pareto_front(costs);
@@ -357,6 +362,7 @@ int cmd_explore(int argc, char** argv) {
   j["objectives"] = nlohmann::json::array();
   for (Objective o : spec.objectives) j["objectives"].push_back(to_string(o));
   j["color_by"] = color;
+  if (spec.accuracy) j["min_accuracy"] = floor;
   j["points"] = rows;
   j["front"] = front_labels;
   if (args.has("--json")) write_json(args.get("--json"), j);
@@ -370,6 +376,7 @@ int cmd_explore(int argc, char** argv) {
     rep.config_yaml = base.dump();
     rep.swept_keys = base.sweep_keys();
     rep.color_key = color;
+    if (spec.accuracy) rep.min_accuracy = floor;
     for (Objective o : spec.objectives) rep.objectives.push_back(to_string(o));
     rep.rows = rows;
     write_html_report(args.get("--report"), rep);

@@ -91,7 +91,9 @@ int cmd_simulate(int argc, char** argv) {
   SweepOutputs out(args, points.front(),
                    "latency_us,makespan_us,throughput_images_per_s,energy_uj_per_image,avg_power_mw,peak_power_mw,"
                    "area_mm2");
-  out.set_report("simulate", base);
+  out.set_report("simulate", base,
+                 (args.has("--model") ? args.get("--model") : "preset " + args.get("--preset")) +
+                     (args.has("--dataset") ? " on " + args.get("--dataset") : std::string()));
   if (points.size() == 1) {
     const SimulationReport r = simulate_once(args, base, true, vcd);
     print_summary(r);

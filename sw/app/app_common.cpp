@@ -76,9 +76,9 @@ SweepOutputs::SweepOutputs(const CliArgs& args, const std::vector<std::pair<std:
       report_path_(args.get("--report")),
       csv_(args.get("--csv"), first_point, csv_columns) {}
 
-void SweepOutputs::set_report(const std::string& command, const ConfigTree& base) {
+void SweepOutputs::set_report(const std::string& command, const ConfigTree& base, const std::string& subject) {
   report_.command = command;
-  report_.title = "xbarsim " + command;
+  report_.title = "xbarsim " + command + (subject.empty() ? "" : ": " + subject);
   report_.config_yaml = base.dump();
   report_.swept_keys = base.sweep_keys();
 }
@@ -125,7 +125,8 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
   row["point"] = point_json(point);
   if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
   for (const char* k : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
-                        "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "time_ns_per_image",
+                        "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "peak_power_mw",
+                        "throughput_images_per_s", "bottleneck", "time_ns_per_image",
                         "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits", "accuracy_drop",
                         "accuracy_drop_ci95", "warnings"})
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];

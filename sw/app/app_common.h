@@ -66,8 +66,9 @@ class SweepOutputs {
  public:
   SweepOutputs(const CliArgs& args, const std::vector<std::pair<std::string, std::string>>& first_point,
                const std::string& csv_columns);
-  /// Names the command and its configuration for --report.
-  void set_report(const std::string& command, const ConfigTree& base);
+  /// Names the command, what it ran on (the page's title: "xbarsim eval: M on N images") and
+  /// its configuration for --report.
+  void set_report(const std::string& command, const ConfigTree& base, const std::string& subject = "");
   SweepCsv& csv() { return csv_; }
   void add(nlohmann::json j, const std::vector<std::pair<std::string, std::string>>& point);
   /// Completes the CSV and writes the JSON (--json) and the report (--report).

@@ -81,7 +81,9 @@ int cmd_eval(int argc, char** argv) {
   if (root)
     out = std::make_unique<SweepOutputs>(
         args, points.front(), "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
-  if (out) out->set_report("eval", base);
+  if (out)
+    out->set_report("eval", base,
+                    model.path + " on " + std::to_string(data.test.count()) + " " + data.test.name + " images");
   const Table table({{"run", -44},
                      {"images", 7},
                      {"software_%", 10, 2},

@@ -3,7 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <cctype>
+#include <cstring>
+#include <functional>
+#include <iterator>
 #include <map>
+#include <sstream>
 
 #include "sw/common/output_file.h"
 #include "sw/report/svg_plot.h"
@@ -49,8 +54,8 @@ std::string short_layer(std::string s) {
   return s;
 }
 
-/// The y metric of the scatter and the bits plots: accuracy (%) when any row has it, else
-/// the mean relative error (%).
+/// The y metric of the bits plots: accuracy (%) when any row has it, else the mean relative
+/// error (%).
 struct Metric {
   const char* key;
   std::string name;
@@ -66,13 +71,30 @@ std::string tooltip(const json& r) {
   for (const auto& f : {std::make_pair("accuracy", "accuracy %"), std::make_pair("mean_relative_error", "mean error %")})
     if (!std::isnan(num(r, f.first))) t += "\n" + std::string(f.second) + " " + fmt_num(100 * num(r, f.first));
   for (const auto& f : {std::make_pair("energy_uj_per_image", "energy uJ/image"), std::make_pair("area_mm2", "area mm2"),
-                        std::make_pair("latency_us", "latency us"), std::make_pair("avg_power_mw", "power mW")})
+                        std::make_pair("latency_us", "latency us"),
+                        std::make_pair("throughput_images_per_s", "throughput images/s")})
     if (!std::isnan(num(r, f.first))) t += "\n" + std::string(f.second) + " " + fmt_num(num(r, f.first));
+  if (!std::isnan(num(r, "avg_power_mw"))) t += "\naverage power " + power_text(num(r, "avg_power_mw"));
   if (on_front(r)) t += "\non the Pareto front";
   return t;
 }
 
-std::string missing(const std::string& why) { return "<p class=\"missing\">" + html_escape(why) + "</p>\n"; }
+/// A section's content, or why it is not shown (then `html` is empty).
+struct Part {
+  std::string html, absent;
+};
+Part absent(const std::string& why) { return {"", why}; }
+
+/// An axis over [lo, hi] (values > 0 for a log axis): logarithmic when the values span more
+/// than 100x, padded either way.
+PlotAxis value_axis(const std::string& label, double lo, double hi, bool from_zero = false) {
+  if (lo > 0 && hi / lo > 100) return PlotAxis{label + " (log scale)", lo / 1.4, hi * 1.4, true};
+  if (from_zero) return PlotAxis{label, 0, hi * 1.08 + 1e-300};
+  // Equal values (every point the same latency, say) get a window of +-5 % around them.
+  const double pad = hi - lo > 1e-9 * std::max(std::abs(hi), 1e-300) ? 0.06 * (hi - lo)
+                                                                     : std::max(0.05 * std::abs(hi), 1e-9);
+  return PlotAxis{label, lo - pad, hi + pad};
+}
 
 /// Colour of each row by the value of `key` in its point (sorted numerically when all numbers).
 struct Colouring {
@@ -111,42 +133,194 @@ Colouring colouring(const json& rows, const std::string& key) {
   return c;
 }
 
-std::string pareto_plot(const json& rows, const std::string& color_key) {
-  const Metric m = y_metric(rows);
+/// An objective as the rows carry it: field, axis name, scale to the axis unit.
+struct ObjectiveField {
+  std::string name;
+  const char* key;
+  std::string axis;
+  double scale;
+};
+ObjectiveField objective_field(const std::string& o) {
+  if (o == "accuracy") return {o, "accuracy", "accuracy (%)", 100};
+  if (o == "energy") return {o, "energy_uj_per_image", "energy per image (uJ)", 1};
+  if (o == "area") return {o, "area_mm2", "area (mm2)", 1};
+  if (o == "latency") return {o, "latency_us", "latency (us)", 1};
+  if (o == "power") return {o, "avg_power_mw", "average power (mW)", 1};
+  return {o, "", o, 1};
+}
+
+const std::string kGrey = "#c4c4c4";
+
+bool below_floor(const json& r, double floor) { return floor >= 0 && num(r, "accuracy") < floor; }
+
+/// The front's points in key order (most accurate first, else lowest energy), numbered 1...
+std::vector<const json*> front_rows(const json& rows) {
+  std::vector<const json*> f;
+  for (const auto& r : rows)
+    if (ok(r) && on_front(r)) f.push_back(&r);
+  std::stable_sort(f.begin(), f.end(), [](const json* a, const json* b) {
+    const double x = num(*a, "accuracy"), y = num(*b, "accuracy");
+    if (!std::isnan(x) && !std::isnan(y) && x != y) return x > y;
+    return num(*a, "energy_uj_per_image") < num(*b, "energy_uj_per_image");
+  });
+  return f;
+}
+
+/// The rows' labels as the plots show them: the key=value items every one of them shares left
+/// out (they are in the table), and a front point's key number first ("#2 max_rows=72").
+std::vector<std::string> names(const std::vector<const json*>& rows) {
+  std::vector<std::vector<std::string>> items;
+  for (const json* r : rows) {
+    std::istringstream in(text(*r, "label"));
+    items.emplace_back(std::istream_iterator<std::string>(in), std::istream_iterator<std::string>());
+  }
+  std::vector<std::string> out;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::string s;
+    for (const auto& it : items[i]) {
+      const bool shared = rows.size() > 1 && std::all_of(items.begin(), items.end(), [&](const auto& v) {
+        return std::find(v.begin(), v.end(), it) != v.end();
+      });
+      if (!shared) s += (s.empty() ? "" : " ") + it;
+    }
+    if (s.empty()) s = text(*rows[i], "label");
+    const double k = num(*rows[i], "front_number");
+    out.push_back(std::isnan(k) ? s : "#" + fmt_num(k) + " " + s);
+  }
+  return out;
+}
+
+/// A legend under a plot, in HTML (full labels, wrapped): a coloured square and a name each.
+std::string html_legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& note) {
+  std::string h = "<div class=\"legend\">";
+  if (!note.empty()) h += "<span>" + html_escape(note) + "</span>";
+  for (const auto& it : items)
+    h += "<span><i style=\"background:" + it.second + "\"></i>" + html_escape(it.first) + "</span>";
+  return h + "</div>\n";
+}
+
+/// One scatter of objective `xo` against `yo`: every ok row, the front large and numbered (the
+/// key's numbers), points below the accuracy floor grey. `line`: join the front (2 objectives).
+std::string scatter(const json& rows, const std::vector<const json*>& front, const ObjectiveField& xo,
+                    const ObjectiveField& yo, const ReportInput& in, const std::string& id, int w, int h, bool big,
+                    bool line) {
   std::vector<const json*> pts;
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (const auto& r : rows) {
-    const double x = num(r, "energy_uj_per_image"), y = 100 * num(r, m.key);
-    if (!ok(r) || std::isnan(x) || std::isnan(y) || x <= 0) continue;
+    const double x = xo.scale * num(r, xo.key), y = yo.scale * num(r, yo.key);
+    if (!ok(r) || std::isnan(x) || std::isnan(y)) continue;
     pts.push_back(&r);
     xlo = std::min(xlo, x), xhi = std::max(xhi, x), ylo = std::min(ylo, y), yhi = std::max(yhi, y);
   }
-  if (pts.empty()) return missing("No Pareto scatter: no row has both an energy per image and " + m.name + ".");
-  const bool log = xhi / xlo > 20;
-  PlotAxis xa{"energy per image (uJ)" + std::string(log ? ", log scale" : ""), log ? xlo / 1.3 : xlo - 0.05 * (xhi - xlo),
-              log ? xhi * 1.3 : xhi + 0.05 * (xhi - xlo), log};
-  const double pad = std::max(0.05 * (yhi - ylo), 0.2);
-  PlotAxis ya{m.name, ylo - pad, yhi + pad};
-  const Colouring col = colouring(rows, color_key);
-  SvgPlot p("plot-pareto", 1100, 460, xa, ya, 70, 50, col.legend.empty() ? 0 : 190);
-  std::vector<std::pair<double, double>> front;
-  for (const json* r : pts) {
-    const bool f = on_front(*r);
-    const double x = num(*r, "energy_uj_per_image"), y = 100 * num(*r, m.key);
-    p.circle(x, y, f ? 8 : 5.5, col.of(*r, color_key), tooltip(*r), f);
-    if (f) front.emplace_back(x, y);
+  if (pts.empty()) return "";
+  const bool acc_y = std::string(yo.key) == "accuracy", acc_x = std::string(xo.key) == "accuracy";
+  const double floor = in.min_accuracy;
+  if (acc_y && floor >= 0) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
+  const Colouring col = colouring(rows, big ? in.color_key : "");
+  const bool legend = big && !col.legend.empty();
+  SvgPlot p(id, w, h, value_axis(xo.axis, xlo, xhi), value_axis(yo.axis, ylo, yhi), big ? 70 : 62, big ? 50 : 44,
+            legend ? 150 : 0);
+  if ((acc_y || acc_x) && floor > 0) {
+    const PlotAxis a = value_axis(acc_y ? xo.axis : yo.axis, acc_y ? xlo : ylo, acc_y ? xhi : yhi);
+    const std::string t = "accuracy floor " + fmt_num(100 * floor) + " % (explore.min_accuracy): below it, never on the front";
+    if (acc_y)
+      p.line({{a.lo, 100 * floor}, {a.hi, 100 * floor}}, "#999", true, 1.2, t);
+    else
+      p.line({{100 * floor, a.lo}, {100 * floor, a.hi}}, "#999", true, 1.2, t);
   }
-  std::sort(front.begin(), front.end());
-  if (front.size() > 1) p.line(front, "#555", true, 1.5, "Pareto front (projection on energy and " + m.name + ")");
-  size_t labelled = 0;
-  for (const json* r : pts)
-    if (on_front(*r) && labelled++ < 12)
-      p.label(num(*r, "energy_uj_per_image"), 100 * num(*r, m.key), short_label(text(*r, "label"), 40));
-  if (!col.legend.empty()) p.legend(col.legend, short_label(color_key, 24));
+  const double r_small = big ? 5.5 : 4, r_front = big ? 8 : 5.5;
+  for (const json* r : pts)  // the rest first, so that the front is drawn on top
+    if (!on_front(*r))
+      p.circle(xo.scale * num(*r, xo.key), yo.scale * num(*r, yo.key), r_small,
+               below_floor(*r, floor) ? kGrey : col.of(*r, in.color_key), tooltip(*r));
+  std::vector<std::pair<double, double>> joined;
+  for (size_t i = 0; i < front.size(); ++i) {
+    const double x = xo.scale * num(*front[i], xo.key), y = yo.scale * num(*front[i], yo.key);
+    if (std::isnan(x) || std::isnan(y)) continue;
+    p.circle(x, y, r_front, col.of(*front[i], in.color_key), "#" + std::to_string(i + 1) + " " + tooltip(*front[i]), true);
+    joined.emplace_back(x, y);
+  }
+  if (line && joined.size() > 1) {
+    std::sort(joined.begin(), joined.end());
+    p.line(joined, "#555", true, 1.5, "Pareto front");
+  }
+  for (size_t i = 0; i < front.size(); ++i) {
+    const double x = xo.scale * num(*front[i], xo.key), y = yo.scale * num(*front[i], yo.key);
+    if (!std::isnan(x) && !std::isnan(y)) p.tag(x, y, r_front, std::to_string(i + 1));
+  }
+  if (legend) p.legend(col.legend, short_label(in.color_key, 20));
   return p.str();
 }
 
-std::string bits_plot(const json& rows, const char* key, const std::string& id, const std::string& name) {
+std::string cell(double v, double scale = 1) { return "<td>" + (std::isnan(v) ? std::string() : fmt_num(v * scale)) + "</td>"; }
+
+Part front_part(const json& rows, const ReportInput& in) {
+  std::vector<ObjectiveField> obj;
+  for (const auto& o : in.objectives) obj.push_back(objective_field(o));
+  if (obj.size() < 2) return absent("the Pareto front (explore)");
+  const std::vector<const json*> front = front_rows(rows);
+  // The main view: accuracy against energy when both are objectives, else the first two.
+  auto find = [&](const char* n) {
+    return std::find_if(obj.begin(), obj.end(), [&](const ObjectiveField& o) { return o.name == n; });
+  };
+  ObjectiveField yo = find("accuracy") != obj.end() ? *find("accuracy") : obj[1];
+  ObjectiveField xo = find("energy") != obj.end() ? *find("energy") : obj[0].name == yo.name ? obj[1] : obj[0];
+  const bool pairwise = obj.size() > 2;
+  const std::string main = scatter(rows, front, xo, yo, in, "plot-pareto", 780, 470, true, !pairwise);
+  if (main.empty()) return absent("the Pareto scatter: no point has both " + xo.name + " and " + yo.name);
+  std::string h;
+  const int n_ok = static_cast<int>(std::count_if(rows.begin(), rows.end(), [](const json& r) { return ok(r); }));
+  int greyed = 0;
+  for (const auto& r : rows) greyed += ok(r) && below_floor(r, in.min_accuracy);
+  h += "<p>" + std::to_string(front.size()) + " of " + std::to_string(n_ok) + " points are on the front over ";
+  for (size_t i = 0; i < obj.size(); ++i) h += (i ? ", " : "") + obj[i].name;
+  h += " (drawn large, numbered as in the key).";
+  if (in.min_accuracy > 0)
+    h += " " + std::to_string(greyed) + " point(s) below the accuracy floor of " + fmt_num(100 * in.min_accuracy) +
+         " % (explore.min_accuracy) are grey and never on the front.";
+  if (pairwise)
+    h += " With " + std::to_string(obj.size()) +
+         " objectives a front point may look dominated in any one pair of them, so the front is drawn as marks, "
+         "not a line; every pair is plotted below.";
+  h += "</p>\n<div class=\"row\">" + main + "<div class=\"key\"><table><tr><th>#</th><th class=\"name\">point</th>";
+  for (const auto& o : obj) h += "<th>" + html_escape(o.axis) + "</th>";
+  h += "</tr>\n";
+  for (size_t i = 0; i < front.size(); ++i) {
+    h += "<tr><td>" + std::to_string(i + 1) + "</td><td class=\"name\">" + html_escape(text(*front[i], "label")) + "</td>";
+    for (const auto& o : obj) h += cell(num(*front[i], o.key), o.scale);
+    h += "</tr>\n";
+  }
+  h += "</table></div></div>\n";
+  if (pairwise) {
+    h += "<div class=\"grid\">";
+    int k = 0;
+    for (size_t a = 0; a < obj.size(); ++a)
+      for (size_t b = a + 1; b < obj.size(); ++b) {
+        // Accuracy on the y axis where it is one of the pair.
+        const bool swap = obj[a].name == "accuracy";
+        h += scatter(rows, front, swap ? obj[b] : obj[a], swap ? obj[a] : obj[b], in, "plot-pair-" + std::to_string(k++),
+                     440, 300, false, false);
+      }
+    h += "</div>\n";
+  }
+  return {h, ""};
+}
+
+/// Values of `key` among the ok rows that carry it (text of numbers and words alike).
+std::vector<std::string> distinct(const json& rows, const char* key) {
+  std::vector<std::string> v;
+  for (const auto& r : rows)
+    if (ok(r) && r.contains(key)) {
+      const std::string t = text(r, key);
+      if (std::find(v.begin(), v.end(), t) == v.end()) v.push_back(t);
+    }
+  return v;
+}
+
+Part bits_plot(const json& rows, const char* key, const std::string& id, const std::string& name, double floor) {
+  const std::vector<std::string> values = distinct(rows, key);
+  if (values.size() < 2)
+    return absent(name + " plot (" + (values.empty() ? std::string("no row has them") : "not swept: all " + values[0]) + ")");
   const Metric m = y_metric(rows);
   std::vector<std::pair<double, double>> pts;
   std::vector<const json*> src;
@@ -168,17 +342,16 @@ std::string bits_plot(const json& rows, const char* key, const std::string& id, 
     src.push_back(&r);
     ylo = std::min(ylo, y), yhi = std::max(yhi, y), xlo = std::min(xlo, x);
   }
-  if (pts.empty()) return missing("No " + name + " plot: no row has " + key + " and " + m.name + ".");
+  if (pts.empty()) return absent(name + " plot: no row has " + key + " and " + m.name);
   const double xhi = none ? none_x : maxbits;
   PlotAxis xa{name, xlo - 0.7, xhi + 0.7};
   for (double b = std::floor(xlo); b <= maxbits; ++b) xa.ticks.emplace_back(b, fmt_num(b));
   if (none) xa.ticks.emplace_back(none_x, "none");
-  const double pad = std::max(0.05 * (yhi - ylo), 0.2);
-  SvgPlot p(id, 545, 330, xa, {m.name, ylo - pad, yhi + pad});
+  SvgPlot p(id, 640, 330, xa, value_axis(m.name, ylo, yhi));
   std::map<double, double> best;
   const bool lower_better = std::string(m.key) != "accuracy";
   for (size_t i = 0; i < pts.size(); ++i) {
-    p.circle(pts[i].first, pts[i].second, 5, palette(0), tooltip(*src[i]));
+    p.circle(pts[i].first, pts[i].second, 5, below_floor(*src[i], floor) ? kGrey : palette(0), tooltip(*src[i]));
     auto it = best.find(pts[i].first);
     if (it == best.end())
       best[pts[i].first] = pts[i].second;
@@ -187,7 +360,7 @@ std::string bits_plot(const json& rows, const char* key, const std::string& id, 
   }
   std::vector<std::pair<double, double>> line(best.begin(), best.end());
   p.line(line, palette(1), false, 2, "best per bit width");
-  return p.str();
+  return {p.str(), ""};
 }
 
 /// The rows the per-layer and breakdown plots show: the front (or every ok row), most
@@ -210,164 +383,312 @@ std::vector<const json*> selected(const json& rows) {
   return s;
 }
 
-std::string layers_plot(const std::vector<const json*>& sel) {
+bool has_layers_with(const json& r, const char* key) {
+  return r.contains("layers") && r["layers"].is_array() && !r["layers"].empty() && r["layers"][0].is_object() &&
+         r["layers"][0].contains(key);
+}
+
+Part layers_plot(const std::vector<const json*>& sel) {
   std::vector<const json*> rows;
   for (const json* r : sel)
-    if (r->contains("layers") && (*r)["layers"].is_array() && !(*r)["layers"].empty() &&
-        (*r)["layers"][0].contains("mean_relative_error"))
-      rows.push_back(r);
-  if (rows.empty()) return missing("No per-layer error propagation: the rows carry no per-layer errors (eval and explore do).");
-  std::vector<std::string> names;
-  double yhi = 0;
-  for (const auto& l : (*rows[0])["layers"]) names.push_back(short_layer(text(l, "name")));
+    if (has_layers_with(*r, "mean_relative_error")) rows.push_back(r);
+  if (rows.empty()) return absent("per-layer error propagation (the rows carry no per-layer errors: eval and explore do)");
+  std::vector<std::string> layer_names;
+  double ylo = INFINITY, yhi = 0;
+  for (const auto& l : (*rows[0])["layers"]) layer_names.push_back(short_layer(text(l, "name")));
   for (const json* r : rows)
-    for (const auto& l : (*r)["layers"]) {
-      const double w = num(l, "worst_relative_error");
-      yhi = std::max(yhi, 100 * (std::isnan(w) ? num(l, "mean_relative_error") : w));
-    }
+    for (const auto& l : (*r)["layers"])
+      for (const char* k : {"mean_relative_error", "worst_relative_error"}) {
+        const double v = 100 * num(l, k);
+        if (v > 0) ylo = std::min(ylo, v), yhi = std::max(yhi, v);
+      }
+  if (!(yhi > 0)) ylo = 1e-3, yhi = 1;
   PlotAxis xa{"layer (in network order)", 0, 1};
-  xa.categories = names;
+  xa.categories = layer_names;
   xa.rotate_labels = -40;
-  SvgPlot p("plot-layers", 1100, 430, xa, {"relative error (%): mean solid, worst dashed", 0, yhi * 1.05 + 1e-9}, 70,
-            120, 230);
+  const PlotAxis ya = value_axis("relative error (%)", ylo, yhi, true);
+  SvgPlot p("plot-layers", 1300, 430, xa, ya, 70, 120);
+  const std::vector<std::string> shown = names(rows);
   std::vector<std::pair<std::string, std::string>> legend;
   for (size_t i = 0; i < rows.size(); ++i) {
     std::vector<std::pair<double, double>> mean, worst;
     const json& L = (*rows[i])["layers"];
-    for (size_t k = 0; k < L.size() && k < names.size(); ++k) {
+    for (size_t k = 0; k < L.size() && k < layer_names.size(); ++k) {
+      // A zero error has no place on a log axis: it sits on the axis' floor.
       const double a = num(L[k], "mean_relative_error"), b = num(L[k], "worst_relative_error");
-      if (!std::isnan(a)) mean.emplace_back(static_cast<double>(k), 100 * a);
-      if (!std::isnan(b)) worst.emplace_back(static_cast<double>(k), 100 * b);
+      auto at = [&](double v) { return ya.log ? std::max(100 * v, ya.lo) : 100 * v; };
+      if (!std::isnan(a)) mean.emplace_back(static_cast<double>(k), at(a));
+      if (!std::isnan(b)) worst.emplace_back(static_cast<double>(k), at(b));
     }
-    const std::string label = text(*rows[i], "label");
+    const std::string label = shown[i];
     p.line(mean, palette(i), false, 2.5, label + ": mean");
     p.line(worst, palette(i), true, 1.5, label + ": worst");
     for (const auto& xy : mean)
-      p.circle(xy.first, xy.second, 3, palette(i), label + "\n" + names[static_cast<size_t>(xy.first)] + " mean " + fmt_num(xy.second) + " %");
-    legend.emplace_back(short_label(label, 30), palette(i));
+      p.circle(xy.first, xy.second, 3, palette(i),
+               label + "\n" + layer_names[static_cast<size_t>(xy.first)] + " mean " + fmt_num(xy.second) + " %");
+    legend.emplace_back(label, palette(i));
   }
-  p.legend(legend, "design point");
-  return p.str();
+  return {p.str() + html_legend(legend, "each layer's mean error over its outputs: solid; worst: dashed."), ""};
 }
 
-const std::vector<std::string>& components() {
-  static const std::vector<std::string> c{"crossbar", "adc",    "dac",          "accumulator", "shift_register",
-                                          "buffer",   "interconnect", "digital", "memory"};
+/// Components of a breakdown in a fixed order, then any others it has (not "total").
+std::vector<std::string> components(const std::vector<const json*>& rows, const char* key) {
+  std::vector<std::string> c{"crossbar", "adc",  "dac",          "sample_hold", "shift_add",   "accumulator",
+                             "shift_register", "output_register", "buffer", "interconnect", "digital", "memory"};
+  for (const json* r : rows)
+    for (auto it = (*r)[key].begin(); it != (*r)[key].end(); ++it)
+      if (it.key() != "total" && std::find(c.begin(), c.end(), it.key()) == c.end()) c.push_back(it.key());
   return c;
 }
 
-std::string breakdown_plot(const std::vector<const json*>& sel, bool power) {
-  const char* key = power ? "energy_breakdown_uj" : "area_breakdown_mm2";
+/// Stacked bars of a breakdown per row. Totals that span more than 10x are drawn as shares of
+/// each row's total (100 % bars) with the total printed, so the small rows stay readable.
+Part breakdown_plot(const std::vector<const json*>& sel, bool energy) {
+  const char* key = energy ? "energy_breakdown_uj" : "area_breakdown_mm2";
+  const std::string unit = energy ? "uJ/image" : "mm2";
   std::vector<const json*> rows;
   for (const json* r : sel)
-    if (r->contains(key) && (*r)[key].is_object() && (!power || num(*r, "time_ns_per_image") > 0)) rows.push_back(r);
-  if (rows.empty())
-    return missing(power ? "No power breakdown: the rows carry no energy breakdown with a time per image."
-                         : "No area breakdown: the rows carry no area breakdown.");
-  std::vector<std::string> names;
-  double xhi = 0;
+    if (r->contains(key) && (*r)[key].is_object()) rows.push_back(r);
+  if (rows.empty()) return absent(energy ? "energy by component (no energy breakdown in the rows)" : "area by component (no area breakdown in the rows)");
+  const std::vector<std::string> comps = components(rows, key);
+  std::vector<double> totals;
   for (const json* r : rows) {
-    names.push_back(short_label(text(*r, "label"), 30));
-    double total = 0;
-    for (const auto& c : components()) {
-      double v = num((*r)[key], c.c_str());
-      if (std::isnan(v)) continue;
-      if (power) v *= 1e6 / num(*r, "time_ns_per_image");
-      total += v;
+    double t = 0;
+    for (const auto& c : comps) {
+      const double v = num((*r)[key], c.c_str());
+      if (v > 0) t += v;
     }
-    xhi = std::max(xhi, total);
+    totals.push_back(t);
   }
+  const double tmax = *std::max_element(totals.begin(), totals.end());
+  double tmin = INFINITY;
+  for (double t : totals)
+    if (t > 0) tmin = std::min(tmin, t);
+  const bool shares = tmin < INFINITY && tmax / tmin > 10;
   PlotAxis ya{"", 0, 1};
-  ya.categories = names;
-  const int h = 70 + 34 * static_cast<int>(rows.size());
-  const int legend_h = 60 + 18 * static_cast<int>(components().size() + 1);
-  SvgPlot p(power ? "plot-power" : "plot-area", 1100, std::max(h, legend_h),
-            {power ? "average power by component (mW)" : "area by component (mm2)", 0, xhi * 1.05 + 1e-12}, ya, 230, 45,
-            150);
+  const std::vector<std::string> shown = names(rows);
+  for (size_t i = rows.size(); i-- > 0;) ya.categories.push_back(short_label(shown[i], 46));  // the first on top
+  const int h = 75 + 36 * static_cast<int>(rows.size());
+  const std::string what = energy ? "energy per image by component" : "area by component";
+  SvgPlot p(energy ? "plot-energy" : "plot-area", 1300, h,
+            {shares ? what + ": share of each row's total (%), totals printed (they span " + fmt_num(tmax / tmin) + "x)"
+                    : what + " (" + unit + "), totals printed",
+             0, (shares ? 100 : tmax) * 1.16 + 1e-300},
+            ya, 320, 45);
   std::vector<std::pair<std::string, std::string>> legend;
-  for (size_t c = 0; c < components().size(); ++c) legend.emplace_back(components()[c], palette(c));
+  for (size_t c = 0; c < comps.size(); ++c)
+    if (std::any_of(rows.begin(), rows.end(), [&](const json* r) { return num((*r)[key], comps[c].c_str()) > 0; }))
+      legend.emplace_back(comps[c], palette(c));
   for (size_t i = 0; i < rows.size(); ++i) {
+    const double at = static_cast<double>(rows.size() - 1 - i);
     double x = 0;
-    for (size_t c = 0; c < components().size(); ++c) {
-      double v = num((*rows[i])[key], components()[c].c_str());
+    for (size_t c = 0; c < comps.size(); ++c) {
+      const double v = num((*rows[i])[key], comps[c].c_str());
       if (std::isnan(v) || v <= 0) continue;
-      if (power) v *= 1e6 / num(*rows[i], "time_ns_per_image");
-      p.rect(x, i - 0.35, x + v, i + 0.35, palette(c),
-             text(*rows[i], "label") + "\n" + components()[c] + ": " + fmt_num(v) + (power ? " mW" : " mm2"));
-      x += v;
+      const double w = shares ? 100 * v / totals[i] : v;
+      p.rect(x, at - 0.35, x + w, at + 0.35, palette(c),
+             text(*rows[i], "label") + "\n" + comps[c] + ": " + fmt_num(v) + " " + unit + " (" +
+                 fmt_num(100 * v / totals[i]) + " %)");
+      x += w;
     }
+    p.label(x, at, fmt_num(totals[i]) + " " + unit, 6, 4);
   }
-  p.legend(legend, "component");
+  return {p.str() + html_legend(legend, "component:"), ""};
+}
+
+/// Per-layer time of the platform: one row's busy and stall as stacked bars, or several rows'
+/// per-layer latency (busy + stall) as lines.
+Part timing_plot(const std::vector<const json*>& sel) {
+  std::vector<const json*> rows;
+  for (const json* r : sel)
+    if (has_layers_with(*r, "busy_us")) rows.push_back(r);
+  if (rows.empty()) return absent("per-layer busy and stall time (the platform's: simulate and explore)");
+  const json& L0 = (*rows[0])["layers"];
+  std::vector<std::string> layer_names;
+  for (const auto& l : L0) layer_names.push_back(short_layer(text(l, "name")));
+  auto t_of = [](const json& l, const char* k) { return std::max(0.0, std::isnan(num(l, k)) ? 0.0 : num(l, k)); };
+  PlotAxis xa{"layer (in network order)", 0, 1};
+  xa.categories = layer_names;
+  xa.rotate_labels = -40;
+  if (rows.size() == 1) {
+    double yhi = 0;
+    for (const auto& l : L0) yhi = std::max(yhi, t_of(l, "busy_us") + t_of(l, "stall_us"));
+    xa.label = "layer (in network order) of " + text(*rows[0], "label");
+    SvgPlot p("plot-timing", 1100, 430, xa, {"time per image (us)", 0, yhi * 1.05 + 1e-12}, 70, 120, 150);
+    for (size_t k = 0; k < L0.size(); ++k) {
+      const double b = t_of(L0[k], "busy_us"), s = t_of(L0[k], "stall_us");
+      const std::string t = layer_names[k] + "\nbusy " + fmt_num(b) + " us, stall " + fmt_num(s) + " us";
+      p.rect(k - 0.38, 0, k + 0.38, b, palette(0), t);
+      if (s > 0) p.rect(k - 0.38, b, k + 0.38, b + s, palette(1), t);
+    }
+    p.legend({{"busy", palette(0)}, {"stall", palette(1)}}, "time = busy + stall");
+    return {p.str(), ""};
+  }
+  double lo = INFINITY, hi = 0;
+  for (const json* r : rows)
+    for (const auto& l : (*r)["layers"]) {
+      const double t = t_of(l, "busy_us") + t_of(l, "stall_us");
+      if (t > 0) lo = std::min(lo, t), hi = std::max(hi, t);
+    }
+  if (!(hi > 0)) lo = 1, hi = 2;
+  const PlotAxis ya = value_axis("busy + stall per image (us)", lo, hi, true);
+  SvgPlot p("plot-timing", 1300, 430, xa, ya, 70, 120);
+  const std::vector<std::string> shown = names(rows);
+  std::vector<std::pair<std::string, std::string>> legend;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::vector<std::pair<double, double>> pts;
+    const json& L = (*rows[i])["layers"];
+    for (size_t k = 0; k < L.size() && k < layer_names.size(); ++k) {
+      const double t = t_of(L[k], "busy_us") + t_of(L[k], "stall_us");
+      pts.emplace_back(static_cast<double>(k), ya.log ? std::max(t, ya.lo) : t);
+      p.circle(static_cast<double>(k), pts.back().second, 3, palette(i),
+               shown[i] + "\n" + layer_names[k] + ": busy " + fmt_num(t_of(L[k], "busy_us")) + " us, stall " +
+                   fmt_num(t_of(L[k], "stall_us")) + " us");
+    }
+    p.line(pts, palette(i), false, 2, shown[i]);
+    legend.emplace_back(shown[i], palette(i));
+  }
+  return {p.str() + html_legend(legend, "one line per point:"), ""};
+}
+
+/// Horizontal bars of one value per row, the value printed at each bar's end.
+std::string value_bars(const std::vector<const json*>& rows, const char* key, const std::string& id,
+                       const std::string& name) {
+  double lo = INFINITY, hi = 0;
+  for (const json* r : rows) {
+    const double v = num(*r, key);
+    if (v > 0) lo = std::min(lo, v), hi = std::max(hi, v);
+  }
+  if (!(hi > 0)) return "";
+  PlotAxis xa = value_axis(name, lo, hi, true);
+  xa.hi *= xa.log ? 3 : 1.12;  // room for the printed values
+  PlotAxis ya{"", 0, 1};
+  const std::vector<std::string> shown = names(rows);
+  for (size_t i = rows.size(); i-- > 0;) ya.categories.push_back(short_label(shown[i], 40));  // the first on top
+  SvgPlot p(id, 660, 60 + 40 * static_cast<int>(rows.size()), xa, ya, 260, 45);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const double v = num(*rows[i], key), at = static_cast<double>(rows.size() - 1 - i);
+    if (!(v > 0)) continue;
+    const double x0 = xa.log ? xa.lo : 0;
+    p.rect(x0, at - 0.32, v, at + 0.32, palette(0), text(*rows[i], "label") + "\n" + name + ": " + fmt_num(v));
+    p.label(v, at, fmt_num(v), 5, 4);
+  }
   return p.str();
 }
 
-std::string timing_plot(const std::vector<const json*>& sel) {
-  const json* row = nullptr;
-  for (const json* r : sel)
-    if (!row && r->contains("layers") && (*r)["layers"].is_array() && !(*r)["layers"].empty() &&
-        (*r)["layers"][0].contains("busy_us"))
-      row = r;
-  if (!row) return missing("No per-layer timing: the platform's busy and stall times come from simulate and explore.");
-  const json& L = (*row)["layers"];
-  std::vector<std::string> names;
-  double yhi = 0;
-  for (const auto& l : L) {
-    names.push_back(short_layer(text(l, "name")));
-    const double b = num(l, "busy_us"), s = num(l, "stall_us");
-    yhi = std::max(yhi, (std::isnan(b) ? 0 : b) + (std::isnan(s) ? 0 : s));
+Part performance_part(const json& rows) {
+  std::vector<const json*> r;
+  for (const auto& x : rows)
+    if (ok(x) && (!std::isnan(num(x, "throughput_images_per_s")) || !std::isnan(num(x, "latency_us")))) r.push_back(&x);
+  if (r.empty()) return absent("throughput and latency (the platform's: simulate and explore)");
+  std::string h =
+      "<table><tr><th>point</th><th>throughput images/s</th><th>latency us</th><th>energy uJ/image</th>"
+      "<th>average power</th><th>peak power</th><th>area mm2</th><th>bottleneck (busy us/image)</th></tr>\n";
+  for (const json* x : r) {
+    std::string bottleneck;
+    if (x->contains("bottleneck") && (*x)["bottleneck"].is_object())
+      bottleneck = text((*x)["bottleneck"], "stage") + " (" + fmt_num(num((*x)["bottleneck"], "busy_us_per_image")) + ")";
+    h += "<tr><td>" + html_escape(text(*x, "label")) + "</td>" + cell(num(*x, "throughput_images_per_s")) +
+         cell(num(*x, "latency_us")) + cell(num(*x, "energy_uj_per_image")) + "<td>" +
+         (std::isnan(num(*x, "avg_power_mw")) ? "" : power_text(num(*x, "avg_power_mw"))) + "</td><td>" +
+         (std::isnan(num(*x, "peak_power_mw")) ? "" : power_text(num(*x, "peak_power_mw"))) + "</td>" +
+         cell(num(*x, "area_mm2")) + "<td class=\"name\">" + html_escape(bottleneck) + "</td></tr>\n";
   }
-  PlotAxis xa{"layer of " + short_label(text(*row, "label"), 60), 0, 1};
-  xa.categories = names;
-  xa.rotate_labels = -40;
-  SvgPlot p("plot-timing", 1100, 430, xa, {"time per image (us)", 0, yhi * 1.05 + 1e-12}, 70, 120, 150);
-  for (size_t k = 0; k < L.size(); ++k) {
-    const double b = std::max(0.0, std::isnan(num(L[k], "busy_us")) ? 0.0 : num(L[k], "busy_us"));
-    const double s = std::max(0.0, std::isnan(num(L[k], "stall_us")) ? 0.0 : num(L[k], "stall_us"));
-    const std::string t = names[k] + "\nbusy " + fmt_num(b) + " us, stall " + fmt_num(s) + " us, latency " + fmt_num(b + s) + " us";
-    p.rect(k - 0.38, 0, k + 0.38, b, palette(0), t);
-    if (s > 0) p.rect(k - 0.38, b, k + 0.38, b + s, palette(1), t);
-  }
-  p.legend({{"busy", palette(0)}, {"stall", palette(1)}}, "latency = busy + stall");
-  return p.str();
+  h += "</table>\n<div class=\"row\">" + value_bars(r, "throughput_images_per_s", "plot-throughput", "throughput (images/s)") +
+       value_bars(r, "latency_us", "plot-latency", "latency of an image (us)") + "</div>\n";
+  return {h, ""};
 }
 
 /// "1.7 [-0.6, 3.9]": the accuracy drop and its 95 % interval in points ("" without a drop).
 std::string drop_text(const json& r) {
   const double d = num(r, "accuracy_drop");
   if (std::isnan(d)) return "";
-  std::string s = fmt_num(100 * d);
+  char b[96];
+  std::snprintf(b, sizeof b, "%.2f", 100 * d);
+  std::string s = b;
   const auto it = r.find("accuracy_drop_ci95");
-  if (it != r.end() && it->is_array() && it->size() == 2 && (*it)[0].is_number() && (*it)[1].is_number())
-    s += " [" + fmt_num(100 * (*it)[0].get<double>()) + ", " + fmt_num(100 * (*it)[1].get<double>()) + "]";
+  if (it != r.end() && it->is_array() && it->size() == 2 && (*it)[0].is_number() && (*it)[1].is_number()) {
+    std::snprintf(b, sizeof b, " [%.2f, %.2f]", 100 * (*it)[0].get<double>(), 100 * (*it)[1].get<double>());
+    s += b;
+  }
   return s;
 }
 
-/// The rows' warnings (eval: layers whose conversion clipped many cells), one item each.
-std::string warnings_list(const json& rows) {
-  std::string s;
+Part accuracy_part(const json& rows) {
+  std::string h;
+  for (const auto& r : rows) {
+    if (!ok(r) || std::isnan(num(r, "accuracy"))) continue;
+    h += "<p class=\"big\">" + (rows.size() > 1 ? html_escape(text(r, "label")) + ": " : std::string()) +
+         "crossbars <b>" + fmt_num(100 * num(r, "accuracy")) + " %</b>";
+    if (!std::isnan(num(r, "software_accuracy"))) h += " against software " + fmt_num(100 * num(r, "software_accuracy")) + " %";
+    const std::string d = drop_text(r);
+    if (!d.empty()) h += ": a drop of " + d + " points (95 % interval)";
+    if (!std::isnan(num(r, "mean_relative_error")))
+      h += "; mean per-layer relative error " + fmt_num(100 * num(r, "mean_relative_error")) + " %";
+    h += "</p>\n";
+  }
+  if (h.empty()) return absent("accuracy (eval, explore, and simulate with a dataset)");
+  return {h, ""};
+}
+
+/// The rows' warnings counted by kind, the first example of each.
+Part warnings_part(const json& rows) {
+  std::vector<std::pair<std::string, std::pair<int, std::string>>> kinds;  // kind -> count, first example
   for (const auto& r : rows) {
     if (!r.is_object()) continue;
     const auto it = r.find("warnings");
     if (it == r.end() || !it->is_array()) continue;
-    for (const auto& w : *it)
-      if (w.is_string()) s += "<li>" + html_escape(text(r, "label")) + ": " + html_escape(w.get<std::string>()) + "</li>\n";
+    for (const auto& w : *it) {
+      if (!w.is_string()) continue;
+      const std::string k = warning_kind(w.get<std::string>());
+      auto f = std::find_if(kinds.begin(), kinds.end(), [&](const auto& x) { return x.first == k; });
+      if (f == kinds.end())
+        kinds.push_back({k, {1, text(r, "label") + ": " + w.get<std::string>()}});
+      else
+        ++f->second.first;
+    }
   }
-  return s.empty() ? "" : "<h2>Warnings</h2>\n<ul>\n" + s + "</ul>\n";
+  if (kinds.empty()) return absent("");
+  std::string h = "<ul>\n";
+  for (const auto& k : kinds)
+    h += "<li>" + std::to_string(k.second.first) + " &times; " + html_escape(k.first) + "<br><small>first: " +
+         html_escape(k.second.second) + "</small></li>\n";
+  return {h + "</ul>\n", ""};
 }
 
 std::string rows_table(const json& rows) {
-  std::string s =
-      "<table><tr><th>point</th><th>status</th><th>accuracy %</th><th>drop, points [95 % interval]</th>"
-      "<th>mean error %</th><th>worst error %</th>"
-      "<th>energy uJ/image</th><th>area mm2</th><th>latency us</th><th>power mW</th><th>front</th></tr>\n";
-  auto cell = [](double v, double scale = 1) { return "<td>" + (std::isnan(v) ? std::string("") : fmt_num(v * scale)) + "</td>"; };
+  auto any = [&](const char* k) {
+    return std::any_of(rows.begin(), rows.end(), [&](const json& r) { return !std::isnan(num(r, k)); });
+  };
+  struct Col {
+    const char* key;
+    std::string head;
+    double scale;
+  };
+  std::vector<Col> cols;
+  for (const Col& c : {Col{"accuracy", "accuracy %", 100}, Col{"mean_relative_error", "mean error %", 100},
+                       Col{"worst_relative_error", "worst error %", 100}, Col{"energy_uj_per_image", "energy uJ/image", 1},
+                       Col{"area_mm2", "area mm2", 1}, Col{"latency_us", "latency us", 1},
+                       Col{"throughput_images_per_s", "throughput images/s", 1}, Col{"avg_power_mw", "average power", 1}})
+    if (any(c.key)) cols.push_back(c);
+  const bool drops = any("accuracy_drop"), fronts = std::any_of(rows.begin(), rows.end(), on_front);
+  std::string s = "<table><tr><th>point</th><th>status</th>";
+  for (const Col& c : cols) {
+    s += "<th>" + c.head + "</th>";
+    if (std::string(c.key) == "accuracy" && drops) s += "<th>drop, points [95 % interval]</th>";
+  }
+  s += std::string(fronts ? "<th>front</th>" : "") + "</tr>\n";
   for (const auto& r : rows) {
-    s += "<tr><td>" + html_escape(text(r, "label")) + "</td><td>" +
-         html_escape(ok(r) ? std::string("ok") : "failed: " + text(r, "reason")) + "</td>" + cell(num(r, "accuracy"), 100) +
-         "<td>" + html_escape(drop_text(r)) + "</td>" +
-         cell(num(r, "mean_relative_error"), 100) + cell(num(r, "worst_relative_error"), 100) +
-         cell(num(r, "energy_uj_per_image")) + cell(num(r, "area_mm2")) + cell(num(r, "latency_us")) +
-         cell(num(r, "avg_power_mw")) + "<td>" + (on_front(r) ? "&#9733;" : "") + "</td></tr>\n";
+    s += "<tr><td class=\"name\">" + html_escape(text(r, "label")) + "</td><td>" +
+         html_escape(ok(r) ? std::string("ok") : "failed: " + text(r, "reason")) + "</td>";
+    for (const Col& c : cols) {
+      if (std::string(c.key) == "avg_power_mw")
+        s += "<td>" + (std::isnan(num(r, c.key)) ? std::string() : power_text(num(r, c.key))) + "</td>";
+      else
+        s += cell(num(r, c.key), c.scale);
+      if (std::string(c.key) == "accuracy" && drops) s += "<td>" + html_escape(drop_text(r)) + "</td>";
+    }
+    s += std::string(fronts ? std::string("<td>") + (on_front(r) ? "&#9733;" : "") + "</td>" : "") + "</tr>\n";
   }
   return s + "</table>\n";
 }
@@ -375,50 +696,129 @@ std::string rows_table(const json& rows) {
 }  // namespace
 
 std::string render_html_report(const ReportInput& in) {
-  const json& rows = in.rows.is_array() ? in.rows : json::array();
-  std::string color = in.color_key;
-  if (color.empty() && !in.swept_keys.empty()) color = in.swept_keys[0];
-  int n_ok = 0, n_failed = 0, n_front = 0;
-  for (const auto& r : rows) {
-    ok(r) ? ++n_ok : ++n_failed;
-    n_front += on_front(r);
+  // The rows, front points numbered as in the key (front_number), so every plot names them alike.
+  json rows = in.rows.is_array() ? in.rows : json::array();
+  {
+    const std::vector<const json*> f = front_rows(rows);
+    for (size_t i = 0; i < f.size(); ++i) const_cast<json&>(*f[i])["front_number"] = i + 1;
   }
-  std::string objectives;
-  for (const auto& o : in.objectives) objectives += (objectives.empty() ? "" : ", ") + o;
+  ReportInput input = in;
+  if (input.color_key.empty() && !input.swept_keys.empty()) input.color_key = input.swept_keys[0];
+  int n_ok = 0, n_failed = 0;
+  for (const auto& r : rows) ok(r) ? ++n_ok : ++n_failed;
   const std::vector<const json*> sel = selected(rows);
   std::string h =
       "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" + html_escape(in.title) +
-      "</title>\n<style>body{font-family:sans-serif;max-width:1140px;margin:16px auto;color:#222;background:#fff}"
-      "h1{font-size:22px}h2{font-size:17px;margin-top:28px;border-bottom:1px solid #ccc}"
-      ".missing{color:#777;font-style:italic}.row{display:flex;gap:10px}svg.plot{display:block}"
+      "</title>\n<style>body{font-family:sans-serif;max-width:1360px;margin:16px auto;padding:0 12px;color:#222;"
+      "background:#fff}h1{font-size:22px}h2{font-size:17px;margin-top:28px;border-bottom:1px solid #ccc}"
+      ".missing{color:#666;font-style:italic}.row{display:flex;gap:16px;align-items:flex-start;flex-wrap:wrap}"
+      ".grid{display:flex;flex-wrap:wrap;gap:8px}svg.plot{display:block}.big{font-size:16px}"
+      ".legend{font-size:12px;margin:2px 0 8px 70px}.legend span{margin-right:14px;display:inline-block}"
+      ".legend i{display:inline-block;width:11px;height:11px;margin-right:5px;vertical-align:-1px}"
+      "th.name{text-align:left}"
       "table{border-collapse:collapse;font-size:12px}td,th{border:1px solid #ddd;padding:3px 6px;text-align:right}"
-      "td:first-child,th:first-child{text-align:left}pre{background:#f6f6f6;padding:8px;font-size:12px;overflow:auto}"
+      "td:first-child,th:first-child,td.name{text-align:left}.key{max-width:540px}"
+      "pre{background:#f6f6f6;padding:8px;font-size:12px;overflow:auto}"
       "</style></head><body>\n<h1>" + html_escape(in.title) + "</h1>\n<p>xbarsim " + html_escape(in.command) + ": " +
-      std::to_string(rows.size()) + " row(s), " + std::to_string(n_ok) + " ok, " + std::to_string(n_failed) + " failed";
-  if (!objectives.empty())
-    h += "; Pareto front over " + html_escape(objectives) + ": " + std::to_string(n_front) + " point(s), drawn large with a dark outline";
+      std::to_string(rows.size()) + " point(s), " + std::to_string(n_ok) + " ok, " + std::to_string(n_failed) + " failed";
   if (!in.swept_keys.empty()) {
     std::string keys;
     for (const auto& k : in.swept_keys) keys += (keys.empty() ? "" : ", ") + k;
     h += "; swept: " + html_escape(keys);
   }
   h += ". Hover over a mark for its values.</p>\n";
-  h += "<h2>Accuracy vs energy (Pareto)</h2>\n" + pareto_plot(rows, color);
-  h += "<h2>Accuracy vs converter bits</h2>\n<div class=\"row\">" +
-       bits_plot(rows, "adc_bits", "plot-bits", "ADC bits") + bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits") +
-       "</div>\n";
-  h += "<h2>Per-layer error propagation</h2>\n" + layers_plot(sel);
-  h += "<h2>Power by component</h2>\n" + breakdown_plot(sel, true);
-  h += "<h2>Area by component</h2>\n" + breakdown_plot(sel, false);
-  h += "<h2>Per-layer latency, busy and stall (platform)</h2>\n" + timing_plot(sel);
-  h += "<h2>All points</h2>\n" + rows_table(rows) + warnings_list(rows);
+  // What the command measures first, then the rest; what cannot be shown is named at the end.
+  std::vector<std::pair<std::string, std::function<Part()>>> sections;
+  const auto front = [&] { return front_part(rows, input); };
+  const auto table = [&] { return Part{rows_table(rows), ""}; };
+  const auto accuracy = [&] { return accuracy_part(rows); };
+  const auto layers = [&] { return layers_plot(sel); };
+  const auto adc = [&] { return bits_plot(rows, "adc_bits", "plot-bits", "ADC bits", in.min_accuracy); };
+  const auto dac = [&] { return bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits", in.min_accuracy); };
+  const auto performance = [&] { return performance_part(rows); };
+  const auto timing = [&] { return timing_plot(sel); };
+  const auto energy = [&] { return breakdown_plot(sel, true); };
+  const auto area = [&] { return breakdown_plot(sel, false); };
+  if (in.command == "explore") {
+    sections = {{"Pareto front", front},           {"All points", table},
+                {"Per-layer error of the front", layers}, {"Accuracy vs ADC bits", adc},
+                {"Accuracy vs DAC bits", dac},     {"Energy by component", energy},
+                {"Area by component", area},       {"Per-layer time on the platform", timing}};
+  } else if (in.command == "simulate") {
+    sections = {{"Throughput, latency and the bottleneck", performance},
+                {"Per-layer time on the platform", timing},
+                {"Energy by component", energy},
+                {"Area by component", area},
+                {"Accuracy", accuracy},
+                {"Per-layer error propagation", layers},
+                {"All points", table},
+                {"Pareto front", front}};
+  } else if (in.command == "eval") {
+    sections = {{"Accuracy", accuracy},           {"Per-layer error propagation", layers},
+                {"Accuracy vs ADC bits", adc},    {"Accuracy vs DAC bits", dac},
+                {"Energy by component", energy},  {"Area by component", area},
+                {"All points", table},            {"Throughput and latency", performance},
+                {"Pareto front", front}};
+  } else {
+    sections = {{"All points", table},      {"Error vs ADC bits", adc}, {"Error vs DAC bits", dac},
+                {"Per-layer error propagation", layers}, {"Energy by component", energy},
+                {"Area by component", area}};
+  }
+  std::vector<std::string> not_shown;
+  for (const auto& s : sections) {
+    const Part p = s.second();
+    if (!p.html.empty())
+      h += "<h2>" + html_escape(s.first) + "</h2>\n" + p.html;
+    else if (!p.absent.empty())
+      not_shown.push_back(p.absent);
+  }
+  const Part w = warnings_part(rows);
+  if (!w.html.empty()) h += "<h2>Warnings</h2>\n" + w.html;
   h += "<h2>Configuration</h2>\n<pre>" + html_escape(in.config_yaml) + "</pre>\n";
-  // Where each plot lies on the page (read by the browser test; harmless elsewhere).
+  if (!not_shown.empty()) {
+    std::string list;
+    for (const auto& n : not_shown) list += (list.empty() ? "" : "; ") + n;
+    h += "<p class=\"missing\" id=\"not-shown\">Not in this report: " + html_escape(list) + ".</p>\n";
+  }
+  // Where each plot and each point tag lies on the page (read by the browser test).
   h += "<pre id=\"layout\" hidden></pre>\n<script>window.addEventListener('load',function(){var o='';"
-       "document.querySelectorAll('svg.plot').forEach(function(s){var r=s.getBoundingClientRect();"
-       "o+=s.id+' '+Math.round(r.left+window.scrollX)+' '+Math.round(r.top+window.scrollY)+' '+Math.round(r.width)+' '+"
-       "Math.round(r.height)+'\\n';});document.getElementById('layout').textContent=o;});</script>\n";
+       "function box(k,r){o+=k+' '+Math.round(r.left+window.scrollX)+' '+Math.round(r.top+window.scrollY)+' '+"
+       "Math.round(r.width)+' '+Math.round(r.height)+'\\n';}"
+       "document.querySelectorAll('svg.plot').forEach(function(s){box(s.id,s.getBoundingClientRect());"
+       "s.querySelectorAll('g.tag text').forEach(function(t,i){box('tag:'+s.id+':'+i,t.getBoundingClientRect());});});"
+       "document.getElementById('layout').textContent=o;});</script>\n";
   return h + "</body></html>\n";
+}
+
+std::string warning_kind(const std::string& text) {
+  std::string s = text;
+  if (s.rfind("layer ", 0) == 0) {
+    const size_t colon = s.find(": ");
+    if (colon != std::string::npos) s = s.substr(colon + 2);
+  }
+  s = s.substr(0, s.find(';'));
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (std::isdigit(static_cast<unsigned char>(s[i]))) {
+      while (i + 1 < s.size() && (std::isdigit(static_cast<unsigned char>(s[i + 1])) || s[i + 1] == '.')) ++i;
+      out += '#';
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+std::string power_text(double mw) {
+  char b[48];
+  const double w = mw / 1e3;
+  if (std::abs(w) >= 1000)
+    std::snprintf(b, sizeof b, "%.0f W", w);
+  else if (std::abs(w) >= 10)
+    std::snprintf(b, sizeof b, "%.2f W", w);
+  else
+    std::snprintf(b, sizeof b, "%.2f mW", mw);
+  return b;
 }
 
 void write_html_report(const std::string& path, const ReportInput& in) { write_text_file(path, render_html_report(in)); }

@@ -89,6 +89,7 @@ double SvgPlot::py(double y) const {
 }
 
 void SvgPlot::circle(double x, double y, double r, const std::string& fill, const std::string& title, bool outline) {
+  mark_px_.push_back({{px(x), py(y)}, r});
   marks_ += "<circle cx=\"" + num_attr(px(x)) + "\" cy=\"" + num_attr(py(y)) + "\" r=\"" + fmt_num(r) + "\" fill=\"" +
             fill + "\"" + (outline ? " stroke=\"#111\" stroke-width=\"2\"" : " fill-opacity=\"0.85\"") + "><title>" +
             html_escape(title) + "</title></circle>\n";
@@ -114,6 +115,59 @@ void SvgPlot::rect(double x0, double y0, double x1, double y1, const std::string
 void SvgPlot::label(double x, double y, const std::string& text, int dx, int dy) {
   labels_ += "<text x=\"" + num_attr(px(x) + dx) + "\" y=\"" + num_attr(py(y) + dy) +
              "\" font-size=\"11\" fill=\"#222\">" + html_escape(text) + "</text>\n";
+}
+
+void SvgPlot::tag(double x, double y, double r, const std::string& text) {
+  const double cx = px(x), cy = py(y);
+  // Box size from the text: bold 12 px digits and letters are at most ~8.5 px wide.
+  const double w = 9.0 * static_cast<double>(text.size()) + 8, h = 17;
+  const double left = ml_, right = w_ - 20 - lw_, top = 20, bottom = h_ - mb_;
+  auto hits = [](const Box& a, const Box& b) {
+    return a.x0 < b.x1 + 1 && b.x0 < a.x1 + 1 && a.y0 < b.y1 + 1 && b.y0 < a.y1 + 1;
+  };
+  auto covers_mark = [&](const Box& b) {
+    for (const auto& m : mark_px_) {
+      const double nx = std::clamp(m.first.first, b.x0, b.x1), ny = std::clamp(m.first.second, b.y0, b.y1);
+      if (std::hypot(nx - m.first.first, ny - m.first.second) < m.second) return true;
+    }
+    return false;
+  };
+  const double rings[] = {r + 2, r + 14, r + 28, r + 46, r + 70, r + 100, r + 140};
+  // Directions (unit vectors): right, left, up, down, then the diagonals.
+  const double dirs[][2] = {{1, 0}, {-1, 0}, {0, -1}, {0, 1}, {0.7, -0.7}, {-0.7, -0.7}, {0.7, 0.7}, {-0.7, 0.7}};
+  Box best{0, 0, 0, 0};
+  bool found = false, leader = false;
+  for (int pass = 0; pass < 2 && !found; ++pass)  // first without covering a mark, then allowing it
+    for (size_t ri = 0; ri < sizeof rings / sizeof rings[0] && !found; ++ri)
+      for (const auto& d : dirs) {
+        // The box touches the ring at the point in direction d.
+        const double ax = cx + d[0] * rings[ri], ay = cy + d[1] * rings[ri];
+        const double x0 = d[0] > 0.1 ? ax : d[0] < -0.1 ? ax - w : ax - w / 2;
+        const double y0 = d[1] > 0.1 ? ay : d[1] < -0.1 ? ay - h : ay - h / 2;
+        const Box b{x0, y0, x0 + w, y0 + h};
+        if (b.x0 < left + 1 || b.x1 > right - 1 || b.y0 < top + 1 || b.y1 > bottom - 1) continue;
+        if (std::any_of(tag_boxes_.begin(), tag_boxes_.end(), [&](const Box& o) { return hits(o, b); })) continue;
+        if (pass == 0 && covers_mark(b)) continue;
+        best = b;
+        found = true;
+        leader = ri > 0;
+        break;
+      }
+  if (!found) {  // nowhere free: beside the mark, overlapping (a crowded plot; the key table still lists it)
+    best = {cx + r + 2, cy - h / 2, cx + r + 2 + w, cy + h / 2};
+  }
+  tag_boxes_.push_back(best);
+  std::string g = "<g class=\"tag\">";
+  if (leader) {
+    const double bx = std::clamp(cx, best.x0, best.x1), by = std::clamp(cy, best.y0, best.y1);
+    g += "<line x1=\"" + num_attr(cx) + "\" y1=\"" + num_attr(cy) + "\" x2=\"" + num_attr(bx) + "\" y2=\"" +
+         num_attr(by) + "\" stroke=\"#555\" stroke-width=\"1\"/>";
+  }
+  g += "<rect x=\"" + num_attr(best.x0) + "\" y=\"" + num_attr(best.y0) + "\" width=\"" + num_attr(w) +
+       "\" height=\"" + num_attr(h) + "\" rx=\"3\" fill=\"#fff\" fill-opacity=\"0.9\" stroke=\"#333\"/>";
+  g += "<text x=\"" + num_attr((best.x0 + best.x1) / 2) + "\" y=\"" + num_attr(best.y1 - 4.5) +
+       "\" font-size=\"12\" font-weight=\"bold\" text-anchor=\"middle\">" + html_escape(text) + "</text></g>\n";
+  tags_ += g;
 }
 
 void SvgPlot::legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& title) {
@@ -143,8 +197,10 @@ std::string SvgPlot::axis_svg() const {
     if (!a.categories.empty()) {
       for (size_t i = 0; i < a.categories.size(); ++i) out.emplace_back(static_cast<double>(i), a.categories[i]);
     } else if (a.log) {
+      // 1, 2, 5 in each decade over a few decades; powers of ten only over many.
+      const bool many = std::log10(a.hi / a.lo) > 4;
       for (double d = std::floor(std::log10(a.lo)); d <= std::ceil(std::log10(a.hi)); ++d)
-        for (double m : {1.0, 2.0, 5.0}) {
+        for (double m : many ? std::vector<double>{1.0} : std::vector<double>{1.0, 2.0, 5.0}) {
           const double v = m * std::pow(10.0, d);
           if (v >= a.lo * 0.999 && v <= a.hi * 1.001) out.emplace_back(v, fmt_num(v));
         }
@@ -185,7 +241,7 @@ std::string SvgPlot::str() const {
   return "<svg class=\"plot\" id=\"" + html_escape(id_) + "\" width=\"" +
          std::to_string(w_) + "\" height=\"" + std::to_string(h_) + "\" viewBox=\"0 0 " + std::to_string(w_) + " " +
          std::to_string(h_) + "\" font-family=\"sans-serif\">\n" + axis_svg() + "<g class=\"marks\">\n" + marks_ +
-         "</g>\n" + labels_ + legend_ + "</svg>\n";
+         "</g>\n" + labels_ + tags_ + legend_ + "</svg>\n";
 }
 
 }  // namespace xbarsim

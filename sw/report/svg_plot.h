@@ -38,6 +38,11 @@ class SvgPlot {
             double width = 2, const std::string& title = "");
   void rect(double x0, double y0, double x1, double y1, const std::string& fill, const std::string& title);
   void label(double x, double y, const std::string& text, int dx = 6, int dy = -6);
+  /// A boxed tag (a point's number) beside the mark of radius `r` at (x, y): the first place
+  /// around it, ring by ring, inside the plot area that overlaps no tag placed before (and,
+  /// where possible, no mark); from the second ring on, a leader line joins it to the mark.
+  /// Drawn as <g class="tag"> above the marks.
+  void tag(double x, double y, double r, const std::string& text);
   void legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& title = "");
   std::string str() const;
 
@@ -46,7 +51,12 @@ class SvgPlot {
   std::string id_;
   int w_, h_, ml_, mb_, lw_;
   PlotAxis x_, y_;
-  std::string marks_, labels_, legend_;
+  std::string marks_, labels_, legend_, tags_;
+  struct Box {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Box> tag_boxes_;
+  std::vector<std::pair<std::pair<double, double>, double>> mark_px_;  ///< circles: centre, radius (px)
 };
 
 }  // namespace xbarsim

@@ -87,6 +87,7 @@ ExploreSpec parse_explore_spec(const ConfigTree& cfg) {
                        "' is not one of: accuracy, energy, area, latency, power (comma-separated)");
   }
   s.accuracy = cfg.get_bool("explore.accuracy");
+  s.min_accuracy = cfg.get_string("explore.min_accuracy") == "auto" ? -1 : cfg.get_double("explore.min_accuracy");
   const auto acc = std::find(s.objectives.begin(), s.objectives.end(), Objective::Accuracy);
   if (!s.accuracy && acc != s.objectives.end()) {
     s.objectives.erase(acc);
@@ -248,6 +249,15 @@ std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs) {
     front[i] = !dominated;
   }
   return front;
+}
+
+double accuracy_floor(const ExploreSpec& spec, const nlohmann::json& rows) {
+  if (spec.min_accuracy >= 0) return spec.min_accuracy;
+  double software = 0;
+  for (const auto& r : rows)
+    if (r.is_object() && r.contains("software_accuracy") && r["software_accuracy"].is_number())
+      software = std::max(software, r["software_accuracy"].get<double>());
+  return 0.5 * software;
 }
 
 JournalKind explore_journal_kind() {

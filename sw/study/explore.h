@@ -27,6 +27,9 @@ struct ExploreSpec {
   /// explore.accuracy: false runs every point's platform timing only (no programming, no
   /// evaluation, no dataset): cost and timing in seconds, without accuracy.
   bool accuracy = true;
+  /// explore.min_accuracy: points below this crossbar accuracy (a fraction) are never on the
+  /// front; negative = auto (half the software accuracy).
+  double min_accuracy = -1;
   std::string note;  ///< what parsing changed, for the user (an objective left out)
 };
 /// Parses explore.* and checks that the space sweeps nothing an exploration keeps fixed (the
@@ -89,6 +92,9 @@ double objective_cost(const nlohmann::json& row, Objective o);
 /// no other row is at least as good in every objective and better in one. Rows with a NaN
 /// cost are never on the front and dominate nothing; equal rows are both on it.
 std::vector<bool> pareto_front(const std::vector<std::vector<double>>& costs);
+/// The accuracy floor of the front for these explore rows: spec.min_accuracy, or with auto half
+/// the largest software_accuracy among them (0 when none has one: timing-only rows).
+double accuracy_floor(const ExploreSpec& spec, const nlohmann::json& rows);
 
 /// The kind of explore's results file (--out): a row per finished point, with its key and
 /// status.

@@ -97,8 +97,29 @@ TEST(ExploreCommand, RowsFrontFailureAndReport) {
       << header;
   std::ifstream h(html);
   const std::string page((std::istreambuf_iterator<char>(h)), {});
-  for (const char* id : {"plot-pareto", "plot-bits", "plot-layers", "plot-power", "plot-area", "plot-timing"})
+  for (const char* id : {"plot-pareto", "plot-bits", "plot-layers", "plot-energy", "plot-area", "plot-timing"})
     EXPECT_NE(page.find(std::string("id=\"") + id + "\""), std::string::npos) << id;
+  EXPECT_NEAR(j["min_accuracy"].get<double>(), 0.5 * j["points"][0]["software_accuracy"].get<double>(), 1e-12);  // auto
+
+  // A floor of 100 % (the same journal: nothing is rerun): only a point without a single
+  // wrong image may stay on the front.
+  const auto floor = run_xbarsim("explore --config " + space + " --set \"platform.buffer_bytes=[auto,1]\" --set " +
+                                 "explore.min_accuracy=1 --out " + out + " --json " + json + " --report " + html);
+  ASSERT_EQ(floor.code, 0) << floor.out;
+  std::ifstream in2(json);
+  const auto j2 = nlohmann::json::parse(in2);
+  EXPECT_EQ(j2["min_accuracy"].get<double>(), 1.0);
+  int below = 0;
+  for (const auto& p : j2["points"])
+    if (p["status"] == "ok" && p["accuracy"].get<double>() < 1) {
+      ++below;
+      EXPECT_FALSE(p["front"].get<bool>()) << p["label"];
+    }
+  EXPECT_GT(below, 0);
+  EXPECT_LT(j2["front"].size(), j["front"].size() + below);
+  const auto bad = run_xbarsim("explore --config " + space + " --set explore.min_accuracy=1.5 --out " + out);
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.out.find("explore.min_accuracy"), std::string::npos) << bad.out;
 }
 
 TEST(ExploreCommand, KilledRunResumesWithOnlyTheMissingPoints) {

@@ -84,8 +84,28 @@ std::string plot(const std::string& html, const std::string& id) {
   return html.substr(a, html.find("</svg>", a) - a);
 }
 
-const char* kPlots[] = {"plot-pareto", "plot-bits", "plot-dac-bits", "plot-layers", "plot-power", "plot-area",
-                        "plot-timing"};
+// The sample's plots: its DAC bits are all 8 (not swept, so no DAC plot); four objectives
+// give six pair plots.
+const char* kPlots[] = {"plot-pareto", "plot-pair-0", "plot-pair-5", "plot-bits", "plot-layers",
+                        "plot-energy", "plot-area", "plot-timing"};
+
+/// A row of a command's report: label, point, accuracy, cost, per-layer errors and timing.
+json row_of(const std::string& label, double acc, double energy, double area, double latency, double throughput) {
+  json r = {{"label", label}, {"status", "ok"}, {"accuracy", acc}, {"software_accuracy", 0.92},
+            {"energy_uj_per_image", energy}, {"area_mm2", area}, {"latency_us", latency},
+            {"throughput_images_per_s", throughput}, {"avg_power_mw", 1e3 * energy / latency},
+            {"energy_breakdown_uj", breakdown(energy / 1.88)}, {"area_breakdown_mm2", breakdown(area / 1.88)},
+            {"adc_bits", 8}, {"dac_bits", 8}, {"layers", layers(1.0, true)}};
+  return r;
+}
+
+/// The h2 titles of a page, in order.
+std::vector<std::string> sections(const std::string& h) {
+  std::vector<std::string> t;
+  for (size_t p = h.find("<h2>"); p != std::string::npos; p = h.find("<h2>", p + 1))
+    t.push_back(h.substr(p + 4, h.find("</h2>", p) - p - 4));
+  return t;
+}
 
 }  // namespace
 
@@ -98,14 +118,17 @@ TEST(HtmlReport, EveryPlotWithItsMarks) {
   }
   EXPECT_EQ(count(plot(h, "plot-pareto"), "<circle"), 5u);  // the ok rows with an energy
   EXPECT_EQ(count(plot(h, "plot-pareto"), "stroke=\"#111\""), 2u);  // the front, outlined
+  EXPECT_EQ(count(plot(h, "plot-pareto"), "<g class=\"tag\">"), 2u);  // and numbered
   EXPECT_NE(plot(h, "plot-bits").find(">none</text>"), std::string::npos);
-  EXPECT_EQ(count(plot(h, "plot-timing"), "<rect x"), 4u + 3u + 2u + 1u);  // busy + nonzero stalls + legend + frame
+  EXPECT_EQ(count(plot(h, "plot-timing"), "<polyline"), 2u);  // per-layer time of the two front points
   EXPECT_NE(h.find("failed: cannot &lt;program&gt; it"), std::string::npos);
-  // The drop with its interval in points, and the warnings under the table, escaped.
-  EXPECT_NE(h.find("<td>1.7 [-0.6, 3.9]</td>"), std::string::npos);
-  EXPECT_EQ(count(h, "<td>1.7 ["), 1u);
+  // The drop with its interval in points, and the warnings counted by kind, escaped.
+  EXPECT_NE(h.find("<td>1.70 [-0.60, 3.90]</td>"), std::string::npos);
+  EXPECT_EQ(count(h, "<td>1.70 ["), 1u);
   EXPECT_NE(h.find("<h2>Warnings</h2>"), std::string::npos);
-  EXPECT_NE(h.find("<li>max_rows=64 adc_bits=8: layer &lt;conv2&gt;: 66 % of cells clipped</li>"), std::string::npos);
+  EXPECT_NE(h.find("<li>1 &times; # % of cells clipped<br><small>first: max_rows=64 adc_bits=8: layer &lt;conv2&gt;: "
+                   "66 % of cells clipped</small></li>"),
+            std::string::npos);
   EXPECT_EQ(h, render_html_report(sample()));  // deterministic
 }
 
@@ -127,11 +150,94 @@ TEST(HtmlReport, MissingDataAreSaid) {
   in.rows = json::array({{{"label", "default"}, {"mean_relative_error", 0.01}, {"area_breakdown_mm2", breakdown(1)}},
                          {{"label", 7}, {"status", 3}, {"layers", "odd"}}});  // odd types are skipped, not thrown
   const std::string h = render_html_report(in);
-  EXPECT_NE(h.find("No Pareto scatter"), std::string::npos);
-  EXPECT_NE(h.find("No per-layer timing"), std::string::npos);
-  EXPECT_NE(h.find("No power breakdown"), std::string::npos);
+  // What the rows cannot show is one line at the end, not empty sections.
+  const size_t line = h.find("<p class=\"missing\" id=\"not-shown\">Not in this report: ");
+  ASSERT_NE(line, std::string::npos);
+  for (const char* what : {"per-layer error propagation", "energy by component", "ADC bits plot"})
+    EXPECT_NE(h.find(what, line), std::string::npos) << what;
+  EXPECT_EQ(count(h, "class=\"missing\""), 1u);
   EXPECT_NE(h.find("id=\"plot-area\""), std::string::npos);
+  EXPECT_EQ(h.find("<h2>Energy by component</h2>"), std::string::npos);
   EXPECT_EQ(h.find("<h2>Warnings</h2>"), std::string::npos);  // none given, no section
+}
+
+TEST(HtmlReport, EachCommandLeadsWithWhatItMeasures) {
+  ReportInput ex = sample();
+  EXPECT_EQ(sections(render_html_report(ex)).at(0), "Pareto front");
+  ReportInput sim;
+  sim.command = "simulate";
+  sim.swept_keys = {"mapping.scheme"};
+  sim.rows = json::array({row_of("scheme=dense", 0.9, 17.4, 0.59, 349.5, 2861),
+                          row_of("scheme=sparse", 0.9, 171.9, 785.6, 204, 4902)});
+  sim.rows[1]["peak_power_mw"] = 15460021.9;
+  const std::string s = render_html_report(sim);
+  ASSERT_FALSE(sections(s).empty());
+  EXPECT_EQ(sections(s)[0], "Throughput, latency and the bottleneck");
+  EXPECT_NE(s.find("<th>throughput images/s</th>"), std::string::npos);
+  EXPECT_NE(plot(s, "plot-throughput").find(">4902</text>"), std::string::npos);
+  EXPECT_NE(s.find("<td>15460 W</td>"), std::string::npos);  // watts above 10 W
+  EXPECT_NE(s.find("<td>49.79 mW</td>"), std::string::npos);
+  // Areas 0.59 and 785.6 mm2: each row's bar as shares of its total, the total printed.
+  EXPECT_NE(plot(s, "plot-area").find("share of each row&#39;s total"), std::string::npos);
+  EXPECT_NE(plot(s, "plot-area").find(">785.6 mm2</text>"), std::string::npos);
+  EXPECT_EQ(s.find("plot-pareto"), std::string::npos);
+  ReportInput ev;
+  ev.command = "eval";
+  ev.rows = json::array({row_of("default", 0.89, 17.4, 0.59, 1, 1)});
+  for (const char* k : {"latency_us", "throughput_images_per_s", "avg_power_mw"}) ev.rows[0].erase(k);
+  ev.rows[0]["accuracy_drop"] = 0.025;
+  ev.rows[0]["accuracy_drop_ci95"] = {0.0012, 0.0483};
+  const std::string e = render_html_report(ev);
+  EXPECT_EQ(sections(e).at(0), "Accuracy");
+  EXPECT_NE(e.find("crossbars <b>89 %</b> against software 92 %: a drop of 2.50 [0.12, 4.83] points"), std::string::npos);
+  EXPECT_NE(e.find("throughput and latency (the platform&#39;s", e.find("Not in this report")), std::string::npos);
+}
+
+TEST(HtmlReport, NoSectionForAnUnsweptQuantity) {
+  ReportInput in = sample();
+  for (auto& r : in.rows)
+    if (r.contains("adc_bits")) r["adc_bits"] = 8;
+  const std::string h = render_html_report(in);
+  EXPECT_EQ(h.find("id=\"plot-bits\""), std::string::npos);
+  EXPECT_EQ(h.find("id=\"plot-dac-bits\""), std::string::npos);
+  EXPECT_EQ(h.find("<h2>Accuracy vs ADC bits</h2>"), std::string::npos);
+  EXPECT_NE(h.find("ADC bits plot (not swept: all 8)"), std::string::npos);
+  EXPECT_NE(render_html_report(sample()).find("id=\"plot-bits\""), std::string::npos);  // swept: there
+}
+
+TEST(HtmlReport, LogAxisWhereASeriesSpansMoreThan100x) {
+  ReportInput in;
+  in.command = "eval";
+  json r = row_of("default", 0.9, 17, 0.5, 300, 1000);
+  r["layers"] = layers(1.0, false);
+  r["layers"][0]["mean_relative_error"] = 2e-5;  // 0.002 % .. 10 %: 5000x
+  in.rows = json::array({r});
+  EXPECT_NE(plot(render_html_report(in), "plot-layers").find("relative error (%) (log scale)"), std::string::npos);
+  in.rows[0]["layers"] = layers(0.1, false);  // 0.1 % .. 1 %: 10x
+  const std::string lin = plot(render_html_report(in), "plot-layers");
+  ASSERT_FALSE(lin.empty());
+  EXPECT_EQ(lin.find("log scale"), std::string::npos);
+  // The front's scatter too: energies 1..1000 uJ.
+  ReportInput ex = sample();
+  ex.rows[0]["energy_uj_per_image"] = 1000.0;
+  EXPECT_NE(plot(render_html_report(ex), "plot-pareto").find("energy per image (uJ) (log scale)"), std::string::npos);
+  EXPECT_EQ(plot(render_html_report(sample()), "plot-pareto").find("log scale"), std::string::npos);
+}
+
+TEST(HtmlReport, FloorGreysAndManyObjectivesDrawMarksAndPairs) {
+  ReportInput in = sample();
+  in.min_accuracy = 0.85;  // the 80 % point is below it
+  std::string h = render_html_report(in);
+  EXPECT_EQ(count(plot(h, "plot-pareto"), "fill=\"#c4c4c4\""), 1u);
+  EXPECT_NE(plot(h, "plot-pareto").find("accuracy floor 85 %"), std::string::npos);
+  // Four objectives: the front as marks only, and the six pairs.
+  EXPECT_EQ(plot(h, "plot-pareto").find("<title>Pareto front</title>"), std::string::npos);
+  for (int k = 0; k < 6; ++k) EXPECT_FALSE(plot(h, "plot-pair-" + std::to_string(k)).empty()) << k;
+  EXPECT_TRUE(plot(h, "plot-pair-6").empty());
+  in.objectives = {"accuracy", "energy"};  // two: the front joined, no pairs
+  h = render_html_report(in);
+  EXPECT_NE(plot(h, "plot-pareto").find("<title>Pareto front</title>"), std::string::npos);
+  EXPECT_TRUE(plot(h, "plot-pair-0").empty());
 }
 
 // ---- the browser ------------------------------------------------------------------------
@@ -217,37 +323,76 @@ int run(const std::string& cmd, std::string* out = nullptr) {
   return st;
 }
 
+/// The page `in` as headless Chromium lays it out and draws it at `width` px: the boxes its
+/// own script measured (plots by id, point tags as "tag:PLOT:i") and a screenshot, kept in
+/// the test's output directory as NAME.png (a test artefact).
+struct Rendered {
+  std::map<std::string, std::array<int, 4>> boxes;
+  Image img;
+  std::string error;
+};
+Rendered render_in_chromium(const std::string& browser, const std::string& name, const ReportInput& in, int width) {
+  Rendered r;
+  const std::string dir = XBARSIM_TEST_OUTPUT_DIR;
+  const std::string page = dir + "/" + name + ".html", png = dir + "/" + name + ".png", log = dir + "/chromium.log";
+  write_html_report(page, in);
+  std::remove(png.c_str());
+  const std::string flags =
+      " --headless=new --no-sandbox --disable-gpu --hide-scrollbars --window-size=" + std::to_string(width) + ",4000 ";
+  std::string dom;
+  if (run("timeout 90 " + browser + flags + "--dump-dom file://" + page + " 2>" + log, &dom) != 0)
+    return r.error = "chromium --dump-dom failed; see " + log, r;
+  if (run("timeout 90 " + browser + flags + "--screenshot=" + png + " file://" + page + " 2>>" + log) != 0)
+    return r.error = "chromium --screenshot failed; see " + log, r;
+  std::printf("screenshot: %s\n", png.c_str());
+  const size_t a = dom.find("<pre id=\"layout\" hidden=\"\">");
+  if (a == std::string::npos) return r.error = "no layout in the rendered DOM", r;
+  std::istringstream layout(dom.substr(a + 27, dom.find("</pre>", a) - a - 27));
+  std::string id;
+  std::array<int, 4> b;
+  while (layout >> id >> b[0] >> b[1] >> b[2] >> b[3]) r.boxes[id] = b;
+  r.img = read_png(png, r.error);
+  return r;
+}
+
+/// An exploration whose 14 front points crowd one corner of the scatter (four share a place),
+/// far from the other two: their number tags must find room without covering each other.
+ReportInput crowded() {
+  ReportInput in = sample();
+  in.objectives = {"accuracy", "energy"};
+  json rows = json::array();
+  for (int i = 0; i < 14; ++i) {
+    const int k = i < 4 ? 0 : i - 3;  // the first four at one place
+    json r = in.rows[1];
+    r["label"] = "max_rows=" + std::to_string(64 + 8 * i) + " adc_bits=8 a long method name to fill the key";
+    r["point"] = {{"mapping.max_rows", std::to_string(64 + 8 * i)}, {"converters.adc_bits", "8"}};
+    r["energy_uj_per_image"] = 10.0 + 0.02 * k;
+    r["accuracy"] = 0.900 + 0.0008 * k;
+    r["front"] = true;
+    r.erase("warnings");
+    rows.push_back(r);
+  }
+  rows.push_back(in.rows[0]);
+  rows.back()["energy_uj_per_image"] = 30.0;
+  rows.back()["accuracy"] = 0.5;
+  in.rows = rows;
+  return in;
+}
+
 }  // namespace
 
 TEST(HtmlReportBrowser, ChromiumDrawsEveryPlot) {
   const std::string browser = chromium();
   if (browser.empty()) GTEST_SKIP() << "Chromium not found (Debian package chromium); browser test skipped";
-  const std::string dir = XBARSIM_TEST_OUTPUT_DIR;
-  const std::string page = dir + "/report_test.html", png = dir + "/report_screenshot.png", log = dir + "/chromium.log";
-  write_html_report(page, sample());
-  std::remove(png.c_str());
-  const std::string flags = " --headless=new --no-sandbox --disable-gpu --hide-scrollbars --window-size=1280,3600 ";
-  std::string dom;
-  ASSERT_EQ(run("timeout 90 " + browser + flags + "--dump-dom file://" + page + " 2>" + log, &dom), 0)
-      << "chromium --dump-dom failed; see " << log;
-  ASSERT_EQ(run("timeout 90 " + browser + flags + "--screenshot=" + png + " file://" + page + " 2>>" + log), 0)
-      << "chromium --screenshot failed; see " << log;
-  std::printf("screenshot: %s\n", png.c_str());
-  // Each plot's box on the page, as the page's own script measured it in the browser.
-  const size_t a = dom.find("<pre id=\"layout\" hidden=\"\">");
-  ASSERT_NE(a, std::string::npos) << "no layout in the rendered DOM";
-  std::istringstream layout(dom.substr(a + 27, dom.find("</pre>", a) - a - 27));
-  std::map<std::string, std::array<int, 4>> boxes;
-  std::string id;
-  std::array<int, 4> b;
-  while (layout >> id >> b[0] >> b[1] >> b[2] >> b[3]) boxes[id] = b;
-  std::string error;
-  const Image img = read_png(png, error);
-  ASSERT_TRUE(error.empty()) << error;
+  const Rendered r = render_in_chromium(browser, "report_explore", sample(), 1400);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  const auto& boxes = r.boxes;
+  const Image& img = r.img;
   for (const char* plot_id : kPlots) {
     ASSERT_TRUE(boxes.count(plot_id)) << plot_id << " not laid out";
-    const auto& bx = boxes[plot_id];
+    const auto& bx = boxes.at(plot_id);
     ASSERT_GT(bx[2], 100) << plot_id;
+    ASSERT_LE(bx[0] + bx[2], 1400) << plot_id << " is wider than the window";
     ASSERT_LE(bx[1] + bx[3], img.h) << plot_id << " lies below the screenshot";
     // Saturated pixels: the coloured data marks, not the black axes and grey grid.
     long coloured = 0;
@@ -257,5 +402,46 @@ TEST(HtmlReportBrowser, ChromiumDrawsEveryPlot) {
         coloured += std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 60;
       }
     EXPECT_GT(coloured, 150) << plot_id << ": its data marks did not draw";
+  }
+}
+
+TEST(HtmlReportBrowser, NoTwoPointTagsOverlapAndEveryCommandsReportIsKept) {
+  const std::string browser = chromium();
+  if (browser.empty()) GTEST_SKIP() << "Chromium not found (Debian package chromium); browser test skipped";
+  const Rendered r = render_in_chromium(browser, "report_crowded_front", crowded(), 1400);
+  ASSERT_TRUE(r.error.empty()) << r.error;
+  // The tags' text as the browser laid it out (not the boxes the report computed).
+  std::vector<std::pair<std::string, std::array<int, 4>>> tags;
+  for (const auto& b : r.boxes)
+    if (b.first.rfind("tag:plot-pareto:", 0) == 0) tags.push_back(b);
+  ASSERT_EQ(tags.size(), 14u);
+  const auto& plot = r.boxes.at("plot-pareto");
+  for (size_t i = 0; i < tags.size(); ++i) {
+    const auto& a = tags[i].second;
+    EXPECT_GE(a[0], plot[0]) << tags[i].first << " outside its plot";
+    EXPECT_LE(a[0] + a[2], plot[0] + plot[2]) << tags[i].first << " outside its plot";
+    for (size_t k = 0; k < i; ++k) {
+      const auto& b = tags[k].second;
+      const bool overlap = a[0] < b[0] + b[2] && b[0] < a[0] + a[2] && a[1] < b[1] + b[3] && b[1] < a[1] + a[3];
+      EXPECT_FALSE(overlap) << tags[i].first << " overlaps " << tags[k].first;
+    }
+  }
+  // A report of each command, kept as a screenshot beside the test (report_*.png).
+  ReportInput sim;
+  sim.command = "simulate";
+  sim.title = "simulate: dense and sparse, sequential and pipelined";
+  sim.swept_keys = {"mapping.scheme", "platform.schedule"};
+  sim.rows = json::array({row_of("scheme=dense schedule=sequential", 0.9, 17.4, 0.59, 349.5, 2861),
+                          row_of("scheme=dense schedule=pipelined", 0.9, 17.4, 0.59, 354.4, 5051),
+                          row_of("scheme=sparse schedule=sequential", 0.9, 171.9, 785.6, 204, 4902),
+                          row_of("scheme=sparse schedule=pipelined", 0.9, 171.9, 785.6, 689, 6237)});
+  ReportInput ev;
+  ev.command = "eval";
+  ev.title = "eval";
+  ev.rows = json::array({row_of("default", 0.89, 17.4, 0.59, 1, 1)});
+  for (const auto& in : {std::make_pair("report_simulate", sim), std::make_pair("report_eval", ev)}) {
+    const Rendered k = render_in_chromium(browser, in.first, in.second, 1400);
+    ASSERT_TRUE(k.error.empty()) << in.first << ": " << k.error;
+    EXPECT_GT(k.img.h, 500) << in.first;
   }
 }
