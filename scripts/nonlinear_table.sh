@@ -73,8 +73,10 @@ for cfg in $CFGS; do
       continue
     fi
     [ -s "$base.json" ] || continue
-    # The run's row of eval's table: run images software_% crossbar_% drop_pts interval ...
+    # The run's row of eval's table: run images software crossbar drop interval ... (fractions), in %.
     read -r _ n sw xb drop ci _ < <(grep -m1 '^default' "$base.txt")
+    read -r sw xb drop ci < <(awk -v a="$sw" -v b="$xb" -v d="$drop" -v c="$ci" 'BEGIN {
+      split(c, r, /\.\./); printf "%.2f %.2f %.2f %+.2f..%+.2f\n", 100 * a, 100 * b, 100 * d, 100 * r[1], 100 * r[2] }')
     mean=$(awk -F, 'NR > 1 {s += $(NF - 1); c++} END {if (c) printf "%.2f", 100 * s / c}' "$base.csv")
     printf '| %s | %s | %s | %s | %s | %s | %s | %s |\n' "${NAME[$cfg]}" "$k" "$n" "$sw" "$xb" "$drop" "$ci" "$mean"
   done

@@ -292,10 +292,12 @@ int cmd_explore(int argc, char** argv) {
     if (front[k]) front_labels.push_back(rows[k]["label"]);
   }
 
-  const Table table({{"point", -44},
+  std::vector<std::string> labels;
+  for (const auto& row : rows) labels.push_back(row["label"].get<std::string>());
+  const Table table({{"point", fit_width("point", labels)},
                      {"status", -7},
-                     {"acc_%", 7, 2},
-                     {"drop_pts", 9, 2},
+                     {"accuracy", 8, 4},
+                     {"drop", 7, 4},
                      {"drop_95%_interval", 18},
                      {"energy_uJ", 10, 3},
                      {"area_mm2", 9, 4},
@@ -303,6 +305,7 @@ int cmd_explore(int argc, char** argv) {
                      {"front", -5}});
   table.print_header(stdout);
   int failed = 0;
+  WarningSummary warnings;
   for (const auto& row : rows) {
     const bool ok = row["status"] == "ok";
     const bool acc = ok && row.contains("accuracy");
@@ -311,18 +314,26 @@ int cmd_explore(int argc, char** argv) {
     table.print_row(
         stdout,
         {row["label"].get<std::string>(), row["status"].get<std::string>(),
-         acc ? Table::Cell(100 * num(row, "accuracy")) : dash, acc ? Table::Cell(100 * num(row, "accuracy_drop")) : dash,
+         acc ? Table::Cell(num(row, "accuracy")) : dash, acc ? Table::Cell(num(row, "accuracy_drop")) : dash,
          acc ? Table::Cell(interval(row)) : dash, ok ? Table::Cell(num(row, "energy_uj_per_image")) : dash,
          ok ? Table::Cell(num(row, "area_mm2")) : dash, ok ? Table::Cell(num(row, "latency_us")) : dash,
          std::string(row["front"].get<bool>() ? "*" : "")});
     if (!ok) std::printf("    reason: %s\n", row["reason"].get<std::string>().c_str());
     for (const auto& w : row.value("warnings", nlohmann::json::array()))
-      std::printf("    warning: %s\n", w.get<std::string>().c_str());
+      warnings.add(row["label"].get<std::string>(), w.get<std::string>());
   }
   std::string objectives;
   for (Objective o : spec.objectives) objectives += (objectives.empty() ? "" : ", ") + to_string(o);
-  std::printf("\n%zu points (%d failed); Pareto front over %s: %zu point%s (*)\n", rows.size(), failed,
+  std::printf("\n%zu points (%d failed); Pareto front over %s: %zu point%s (*)", rows.size(), failed,
               objectives.c_str(), front_labels.size(), front_labels.size() == 1 ? "" : "s");
+  if (spec.accuracy && floor > 0) {
+    int below = 0;
+    for (const auto& row : rows) below += row.contains("accuracy") && num(row, "accuracy") < floor;
+    std::printf("; %d point%s below the accuracy floor %.4f (explore.min_accuracy) kept off it", below,
+                below == 1 ? "" : "s", floor);
+  }
+  std::printf("\n%s\n", kFractionsNote);
+  warnings.print(stdout);
 
   if (args.has("--csv")) {
     SweepCsv csv(args.get("--csv"), space.front().values,

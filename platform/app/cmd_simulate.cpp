@@ -44,16 +44,16 @@ void register_point_inputs(const CliArgs& args, const ConfigTree& cfg) {
 void print_summary(const SimulationReport& r) {
   std::printf(
       "\n%s on %s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
-      "%.0f images/s\nenergy %.3f uJ/image, average power %.2f mW, peak power %.1f mW, area %.4f mm2, "
+      "%.0f images/s\nenergy %.3f uJ/image, average power %s, peak power %s, area %.4f mm2, "
       "%.3f TOPS/W achieved\n",
       r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(), r.images, r.iterations_total,
-      r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, r.avg_power_mw,
-      r.peak_power_mw, r.area_mm2, r.achieved_tops_per_w);
+      r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
+      power_text(r.peak_power_mw).c_str(), r.area_mm2, r.achieved_tops_per_w);
   if (!r.bottleneck.empty())
     std::printf("bottleneck: %s, busy %.3f us per image\n", r.bottleneck.c_str(), r.bottleneck_busy_us);
   std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,
               r.images_per_wall_s);
-  if (r.accuracy) std::printf("accuracy %.2f %%\n", 100 * *r.accuracy);
+  if (r.accuracy) std::printf("accuracy %.4f (a fraction, as in the JSON)\n", *r.accuracy);
 }
 
 /// The CSV columns after the point's: the figures of the header below.
@@ -102,11 +102,14 @@ int cmd_simulate(int argc, char** argv) {
     out.finish();
     return 0;
   }
-  const Table table({{"run", -40},
+  std::vector<std::string> labels;
+  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const Table table({{"run", fit_width("run", labels)},
                      {"latency_us", 11, 3},
                      {"img/s", 10, 1},
                      {"energy_uJ", 10, 3},
-                     {"avg_mW", 9, 2},
+                     {"avg_power", 11},
+                     {"peak_power", 11},
                      {"area_mm2", 9, 4}});
   table.print_header(stdout);
   for (size_t k = 0; k < points.size(); ++k) {
@@ -117,10 +120,11 @@ int cmd_simulate(int argc, char** argv) {
     if (!point_vcd.empty())
       std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
     table.print_row(stdout, {sweep_label(points[k]), r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image,
-                             r.avg_power_mw, r.area_mm2});
+                             power_text(r.avg_power_mw), power_text(r.peak_power_mw), r.area_mm2});
     if (out.csv().enabled()) csv_figures(out.csv().row(static_cast<int>(k), points[k]), r);
     out.add(r.json, points[k]);
   }
+  std::printf("\npower: in mW below 10 W, in W from 10 W up (the CSV and JSON: mW)\n");
   out.finish();
   return 0;
 }

@@ -115,8 +115,35 @@ bool network_errors(const nlohmann::json& layers, double& mean, double& worst) {
 
 std::string drop_interval_text(double low, double high) {
   char s[64];
-  std::snprintf(s, sizeof s, "%+.2f..%+.2f", 100 * low, 100 * high);
+  std::snprintf(s, sizeof s, "%+.4f..%+.4f", low, high);
   return s;
+}
+
+const char* const kFractionsNote =
+    "accuracies, drops and relative errors are fractions (0.9 = 90 %), as in the CSV and the JSON";
+
+int fit_width(const std::string& header, const std::vector<std::string>& values) {
+  size_t w = header.size();
+  for (const auto& v : values) w = std::max(w, v.size());
+  return -static_cast<int>(w);
+}
+
+void WarningSummary::add(const std::string& where, const std::string& text) {
+  const std::string k = warning_kind(text);
+  for (Kind& x : kinds_)
+    if (x.kind == k) {
+      ++x.count;
+      return;
+    }
+  kinds_.push_back({k, where.empty() ? text : where + ": " + text, 1});
+}
+
+void WarningSummary::print(std::FILE* out) const {
+  if (kinds_.empty()) return;
+  int total = 0;
+  for (const Kind& k : kinds_) total += k.count;
+  std::fprintf(out, "\nwarnings: %d in all, of %zu kind%s\n", total, kinds_.size(), kinds_.size() == 1 ? "" : "s");
+  for (const Kind& k : kinds_) std::fprintf(out, "  %d x %s\n    first: %s\n", k.count, k.kind.c_str(), k.first.c_str());
 }
 
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point) {

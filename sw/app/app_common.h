@@ -1,6 +1,7 @@
 #pragma once
 /// Helpers shared by the xbarsim subcommands, and the subcommand registry.
 #include <nlohmann/json.hpp>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <memory>
@@ -53,8 +54,31 @@ nlohmann::json point_json(const std::vector<std::pair<std::string, std::string>>
 /// The network's error from per-layer JSON (eval's "layers"): the mean of the layers' mean
 /// relative errors and the largest worst error. False when no layer carries errors.
 bool network_errors(const nlohmann::json& layers, double& mean, double& worst);
-/// An accuracy drop's 95 % interval (fractions) in points, as the tables print it: "-0.60..+3.90".
+/// An accuracy drop's 95 % interval as the tables print it, in fractions as everywhere: "-0.0060..+0.0390".
 std::string drop_interval_text(double low, double high);
+
+/// The width of a left-aligned table column (negative, as Table::Column takes it) that fits
+/// `header` and every one of `values`.
+int fit_width(const std::string& header, const std::vector<std::string>& values);
+
+/// A run's warnings, printed after its table: how many of each kind (sw/report's
+/// warning_kind) and the first of each with where it came from.
+class WarningSummary {
+ public:
+  void add(const std::string& where, const std::string& text);
+  /// "warnings: N in all, of K kinds" and one paragraph per kind; nothing without warnings.
+  void print(std::FILE* out) const;
+
+ private:
+  struct Kind {
+    std::string kind, first;
+    int count = 0;
+  };
+  std::vector<Kind> kinds_;
+};
+
+/// The line under a command's tables that says in which units its ratios are.
+extern const char* const kFractionsNote;
 
 /// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
 /// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.

@@ -18,12 +18,19 @@ namespace xbarsim {
 namespace {
 
 void print_layers(const EvalResult& r) {
-  const Table t({{"layer", -34}, {"rows", 6}, {"cols", 5}, {"xbars", 6}, {"mean_RE_%", 12}, {"worst_RE_%", 12}});
+  std::vector<std::string> names;
+  for (const auto& l : r.layers) names.push_back(l.name);
+  const Table t({{"layer", fit_width("layer", names)},
+                 {"rows", 6},
+                 {"cols", 5},
+                 {"xbars", 6},
+                 {"mean_rel_error", 14, 6},
+                 {"worst_rel_error", 15, 6}});
   std::printf("\n");
   t.print_header(stdout);
   for (const auto& l : r.layers)
-    t.print_row(stdout, {l.name, l.inventory.rows, l.inventory.cols, l.inventory.crossbars, 100 * l.mean_relative_error,
-                         100 * l.worst_relative_error});
+    t.print_row(stdout, {l.name, l.inventory.rows, l.inventory.cols, l.inventory.crossbars, l.mean_relative_error,
+                         l.worst_relative_error});
 }
 
 int cmd_eval(int argc, char** argv) {
@@ -84,15 +91,18 @@ int cmd_eval(int argc, char** argv) {
   if (out)
     out->set_report("eval", base,
                     model.path + " on " + std::to_string(data.test.count()) + " " + data.test.name + " images");
-  const Table table({{"run", -44},
+  std::vector<std::string> labels;
+  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const Table table({{"run", fit_width("run", labels)},
                      {"images", 7},
-                     {"software_%", 10, 2},
-                     {"crossbar_%", 10, 2},
-                     {"drop_pts", 9, 2},
+                     {"software", 8, 4},
+                     {"crossbar", 8, 4},
+                     {"drop", 7, 4},
                      {"drop_95%_interval", 18},
                      {"xbars", 8},
                      {"oor", 7},
                      {"img/s", 9, 1}});
+  WarningSummary warnings;
   if (root) table.print_header(stdout);
   for (size_t run = 0; run < points.size(); ++run) {
     const std::string label = sweep_label(points[run]);
@@ -118,14 +128,14 @@ int cmd_eval(int argc, char** argv) {
       std::fprintf(stderr, "xbarsim eval: %s: %d of %d images from %s\n", label.c_str(), r.images_from_journal,
                    r.images, journal_file->path().c_str());
     if (!r.note.empty()) std::fprintf(stderr, "xbarsim eval: %s\n", r.note.c_str());
-    for (const std::string& w : r.warnings()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
+    for (const std::string& w : r.warnings()) warnings.add(points.size() > 1 ? label : "", w);
     nlohmann::json j = r.to_json();
     j["preprocessing"] = {{"scale", model.pre.scale}, {"mean", model.pre.mean}, {"std", model.pre.std}};
     long long oor = j["out_of_range_cells"];
     const auto ci = r.paired.drop_ci95();
     table.print_row(stdout,
-                    {label, static_cast<long long>(r.images), 100 * r.software_accuracy, 100 * r.crossbar_accuracy,
-                     100 * r.paired.drop(), drop_interval_text(ci.first, ci.second), r.cost.crossbars, oor,
+                    {label, static_cast<long long>(r.images), r.software_accuracy, r.crossbar_accuracy,
+                     r.paired.drop(), drop_interval_text(ci.first, ci.second), r.cost.crossbars, oor,
                      r.images_from_journal == r.images ? Table::Cell("-")  // nothing evaluated
                                                        : Table::Cell(j["images_per_s"].get<double>())});
     if (points.size() == 1) print_layers(r);
@@ -138,6 +148,10 @@ int cmd_eval(int argc, char** argv) {
             << el.mean_relative_error << "," << el.worst_relative_error << "\n";
       }
     out->add(std::move(j), points[run]);
+  }
+  if (root) {
+    std::printf("\n%s\n", kFractionsNote);
+    warnings.print(stdout);
   }
   if (out) out->finish();
   return 0;

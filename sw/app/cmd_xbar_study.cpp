@@ -31,8 +31,8 @@ int cmd_xbar_study(int argc, char** argv) {
   const Table table({{"run", -40},
                      {"xbars", 8},
                      {"oor_cells", 9},
-                     {"mean_RE_%", 11},
-                     {"worst_RE_%", 11},
+                     {"mean_rel_error", 14, 6},
+                     {"worst_rel_error", 15, 6},
                      {"bits_m", 7, 2},
                      {"bits_w", 7, 2},
                      {"min_gain", 9},
@@ -49,8 +49,8 @@ int cmd_xbar_study(int argc, char** argv) {
   auto emit = [&](size_t run, const nlohmann::json& done) {
     const nlohmann::json& j = done["json"];
     table.print_row(stdout, {sweep_label(points[run]), j["crossbar_count"].get<long long>(),
-                             j["out_of_range_cells"].get<long long>(), 100 * j["mean_relative_error"].get<double>(),
-                             100 * j["worst_relative_error"].get<double>(), done["bits_mean"].get<double>(),
+                             j["out_of_range_cells"].get<long long>(), j["mean_relative_error"].get<double>(),
+                             j["worst_relative_error"].get<double>(), done["bits_mean"].get<double>(),
                              done["bits_worst"].get<double>(), j["min_column_gain"].get<double>(),
                              j["program_time_s"].get<double>() + j["evaluate_time_s"].get<double>()});
     if (out->csv().enabled()) {

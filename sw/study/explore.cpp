@@ -178,8 +178,8 @@ bool listed(const std::string& key, const std::vector<std::string>& keys) {
 }  // namespace
 
 bool point_key_ignores(const std::string& key) {
-  static const std::vector<std::string> never = {"solver.threads", "explore.objectives", "explore.color_by",
-                                                 "explore.combine", "limits."};
+  static const std::vector<std::string> never = {"solver.threads",   "explore.objectives", "explore.color_by",
+                                                 "explore.combine",  "explore.min_accuracy", "limits."};
   return listed(key, never);
 }
 

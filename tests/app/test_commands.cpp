@@ -93,13 +93,19 @@ TEST(EvalCommand, WarnsWhenTheConversionClipsALayer) {
   auto j = read_json(json);
   ASSERT_GE(j["warnings"].size(), 2u) << out;
   int named = 0;
+  std::string first;
   for (const auto& l : j["layers"]) {
     const double clipped = l["out_of_range_cells"].get<double>() / (l["rows"].get<double>() * l["cols"].get<double>());
-    const bool warned = out.find("warning: layer " + l["name"].get<std::string>() + ":") != std::string::npos;
+    bool warned = false;
+    for (const auto& w : j["warnings"]) warned = warned || w.get<std::string>().rfind("layer " + l["name"].get<std::string>() + ":", 0) == 0;
     EXPECT_EQ(warned, clipped > 0.10) << l["name"] << " clipped fraction " << clipped << "\n" << out;
+    if (warned && first.empty()) first = "first: layer " + l["name"].get<std::string>() + ":";
     named += warned;
   }
   EXPECT_EQ(named, static_cast<int>(j["warnings"].size()));
+  // Stdout counts them after the table, one kind, its first example.
+  EXPECT_NE(out.find("warnings: " + std::to_string(named) + " in all, of 1 kind\n"), std::string::npos) << out;
+  EXPECT_NE(out.find(first), std::string::npos) << out;
   EXPECT_NE(out.find("mapping.negative: differential"), std::string::npos) << out;
   ASSERT_EQ(run("eval --model lenet_mnist --images 10 --json " + json, &out), 0) << out;
   j = read_json(json);

@@ -326,7 +326,7 @@ TEST_F(Safety, MessagesNameTheKeyAndComeBeforeTheWork) {
   // An output name too long for the file system: before the study, not after it.
   const Result longname = run("xbar-study --json " + path(std::string(300, 'n') + ".json"));
   expect_input_error(longname, "File name too long", "long --json");
-  EXPECT_EQ(longname.out.find("mean_RE"), std::string::npos) << longname.out;
+  EXPECT_EQ(longname.out.find("mean_rel_error"), std::string::npos) << longname.out;
   // A value out of range in an exploration's list: refused as eval refuses it, not a failed row.
   expect_input_error(run("explore --model tiny --images 2 --set 'converters.adc_bits=[6,99]' --out " + path("j.jsonl")),
                      "converters.adc_bits", "adc_bits 99");

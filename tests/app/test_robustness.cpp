@@ -154,7 +154,7 @@ TEST(Robustness, OutputFilesAreCheckedBeforeWorkAndNeverClobberInputs) {  // ite
   // An unwritable --json is reported before the study runs (no result table printed).
   const Result r = run("xbar-study --json /nonexistent/dir/out.json");
   expect_clean_error(r, 2, "does not exist", "item 11 unwritable json");
-  EXPECT_EQ(r.out.find("mean_RE"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("mean_rel_error"), std::string::npos) << r.out;
 }
 
 TEST(Robustness, InputProblemsAreInputErrors) {  // items 12, 14 and 15
