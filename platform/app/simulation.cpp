@@ -46,7 +46,10 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       bool print, const MachineReport* machine) {
   const PlatformConfig& pc = hw.platform;
   const double images = std::max<size_t>(r.image_out_ns.size(), 1), clk = pc.clock_ns();
-  const Table table({{"layer", -30},
+  std::vector<std::string> names;
+  for (const StageStats& st : r.stages)
+    if (st.linear >= 0) names.push_back(st.name);
+  const Table table({{"layer", fit_width("layer", names)},
                      {"kernel", -12},
                      {"xbars", 6},
                      {"rep", 4},

@@ -99,7 +99,9 @@ void print_machine(const MachineReport& r, const HardwareContext& hw) {
       "bottleneck %s\n",
       m.imas_used, m.imas_available, 100.0 * m.imas_used / m.imas_available, m.tiles_used, m.tiles_available,
       100.0 * m.cell_utilization, m.bottleneck >= 0 ? m.layers[m.bottleneck].name.c_str() : "-");
-  const Table t({{"layer", -30},
+  std::vector<std::string> names;
+  for (const LayerPlacement& p : m.layers) names.push_back(p.name);
+  const Table t({{"layer", fit_width("layer", names)},
                  {"xbars", 6},
                  {"IMAs", 5},
                  {"copies", 6},
@@ -129,7 +131,9 @@ int cmd_overhead(int argc, char** argv) {
               hw.mapping.max_rows ? std::to_string(hw.mapping.max_rows).c_str() : "unbounded",
               hw.mapping.max_cols ? std::to_string(hw.mapping.max_cols).c_str() : "unbounded",
               hw.cost.adc_bits_priced(), hw.cost.dac_bits_priced(), hw.columns_per_adc, hw.lib.source.c_str());
-  const Table table({{"layer", -30},
+  std::vector<std::string> names;
+  for (const auto& l : rep.layers) names.push_back(l.name);
+  const Table table({{"layer", fit_width("layer", names)},
                      {"kernel", -12},
                      {"input", -9},
                      {"map", -6},

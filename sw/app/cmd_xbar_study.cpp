@@ -28,7 +28,9 @@ int cmd_xbar_study(int argc, char** argv) {
     return p;
   });
   check_outputs(args, {"--json", "--csv", "--report"});  // the configuration and component library are read
-  const Table table({{"run", -40},
+  std::vector<std::string> labels;
+  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const Table table({{"run", fit_width("run", labels)},
                      {"xbars", 8},
                      {"oor_cells", 9},
                      {"mean_rel_error", 14, 6},
