@@ -135,7 +135,7 @@ def _calibration_statistics(modules, inputs, seed, samples):
 
 
 def convert(model, config=None, calibration=None, calibration_samples=None, max_calibration_batches=None,
-            progress=None):
+            signed_layers=(), progress=None):
     """A copy of `model` whose Conv2d and Linear layers run on crossbars.
 
     `calibration`: a batch of inputs (a tensor), or an iterable of batches (a DataLoader of
@@ -145,8 +145,14 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
     with the same `calibration.seed`, the same vectors, at most `calibration_samples`
     (default: the config's eval.calibration_samples) per layer. Layers count in the order
     `model.named_modules()` lists them (eval: the ONNX graph's order); the l-th is programmed
-    with salt l + 1, as eval's. Without `calibration` the ranges are [0, 1] and calibration
-    uses random vectors. `progress(name, done, total)` is called after each layer is programmed.
+    with salt l + 1, as eval's. A layer is programmed for signed inputs when its calibration
+    inputs had a negative value, or when its name is in `signed_layers`: eval also makes signed
+    every layer whose inputs the graph can make negative (not after a ReLU, say), which a torch
+    model does not say; a layer whose inputs are never negative in the data (after a sigmoid)
+    matches eval only when named here. The calibration images are counted by the layer's calls
+    (one per image batch), as a network that calls each layer once per forward does. Without
+    `calibration` the ranges are [0, 1] and calibration uses random vectors.
+    `progress(name, done, total)` is called after each layer is programmed.
     """
     config = config if config is not None else Config()
     samples = int(config.get("eval.calibration_samples") if calibration_samples is None else calibration_samples)
@@ -179,8 +185,12 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
         if unused:  # an auxiliary head, say: programmed for inputs in [0, 1], random calibration
             warnings.warn("the calibration batches never reached layer(s) " + ", ".join(unused) +
                           ": they are programmed for inputs in [0, 1]")
+    unknown = set(signed_layers) - {name for name, _ in layers}
+    if unknown:
+        raise ValueError("signed_layers names no Conv2d or Linear of the model: " + ", ".join(sorted(unknown)))
     for l, (name, m) in enumerate(layers):
         x_max, signed, calib = stats[l]
+        signed = signed or name in signed_layers
         xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1)
         analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb)
         parent = model

@@ -99,6 +99,7 @@ int cmd_xbar_study(int argc, char** argv) {
       }
     for (size_t run = 0; run < points.size(); ++run) emit(run, by_run[run]);
   }
+  std::printf("\n%s\n", kFractionsNote);
   out->finish();
   return 0;
 }

@@ -9,6 +9,7 @@
 #include <iterator>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include "sw/common/output_file.h"
 #include "sw/report/svg_plot.h"
@@ -158,11 +159,12 @@ std::vector<const json*> front_rows(const json& rows) {
   std::vector<const json*> f;
   for (const auto& r : rows)
     if (ok(r) && on_front(r)) f.push_back(&r);
-  std::stable_sort(f.begin(), f.end(), [](const json* a, const json* b) {
-    const double x = num(*a, "accuracy"), y = num(*b, "accuracy");
-    if (!std::isnan(x) && !std::isnan(y) && x != y) return x > y;
-    return num(*a, "energy_uj_per_image") < num(*b, "energy_uj_per_image");
-  });
+  // Rows without an accuracy (timing-only) after those with one; then lowest energy first.
+  const auto key = [](const json* r) {
+    const double a = num(*r, "accuracy"), e = num(*r, "energy_uj_per_image");
+    return std::make_tuple(std::isnan(a) ? 1 : 0, std::isnan(a) ? 0.0 : -a, std::isnan(e) ? INFINITY : e);
+  };
+  std::stable_sort(f.begin(), f.end(), [&](const json* a, const json* b) { return key(a) < key(b); });
   return f;
 }
 
@@ -215,7 +217,7 @@ std::string scatter(const json& rows, const std::vector<const json*>& front, con
   if (pts.empty()) return "";
   const bool acc_y = std::string(yo.key) == "accuracy", acc_x = std::string(xo.key) == "accuracy";
   const double floor = in.min_accuracy;
-  if (acc_y && floor >= 0) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
+  if (acc_y && floor > 0) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
   const Colouring col = colouring(rows, big ? in.color_key : "");
   const bool legend = big && !col.legend.empty();
   SvgPlot p(id, w, h, value_axis(xo.axis, xlo, xhi), value_axis(yo.axis, ylo, yhi), big ? 70 : 62, big ? 50 : 44,
@@ -263,8 +265,9 @@ Part front_part(const json& rows, const ReportInput& in) {
   auto find = [&](const char* n) {
     return std::find_if(obj.begin(), obj.end(), [&](const ObjectiveField& o) { return o.name == n; });
   };
-  ObjectiveField yo = find("accuracy") != obj.end() ? *find("accuracy") : obj[1];
-  ObjectiveField xo = find("energy") != obj.end() ? *find("energy") : obj[0].name == yo.name ? obj[1] : obj[0];
+  const ObjectiveField yo = find("accuracy") != obj.end() ? *find("accuracy") : obj[1];
+  ObjectiveField xo = find("energy") != obj.end() ? *find("energy") : obj[0];
+  if (xo.name == yo.name) xo = obj[0].name == yo.name ? obj[1] : obj[0];  // never one objective on both axes
   const bool pairwise = obj.size() > 2;
   const std::string main = scatter(rows, front, xo, yo, in, "plot-pareto", 780, 470, true, !pairwise);
   if (main.empty()) return absent("the Pareto scatter: no point has both " + xo.name + " and " + yo.name);
@@ -363,8 +366,9 @@ Part bits_plot(const json& rows, const char* key, const std::string& id, const s
   return {p.str(), ""};
 }
 
+constexpr size_t kMostRows = 8;
 /// The rows the per-layer and breakdown plots show: the front (or every ok row), most
-/// accurate (or least error) first, at most 8.
+/// accurate (or least error) first, at most kMostRows.
 std::vector<const json*> selected(const json& rows) {
   std::vector<const json*> s;
   for (const auto& r : rows)
@@ -379,8 +383,22 @@ std::vector<const json*> selected(const json& rows) {
     if (std::isnan(x) || std::isnan(y)) return !std::isnan(x) && std::isnan(y);
     return acc ? x > y : x < y;
   });
-  if (s.size() > 8) s.resize(8);
+  if (s.size() > kMostRows) s.resize(kMostRows);
   return s;
+}
+
+/// How many rows selected() chose from: the front's, or every ok row.
+size_t candidates(const json& rows) {
+  const bool front = std::any_of(rows.begin(), rows.end(), on_front);
+  return static_cast<size_t>(
+      std::count_if(rows.begin(), rows.end(), [&](const json& r) { return ok(r) && (!front || on_front(r)); }));
+}
+
+/// " Shown: the first 8 of N ..." when a plot shows fewer rows than there were, else "".
+std::string shown_of(size_t shown, size_t of) {
+  return of > shown ? " Shown: the first " + std::to_string(shown) + " of " + std::to_string(of) +
+                          " (front points, or all points, most accurate first)."
+                    : "";
 }
 
 bool has_layers_with(const json& r, const char* key) {
@@ -388,7 +406,7 @@ bool has_layers_with(const json& r, const char* key) {
          r["layers"][0].contains(key);
 }
 
-Part layers_plot(const std::vector<const json*>& sel) {
+Part layers_plot(const std::vector<const json*>& sel, size_t of) {
   std::vector<const json*> rows;
   for (const json* r : sel)
     if (has_layers_with(*r, "mean_relative_error")) rows.push_back(r);
@@ -402,7 +420,7 @@ Part layers_plot(const std::vector<const json*>& sel) {
         const double v = 100 * num(l, k);
         if (v > 0) ylo = std::min(ylo, v), yhi = std::max(yhi, v);
       }
-  if (!(yhi > 0)) ylo = 1e-3, yhi = 1;
+  if (!(yhi > 0)) ylo = yhi = 0;  // every error zero: a linear axis at 0
   PlotAxis xa{"layer (in network order)", 0, 1};
   xa.categories = layer_names;
   xa.rotate_labels = -40;
@@ -419,16 +437,19 @@ Part layers_plot(const std::vector<const json*>& sel) {
       auto at = [&](double v) { return ya.log ? std::max(100 * v, ya.lo) : 100 * v; };
       if (!std::isnan(a)) mean.emplace_back(static_cast<double>(k), at(a));
       if (!std::isnan(b)) worst.emplace_back(static_cast<double>(k), at(b));
+      if (!std::isnan(a))  // the value itself, not where a log axis had to put a zero
+        p.circle(static_cast<double>(k), at(a), 3, palette(i),
+                 shown[i] + "\n" + layer_names[k] + " mean " + fmt_num(100 * a) + " %" +
+                     (std::isnan(b) ? "" : ", worst " + fmt_num(100 * b) + " %"));
     }
     const std::string label = shown[i];
     p.line(mean, palette(i), false, 2.5, label + ": mean");
     p.line(worst, palette(i), true, 1.5, label + ": worst");
-    for (const auto& xy : mean)
-      p.circle(xy.first, xy.second, 3, palette(i),
-               label + "\n" + layer_names[static_cast<size_t>(xy.first)] + " mean " + fmt_num(xy.second) + " %");
     legend.emplace_back(label, palette(i));
   }
-  return {p.str() + html_legend(legend, "each layer's mean error over its outputs: solid; worst: dashed."), ""};
+  return {p.str() + html_legend(legend, "each layer's mean error over its outputs: solid; worst: dashed." +
+                                            shown_of(rows.size(), of)),
+          ""};
 }
 
 /// Components of a breakdown in a fixed order, then any others it has (not "total").
@@ -732,7 +753,7 @@ std::string render_html_report(const ReportInput& in) {
   const auto front = [&] { return front_part(rows, input); };
   const auto table = [&] { return Part{rows_table(rows), ""}; };
   const auto accuracy = [&] { return accuracy_part(rows); };
-  const auto layers = [&] { return layers_plot(sel); };
+  const auto layers = [&] { return layers_plot(sel, candidates(rows)); };
   const auto adc = [&] { return bits_plot(rows, "adc_bits", "plot-bits", "ADC bits", in.min_accuracy); };
   const auto dac = [&] { return bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits", in.min_accuracy); };
   const auto performance = [&] { return performance_part(rows); };
@@ -812,7 +833,7 @@ std::string warning_kind(const std::string& text) {
 std::string power_text(double mw) {
   char b[48];
   const double w = mw / 1e3;
-  if (std::abs(w) >= 1000)
+  if (std::abs(w) >= 999.995)
     std::snprintf(b, sizeof b, "%.0f W", w);
   else if (std::abs(w) >= 10)
     std::snprintf(b, sizeof b, "%.2f W", w);

@@ -75,3 +75,11 @@ def test_crossbar_matvec_errors():
         xb.matvec(np.zeros((2, 3)))
     with pytest.raises(ValueError, match="x_max"):
         xbarsim.Crossbar(np.ones((2, 2)), xbarsim.Config(), x_max=0)
+
+
+def test_signed_layers_must_name_layers_of_the_model():
+    net = small_net()
+    x = torch.rand(2, 3, 9, 10)
+    with pytest.raises(ValueError, match="signed_layers names no Conv2d or Linear of the model: nope"):
+        xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["nope"])
+    xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["0"])  # the first Conv2d: accepted

@@ -238,6 +238,10 @@ TEST(HtmlReport, FloorGreysAndManyObjectivesDrawMarksAndPairs) {
   h = render_html_report(in);
   EXPECT_NE(plot(h, "plot-pareto").find("<title>Pareto front</title>"), std::string::npos);
   EXPECT_TRUE(plot(h, "plot-pair-0").empty());
+  in.objectives = {"area", "energy"};  // no accuracy: energy across, area up (never one on both axes)
+  h = plot(render_html_report(in), "plot-pareto");
+  EXPECT_NE(h.find(">energy per image (uJ)</text>"), std::string::npos) << h;
+  EXPECT_NE(h.find(">area (mm2)</text>"), std::string::npos) << h;
 }
 
 // ---- the browser ------------------------------------------------------------------------
