@@ -212,6 +212,8 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("inputs", &AnalogLayer::inputs)
       .def_property_readonly("outputs", &AnalogLayer::outputs)
       .def_property_readonly("crossbars", &AnalogLayer::crossbars)
+      .def_property_readonly("x_max", &AnalogLayer::x_max, "the inputs' full scale")
+      .def_property_readonly("signed_inputs", &AnalogLayer::signed_inputs, "inputs span [-x_max, x_max]")
       .def("reports", [](const AnalogLayer& layer) {
         py::list out;
         for (const CrossbarReport& r : layer.reports()) {

@@ -2,6 +2,7 @@
 // evaluation, cost and timing from the SystemC platform — with the Pareto front over the
 // chosen objectives. Resumable (a journal of finished points) and sharded over MPI ranks.
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -380,7 +381,7 @@ int cmd_explore(int argc, char** argv) {
   if (args.has("--report")) {
     ReportInput rep;
     rep.command = "explore";
-    rep.title = "xbarsim explore: " + model.path +
+    rep.title = "xbarsim explore: " + std::filesystem::path(model.path).lexically_normal().string() +
                 (spec.accuracy ? " on " + std::to_string(data.test.count()) + " " + data.test.name + " images, "
                                : " (timing only, no accuracy), ") +
                 std::to_string(rows.size()) + " design points";

@@ -177,6 +177,8 @@ class AnalogLayer {
   int inputs() const { return static_cast<int>(w_.rows()); }
   int outputs() const { return static_cast<int>(w_.cols()); }
   int crossbars() const { return static_cast<int>(blocks_.size()); }
+  double x_max() const { return x_max_; }           ///< the inputs' full scale
+  bool signed_inputs() const { return signed_; }    ///< inputs span [-x_max, x_max]
   const Block& block(int b) const;
   const std::vector<CrossbarReport>& reports() const { return reports_; }
   /// A per S per input unit: an isolated cell of conductance G passes alpha * G * x (V per

@@ -2,6 +2,7 @@
 // (sw/study/eval_study.h).
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "sw/app/app_common.h"
@@ -90,7 +91,8 @@ int cmd_eval(int argc, char** argv) {
         args, points.front(), "layer,name,rows,cols,crossbars,adcs,dacs,mean_relative_error,worst_relative_error");
   if (out)
     out->set_report("eval", base,
-                    model.path + " on " + std::to_string(data.test.count()) + " " + data.test.name + " images");
+                    std::filesystem::path(model.path).lexically_normal().string() + " on " +
+                        std::to_string(data.test.count()) + " " + data.test.name + " images");
   std::vector<std::string> labels;
   for (const auto& p : points) labels.push_back(sweep_label(p));
   const Table table({{"run", fit_width("run", labels)},

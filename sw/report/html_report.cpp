@@ -820,6 +820,8 @@ std::string warning_kind(const std::string& text) {
   s = s.substr(0, s.find(';'));
   std::string out;
   for (size_t i = 0; i < s.size(); ++i) {
+    const bool sign = (s[i] == '-' || s[i] == '+') && i + 1 < s.size() && std::isdigit(static_cast<unsigned char>(s[i + 1]));
+    if (sign) ++i;  // "-3" and "3" are one kind
     if (std::isdigit(static_cast<unsigned char>(s[i]))) {
       while (i + 1 < s.size() && (std::isdigit(static_cast<unsigned char>(s[i + 1])) || s[i + 1] == '.')) ++i;
       out += '#';

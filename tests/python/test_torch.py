@@ -82,4 +82,8 @@ def test_signed_layers_must_name_layers_of_the_model():
     x = torch.rand(2, 3, 9, 10)
     with pytest.raises(ValueError, match="signed_layers names no Conv2d or Linear of the model: nope"):
         xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["nope"])
-    xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["0"])  # the first Conv2d: accepted
+    # The first Conv2d sees only x >= 0 (torch.rand): unsigned from the data, signed when named.
+    assert not xtorch.convert(net, xbarsim.Config(), calibration=x)[0].crossbar.signed_inputs
+    analog = xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["0"])
+    assert analog[0].crossbar.signed_inputs
+    assert analog[0].crossbar.x_max == pytest.approx(float(x.max()), rel=1e-6)

@@ -193,6 +193,16 @@ TEST(HtmlReport, EachCommandLeadsWithWhatItMeasures) {
   EXPECT_NE(e.find("throughput and latency (the platform&#39;s", e.find("Not in this report")), std::string::npos);
 }
 
+TEST(HtmlReport, WarningKindsAndPowers) {
+  EXPECT_EQ(warning_kind("layer /a/b: 834 of 2304 cells (36 %) clipped; fewer rows"), "# of # cells (# %) clipped");
+  EXPECT_EQ(warning_kind("offset -3.5 and +3 and 3"), "offset # and # and #");
+  EXPECT_EQ(power_text(49.76), "49.76 mW");
+  EXPECT_EQ(power_text(9999.99), "9999.99 mW");  // below 10 W
+  EXPECT_EQ(power_text(15460021.9), "15460 W");
+  EXPECT_EQ(power_text(12345.0), "12.35 W");
+  EXPECT_EQ(power_text(999999.99), "1000 W");
+}
+
 TEST(HtmlReport, NoSectionForAnUnsweptQuantity) {
   ReportInput in = sample();
   for (auto& r : in.rows)
