@@ -102,8 +102,7 @@ int cmd_simulate(int argc, char** argv) {
     out.finish();
     return 0;
   }
-  std::vector<std::string> labels;
-  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const std::vector<std::string> labels = sweep_labels(points);
   const Table table({{"run", fit_width("run", labels)},
                      {"latency_us", 11, 3},
                      {"img/s", 10, 1},
@@ -118,8 +117,8 @@ int cmd_simulate(int argc, char** argv) {
     const SimulationReport r = SimulationReport::from_json(
         run_in_child([&] { return simulate_once(args, cfg, false, point_vcd).json; }));
     if (!point_vcd.empty())
-      std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", sweep_label(points[k]).c_str(), point_vcd.c_str());
-    table.print_row(stdout, {sweep_label(points[k]), r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image,
+      std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", labels[k].c_str(), point_vcd.c_str());
+    table.print_row(stdout, {labels[k], r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image,
                              power_text(r.avg_power_mw), power_text(r.peak_power_mw), r.area_mm2});
     if (out.csv().enabled()) csv_figures(out.csv().row(static_cast<int>(k), points[k]), r);
     out.add(r.json, points[k]);

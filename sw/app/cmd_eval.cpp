@@ -93,8 +93,7 @@ int cmd_eval(int argc, char** argv) {
     out->set_report("eval", base,
                     std::filesystem::path(model.path).lexically_normal().string() + " on " +
                         std::to_string(data.test.count()) + " " + data.test.name + " images");
-  std::vector<std::string> labels;
-  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const std::vector<std::string> labels = sweep_labels(points);
   const Table table({{"run", fit_width("run", labels)},
                      {"images", 7},
                      {"software", 8, 4},
@@ -107,7 +106,7 @@ int cmd_eval(int argc, char** argv) {
   WarningSummary warnings;
   if (root) table.print_header(stdout);
   for (size_t run = 0; run < points.size(); ++run) {
-    const std::string label = sweep_label(points[run]);
+    const std::string& label = labels[run];
     ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + label);
     ProgressBar eval_bar((data.test.count() - shard.index + shard.count - 1) / shard.count, "evaluating  " + label);
     const EvalResult r = run_eval(model, designs[run], spec, data.test, data.calib,

@@ -28,8 +28,7 @@ int cmd_xbar_study(int argc, char** argv) {
     return p;
   });
   check_outputs(args, {"--json", "--csv", "--report"});  // the configuration and component library are read
-  std::vector<std::string> labels;
-  for (const auto& p : points) labels.push_back(sweep_label(p));
+  const std::vector<std::string> labels = sweep_labels(points);
   const Table table({{"run", fit_width("run", labels)},
                      {"xbars", 8},
                      {"oor_cells", 9},
@@ -50,7 +49,7 @@ int cmd_xbar_study(int argc, char** argv) {
   }
   auto emit = [&](size_t run, const nlohmann::json& done) {
     const nlohmann::json& j = done["json"];
-    table.print_row(stdout, {sweep_label(points[run]), j["crossbar_count"].get<long long>(),
+    table.print_row(stdout, {labels[run], j["crossbar_count"].get<long long>(),
                              j["out_of_range_cells"].get<long long>(), j["mean_relative_error"].get<double>(),
                              j["worst_relative_error"].get<double>(), done["bits_mean"].get<double>(),
                              done["bits_worst"].get<double>(), j["min_column_gain"].get<double>(),
@@ -66,7 +65,7 @@ int cmd_xbar_study(int argc, char** argv) {
   };
   nlohmann::json mine = nlohmann::json::array();
   for (size_t run = rank; run < points.size(); run += ranks) {
-    const std::string label = sweep_label(points[run]);
+    const std::string& label = labels[run];
     if (points.size() > 1 && rank == 0) std::fprintf(stderr, "[%zu/%zu] %s\n", run + 1, points.size(), label.c_str());
     const XbarStudyResult r = run_xbar_study(specs[run].study, specs[run].hw);
     std::string csv;

@@ -42,4 +42,11 @@ std::string sweep_label(const SweepPoint& point) {
   return label.empty() ? "default" : label;
 }
 
+std::vector<std::string> sweep_labels(const std::vector<SweepPoint>& points) {
+  std::vector<std::string> labels;
+  labels.reserve(points.size());
+  for (const SweepPoint& p : points) labels.push_back(sweep_label(p));
+  return labels;
+}
+
 }  // namespace xbarsim

@@ -37,5 +37,7 @@ std::vector<Spec> parse_sweep(const ConfigTree& base, const std::vector<SweepPoi
 
 /// Short label "key=value ..." of a point (last key component only), or "default".
 std::string sweep_label(const SweepPoint& point);
+/// sweep_label of every point, in order (a table's first column, its width fitted to them).
+std::vector<std::string> sweep_labels(const std::vector<SweepPoint>& points);
 
 }  // namespace xbarsim
