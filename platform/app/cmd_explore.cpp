@@ -279,9 +279,11 @@ int cmd_explore(int argc, char** argv) {
   // A point below the accuracy floor (a collapsed design) has no cost: never on the front.
   const double floor = spec.accuracy ? accuracy_floor(spec, rows) : 0;
   std::vector<std::vector<double>> costs;
+  int below_floor = 0;
   for (const auto& row : rows) {
     std::vector<double> c;
     const bool below = row.contains("accuracy") && row["accuracy"].is_number() && row["accuracy"].get<double>() < floor;
+    below_floor += below;
     for (Objective o : spec.objectives)
       c.push_back(below ? std::numeric_limits<double>::quiet_NaN() : objective_cost(row, o));
     costs.push_back(c);
@@ -327,12 +329,9 @@ int cmd_explore(int argc, char** argv) {
   for (Objective o : spec.objectives) objectives += (objectives.empty() ? "" : ", ") + to_string(o);
   std::printf("\n%zu points (%d failed); Pareto front over %s: %zu point%s (*)", rows.size(), failed,
               objectives.c_str(), front_labels.size(), front_labels.size() == 1 ? "" : "s");
-  if (spec.accuracy && floor > 0) {
-    int below = 0;
-    for (const auto& row : rows) below += row.contains("accuracy") && num(row, "accuracy") < floor;
-    std::printf("; %d point%s below the accuracy floor %.4f (explore.min_accuracy) kept off it", below,
-                below == 1 ? "" : "s", floor);
-  }
+  if (spec.accuracy && floor > 0)
+    std::printf("; %d point%s below the accuracy floor %.4f (explore.min_accuracy) kept off it", below_floor,
+                below_floor == 1 ? "" : "s", floor);
   std::printf("\n%s\n", kFractionsNote);
   warnings.print(stdout);
 

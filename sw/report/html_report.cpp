@@ -215,41 +215,39 @@ std::string scatter(const json& rows, const std::vector<const json*>& front, con
     xlo = std::min(xlo, x), xhi = std::max(xhi, x), ylo = std::min(ylo, y), yhi = std::max(yhi, y);
   }
   if (pts.empty()) return "";
-  const bool acc_y = std::string(yo.key) == "accuracy", acc_x = std::string(xo.key) == "accuracy";
+  // Accuracy, where it is one of the two, is always on the y axis (front_part puts it there).
+  const bool floor_line = std::string(yo.key) == "accuracy" && in.min_accuracy > 0;
   const double floor = in.min_accuracy;
-  if (acc_y && floor > 0) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
+  if (floor_line) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
   const Colouring col = colouring(rows, big ? in.color_key : "");
   const bool legend = big && !col.legend.empty();
-  SvgPlot p(id, w, h, value_axis(xo.axis, xlo, xhi), value_axis(yo.axis, ylo, yhi), big ? 70 : 62, big ? 50 : 44,
-            legend ? 150 : 0);
-  if ((acc_y || acc_x) && floor > 0) {
-    const PlotAxis a = value_axis(acc_y ? xo.axis : yo.axis, acc_y ? xlo : ylo, acc_y ? xhi : yhi);
-    const std::string t = "accuracy floor " + fmt_num(100 * floor) + " % (explore.min_accuracy): below it, never on the front";
-    if (acc_y)
-      p.line({{a.lo, 100 * floor}, {a.hi, 100 * floor}}, "#999", true, 1.2, t);
-    else
-      p.line({{100 * floor, a.lo}, {100 * floor, a.hi}}, "#999", true, 1.2, t);
-  }
+  const PlotAxis xa = value_axis(xo.axis, xlo, xhi);
+  SvgPlot p(id, w, h, xa, value_axis(yo.axis, ylo, yhi), big ? 70 : 62, big ? 50 : 44, legend ? 150 : 0);
+  if (floor_line)
+    p.line({{xa.lo, 100 * floor}, {xa.hi, 100 * floor}}, "#999", true, 1.2,
+           "accuracy floor " + fmt_num(100 * floor) + " % (explore.min_accuracy): below it, never on the front");
   const double r_small = big ? 5.5 : 4, r_front = big ? 8 : 5.5;
   for (const json* r : pts)  // the rest first, so that the front is drawn on top
     if (!on_front(*r))
       p.circle(xo.scale * num(*r, xo.key), yo.scale * num(*r, yo.key), r_small,
                below_floor(*r, floor) ? kGrey : col.of(*r, in.color_key), tooltip(*r));
-  std::vector<std::pair<double, double>> joined;
+  std::vector<std::pair<double, double>> at(front.size(), {kNaN, kNaN});  // the front's marks, NaN: not drawn
   for (size_t i = 0; i < front.size(); ++i) {
     const double x = xo.scale * num(*front[i], xo.key), y = yo.scale * num(*front[i], yo.key);
     if (std::isnan(x) || std::isnan(y)) continue;
+    at[i] = {x, y};
     p.circle(x, y, r_front, col.of(*front[i], in.color_key), "#" + std::to_string(i + 1) + " " + tooltip(*front[i]), true);
-    joined.emplace_back(x, y);
   }
+  std::vector<std::pair<double, double>> joined;
+  for (const auto& xy : at)
+    if (!std::isnan(xy.first)) joined.push_back(xy);
   if (line && joined.size() > 1) {
     std::sort(joined.begin(), joined.end());
     p.line(joined, "#555", true, 1.5, "Pareto front");
   }
-  for (size_t i = 0; i < front.size(); ++i) {
-    const double x = xo.scale * num(*front[i], xo.key), y = yo.scale * num(*front[i], yo.key);
-    if (!std::isnan(x) && !std::isnan(y)) p.tag(x, y, r_front, std::to_string(i + 1));
-  }
+  // The tags after every mark, so that each knows all the marks it should not cover.
+  for (size_t i = 0; i < front.size(); ++i)
+    if (!std::isnan(at[i].first)) p.tag(at[i].first, at[i].second, r_front, std::to_string(i + 1));
   if (legend) p.legend(col.legend, short_label(in.color_key, 20));
   return p.str();
 }
