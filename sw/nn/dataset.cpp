@@ -254,8 +254,11 @@ bool is_npz_dataset(const std::string& name) {
 }
 
 Dataset load_npz_dataset(const std::string& path, const std::string& split, int offset, int count, std::string* note) {
-  std::map<std::string, NpyArray> arrays = read_npz(path);
+  // Only the arrays this split uses are read: the calibration split's own, else the test set.
+  std::map<std::string, NpyArray> arrays;
+  if (split == "calib") arrays = read_npz(path, {"calib_images", "calib_labels"});
   const bool own_calib = split == "calib" && arrays.count("calib_images");
+  if (!own_calib) arrays = read_npz(path, {"images", "labels"});
   const std::string images_key = own_calib ? "calib_images" : "images", labels_key = own_calib ? "calib_labels" : "labels";
   if (split == "calib" && !own_calib && note)
     *note = "'" + path + "' has no calib_images: calibrating on its test images";
@@ -269,6 +272,7 @@ Dataset load_npz_dataset(const std::string& path, const std::string& split, int 
     if (d < 1 || d > (1 << 20)) throw InputError(what + " has an empty or too large dimension");
   Dataset d;
   d.name = path;
+  d.from_calib_array = own_calib;
   const bool chw = im.shape.size() == 4;
   d.shape = {chw ? static_cast<int>(im.shape[1]) : 1, static_cast<int>(im.shape[chw ? 2 : 1]),
              static_cast<int>(im.shape[chw ? 3 : 2])};
@@ -302,7 +306,15 @@ Dataset load_npz_dataset(const std::string& path, const std::string& split, int 
     d.values.resize(static_cast<size_t>(take) * per);
     for (size_t k = 0; k < d.values.size(); ++k) {
       const double v = im.at(static_cast<int64_t>(offset * per + k));
-      if (!std::isfinite(v)) throw InputError(what + " holds a non-finite value at element " + std::to_string(offset * per + k));
+      if (!(std::fabs(v) <= std::numeric_limits<float>::max()))  // (NaN too) the network computes in float
+      {
+        char value[64];
+        std::snprintf(value, sizeof value, "%g", v);
+        throw InputError(what + " holds " +
+                         (std::isfinite(v) ? "a value a float cannot hold (" + std::string(value) + ")"
+                                           : std::string("a non-finite value")) +
+                         " at element " + std::to_string(offset * per + k));
+      }
       d.values[k] = static_cast<float>(v);
     }
     d.pixels.assign(d.values.size(), 0);  // (the uint8 view is unused for float images)

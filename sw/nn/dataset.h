@@ -16,6 +16,7 @@ struct Dataset {
   std::vector<float> values;    ///< float images (a .npz of float32): used instead of pixels
   std::vector<int> labels;
   int first = 0;  ///< the index of image 0 in its file (a range's offset)
+  bool from_calib_array = false;  ///< a .npz's calib_images (else its images)
   int count() const { return static_cast<int>(labels.size()); }
   /// x = (pixel * scale - mean[c]) / std[c] into `out` (C*H*W floats).
   void preprocess(int index, const Preprocessing& p, float* out) const;

@@ -1,7 +1,13 @@
 #include "sw/nn/npy.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cstring>
 #include <limits>
 
@@ -51,6 +57,68 @@ size_t item_size(const std::string& dtype) {
   return 0;
 }
 
+/// A user's array file, mapped read-only: only a regular file (a FIFO would block for ever, a
+/// device such as /dev/zero never ends, also behind a symbolic link), registered as read.
+class MappedFile {
+ public:
+  MappedFile(const std::string& path, const std::string& role) {
+    struct stat st;
+    if (stat(path.c_str(), &st) != 0)
+      throw InputError("cannot open " + role + " '" + path + "': " + std::strerror(errno));
+    if (!S_ISREG(st.st_mode))
+      throw InputError(role + " '" + path + "' is not a regular file (" +
+                       (S_ISDIR(st.st_mode)    ? "a directory"
+                        : S_ISFIFO(st.st_mode) ? "a FIFO"
+                        : S_ISSOCK(st.st_mode) ? "a socket"
+                                               : "a device") +
+                       "): give a file written by numpy.save/savez");
+    open_as_input(path, role);
+    fd_ = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) throw InputError("cannot open " + role + " '" + path + "': " + std::strerror(errno));
+    if (fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {  // replaced since the stat above
+      close(fd_);
+      throw InputError(role + " '" + path + "' is not a regular file");
+    }
+    size_ = static_cast<size_t>(st.st_size);
+    if (size_ == 0) return;
+    void* p = mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd_, 0);
+    if (p == MAP_FAILED) {
+      close(fd_);
+      throw InputError("cannot read " + role + " '" + path + "': " + std::strerror(errno));
+    }
+    data_ = static_cast<const uint8_t*>(p);
+  }
+  ~MappedFile() {
+    if (data_) munmap(const_cast<uint8_t*>(data_), size_);
+    close(fd_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  const uint8_t* data() const { return data_; }
+  size_t size() const { return size_; }
+
+ private:
+  int fd_ = -1;
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+};
+
+/// The most bytes one array may take in memory: half the machine's physical memory (a file that
+/// asks for more is refused with its size instead of running the machine out of memory).
+size_t memory_bound() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return size_t{8} << 30;
+  return static_cast<size_t>(pages) / 2 * static_cast<size_t>(page);
+}
+
+std::string gib(double bytes) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f GiB", bytes / (1u << 30));
+  return b;
+}
+
+NpyArray parse_npy_bytes(const uint8_t* b, size_t size, const std::string& origin);
+
 }  // namespace
 
 int64_t NpyArray::elements() const {
@@ -87,6 +155,19 @@ double NpyArray::at(int64_t k) const {
 }
 
 NpyArray parse_npy(const std::vector<uint8_t>& b, const std::string& origin) {
+  return parse_npy_bytes(b.data(), b.size(), origin);
+}
+
+namespace {
+
+NpyArray parse_npy_bytes(const uint8_t* data, size_t size, const std::string& origin) {
+  struct View {  // the few calls of a vector the parser makes, on mapped bytes
+    const uint8_t* p;
+    size_t n;
+    size_t size() const { return n; }
+    const uint8_t* data() const { return p; }
+    uint8_t operator[](size_t k) const { return p[k]; }
+  } b{data, size};
   static const uint8_t kMagic[6] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
   if (b.size() < 10 || std::memcmp(b.data(), kMagic, 6) != 0) throw InputError(origin + ": not a .npy array");
   const int major = b[6];
@@ -139,18 +220,29 @@ NpyArray parse_npy(const std::vector<uint8_t>& b, const std::string& origin) {
   if (b.size() - at < bytes)
     throw InputError(origin + ": holds " + std::to_string(b.size() - at) + " bytes of data, its shape " + shape +
                      " needs " + std::to_string(bytes));
-  a.data.assign(b.begin() + static_cast<std::ptrdiff_t>(at), b.begin() + static_cast<std::ptrdiff_t>(at + bytes));
+  if (bytes > memory_bound())
+    throw InputError(origin + ": its shape " + shape + " takes " + gib(static_cast<double>(bytes)) +
+                     ", more than half of this machine's memory");
+  a.data.assign(b.data() + at, b.data() + at + bytes);
   return a;
 }
 
+}  // namespace
+
 NpyArray read_npy(const std::string& path) {
-  const std::string text = read_input_file(path, "the array", (size_t{1} << 34));
-  return parse_npy(std::vector<uint8_t>(text.begin(), text.end()), "'" + path + "'");
+  const MappedFile f(path, "the array");
+  return parse_npy_bytes(f.data(), f.size(), "'" + path + "'");
 }
 
-std::map<std::string, NpyArray> read_npz(const std::string& path) {
-  const std::string text = read_input_file(path, "the dataset", (size_t{1} << 34));
-  const std::vector<uint8_t> z(text.begin(), text.end());
+std::map<std::string, NpyArray> read_npz(const std::string& path, const std::vector<std::string>& names) {
+  const MappedFile file(path, "the dataset");
+  struct View {
+    const uint8_t* p;
+    size_t n;
+    size_t size() const { return n; }
+    const uint8_t* data() const { return p; }
+    const uint8_t* begin() const { return p; }
+  } z{file.data(), file.size()};
   const std::string what = "'" + path + "'";
   // The end of central directory record: the last 22+ bytes (a comment may follow it).
   if (z.size() < 22) throw InputError(what + " is not a .npz file (too short for a zip archive)");
@@ -184,14 +276,20 @@ std::map<std::string, NpyArray> read_npz(const std::string& path) {
         static_cast<size_t>(local) + 30 + le16(z.data() + local + 26) + le16(z.data() + local + 28);
     if (data_at > z.size() || csize > z.size() - data_at) throw InputError(what + ": truncated entry '" + name + "'");
     if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) name.resize(name.size() - 4);
+    // Entries nobody asked for are neither inflated nor parsed (an unused array of strings, or
+    // one that inflates to gigabytes, costs nothing).
+    if (std::find(names.begin(), names.end(), name) == names.end()) continue;
     const std::string origin = what + ", array '" + name + "'";
-    std::vector<uint8_t> bytes;
     if (method == 0) {
-      bytes.assign(z.begin() + static_cast<std::ptrdiff_t>(data_at),
-                   z.begin() + static_cast<std::ptrdiff_t>(data_at + csize));
-    } else if (method == 8) {  // deflate (numpy.savez_compressed)
+      arrays[name] = parse_npy_bytes(z.data() + data_at, csize, origin);
+      continue;
+    }
+    std::vector<uint8_t> bytes;
+    if (method == 8) {  // deflate (numpy.savez_compressed)
       if (usize > static_cast<uint64_t>(csize) * 1032 + 1024)  // past deflate's largest ratio: a corrupt size
         throw InputError(origin + ": corrupt compressed size");
+      if (usize > memory_bound())
+        throw InputError(origin + " inflates to " + gib(usize) + ", more than half of this machine's memory");
       bytes.resize(usize);
       z_stream s{};
       if (inflateInit2(&s, -MAX_WBITS) != Z_OK) throw InputError(origin + ": cannot start inflating");
@@ -206,7 +304,7 @@ std::map<std::string, NpyArray> read_npz(const std::string& path) {
       throw InputError(origin + ": zip compression method " + std::to_string(method) +
                        " is not supported (numpy.savez or numpy.savez_compressed)");
     }
-    arrays[name] = parse_npy(bytes, origin);
+    arrays[name] = parse_npy_bytes(bytes.data(), bytes.size(), origin);
   }
   return arrays;
 }

@@ -25,7 +25,9 @@ NpyArray parse_npy(const std::vector<uint8_t>& bytes, const std::string& origin)
 /// A .npy file.
 NpyArray read_npy(const std::string& path);
 
-/// The arrays of a .npz file by name (without ".npy").
-std::map<std::string, NpyArray> read_npz(const std::string& path);
+/// The arrays `names` (without ".npy") of a .npz file, those it holds; its other entries are
+/// skipped unread. Array files must be regular files (not a FIFO, a device, or a link to one);
+/// an array that would take more than half the machine's memory is refused with its size.
+std::map<std::string, NpyArray> read_npz(const std::string& path, const std::vector<std::string>& names);
 
 }  // namespace xbarsim

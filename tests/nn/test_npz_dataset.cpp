@@ -1,6 +1,12 @@
 // A dataset a user writes from NumPy (numpy.savez / savez_compressed): the test writes the
 // .npz itself (a zip of .npy files, stored or deflated) and reads it back.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <future>
 #include <zlib.h>
 
 #include <cstring>
@@ -11,93 +17,11 @@
 #include "sw/common/errors.h"
 #include "sw/nn/dataset.h"
 #include "sw/nn/npy.h"
+#include "tests/npz_writer.h"
 
 using namespace xbarsim;
 
-namespace {
-
-/// A .npy file: format 1.0, C order, little-endian.
-std::string npy(const std::string& descr, const std::string& shape, const std::string& data) {
-  std::string header = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape + ", }";
-  while ((10 + header.size() + 1) % 64 != 0) header += ' ';
-  header += '\n';
-  std::string out = "\x93NUMPY";
-  out += '\x01';
-  out += '\x00';
-  out += static_cast<char>(header.size() & 0xFF);
-  out += static_cast<char>(header.size() >> 8);
-  return out + header + data;
-}
-
-void put16(std::string& s, uint32_t v) {
-  s += static_cast<char>(v & 0xFF);
-  s += static_cast<char>((v >> 8) & 0xFF);
-}
-void put32(std::string& s, uint32_t v) {
-  put16(s, v & 0xFFFF);
-  put16(s, v >> 16);
-}
-
-/// A zip of `files` (name, bytes), stored or deflated, as Python's zipfile writes it.
-void write_zip(const std::string& path, const std::vector<std::pair<std::string, std::string>>& files, bool deflated) {
-  std::string zip, dir;
-  for (const auto& [name, raw] : files) {
-    std::string body = raw;
-    if (deflated) {
-      z_stream s{};
-      deflateInit2(&s, Z_DEFAULT_COMPRESSION, Z_DEFLATED, -MAX_WBITS, 8, Z_DEFAULT_STRATEGY);
-      body.resize(deflateBound(&s, raw.size()));
-      s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(raw.data()));
-      s.avail_in = static_cast<uInt>(raw.size());
-      s.next_out = reinterpret_cast<Bytef*>(body.data());
-      s.avail_out = static_cast<uInt>(body.size());
-      ::deflate(&s, Z_FINISH);
-      body.resize(s.total_out);
-      deflateEnd(&s);
-    }
-    const uint32_t crc = static_cast<uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(raw.data()), raw.size()));
-    const uint32_t at = static_cast<uint32_t>(zip.size());
-    auto common = [&](std::string& h) {
-      put16(h, 20);  // version needed
-      put16(h, 0);   // flags
-      put16(h, deflated ? 8 : 0);
-      put16(h, 0);  // time
-      put16(h, 0);  // date
-      put32(h, crc);
-      put32(h, static_cast<uint32_t>(body.size()));
-      put32(h, static_cast<uint32_t>(raw.size()));
-      put16(h, static_cast<uint32_t>(name.size()));
-      put16(h, 0);  // extra
-    };
-    put32(zip, 0x04034b50);
-    common(zip);
-    zip += name + body;
-    put32(dir, 0x02014b50);
-    put16(dir, 20);  // version made by
-    common(dir);
-    put16(dir, 0);  // comment
-    put16(dir, 0);  // disk
-    put16(dir, 0);  // internal attributes
-    put32(dir, 0);  // external attributes
-    put32(dir, at);
-    dir += name;
-  }
-  const uint32_t dir_at = static_cast<uint32_t>(zip.size());
-  zip += dir;
-  put32(zip, 0x06054b50);
-  put16(zip, 0);
-  put16(zip, 0);
-  put16(zip, static_cast<uint32_t>(files.size()));
-  put16(zip, static_cast<uint32_t>(files.size()));
-  put32(zip, static_cast<uint32_t>(dir.size()));
-  put32(zip, dir_at);
-  put16(zip, 0);
-  std::ofstream(path, std::ios::binary) << zip;
-}
-
-std::string bytes_of(const void* p, size_t n) { return std::string(static_cast<const char*>(p), n); }
-
-}  // namespace
+using namespace npz_writer;
 
 TEST(NpzDataset, Uint8AndFloatImagesStoredOrCompressed) {
   const int n = 5, c = 3, h = 4, w = 4, per = c * h * w;
@@ -166,4 +90,85 @@ TEST(NpzDataset, BadFilesAreInputErrors) {
   EXPECT_THROW(load_npz_dataset(p, "test", 0, -1, nullptr), InputError);
   std::ofstream(p, std::ios::binary) << "this is not a zip archive at all, just text";
   EXPECT_THROW(load_npz_dataset(p, "test", 0, -1, nullptr), InputError);
+}
+
+// Issue 38, item 10: only the arrays a split uses are read, and only from a regular file.
+TEST(NpzDataset, UnusedEntriesAreNotRead) {
+  const std::string p = ::testing::TempDir() + "xbarsim_unused.npz";
+  const std::vector<uint8_t> px(2 * 3 * 2 * 2, 7);
+  const std::vector<int64_t> labels = {1, 2};
+  // An array of strings (dtype <U5) and an entry whose deflated data is garbage: read, either
+  // made the whole file refused before.
+  std::string strings = npy("<U5", "(2,)", std::string(40, 'a'));
+  for (bool deflated : {false, true}) {
+    write_zip(p,
+              {{"images.npy", npy("|u1", "(2, 3, 2, 2)", bytes_of(px.data(), px.size()))},
+               {"labels.npy", npy("<i8", "(2,)", bytes_of(labels.data(), 16))},
+               {"names.npy", strings}},
+              deflated);
+    const Dataset d = load_npz_dataset(p, "test", 0, -1, nullptr);
+    EXPECT_EQ(d.count(), 2);
+    EXPECT_EQ(d.labels, (std::vector<int>{1, 2}));
+  }
+  // A deflated entry that does not inflate, unused: not inflated at all.
+  write_zip(p,
+            {{"images.npy", npy("|u1", "(2, 3, 2, 2)", bytes_of(px.data(), px.size()))},
+             {"labels.npy", npy("<i8", "(2,)", bytes_of(labels.data(), 16))}},
+            true);
+  std::string zip;
+  {
+    std::ifstream in(p, std::ios::binary);
+    zip.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  // Corrupt the bytes of the labels' deflated data: the test split needs them (an error), a
+  // calibration split with calib_images of its own does not.
+  write_zip(p,
+            {{"images.npy", npy("|u1", "(2, 3, 2, 2)", bytes_of(px.data(), px.size()))},
+             {"calib_images.npy", npy("|u1", "(2, 3, 2, 2)", bytes_of(px.data(), px.size()))},
+             {"labels.npy", npy("<i8", "(2,)", bytes_of(labels.data(), 16))}},
+            true);
+  {
+    std::ifstream in(p, std::ios::binary);
+    zip.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const size_t lab = zip.find("labels.npy");  // the local header's name; its data follows
+  ASSERT_NE(lab, std::string::npos);
+  for (size_t k = lab + 10; k < lab + 30; ++k) zip[k] = static_cast<char>(0xff);
+  std::ofstream(p, std::ios::binary) << zip;
+  EXPECT_THROW(load_npz_dataset(p, "test", 0, -1, nullptr), InputError);
+  std::string note;
+  EXPECT_EQ(load_npz_dataset(p, "calib", 0, -1, &note).count(), 2);
+}
+
+TEST(NpzDataset, OnlyRegularFiles) {
+  const std::string dir = ::testing::TempDir() + "xbarsim_npz_special";
+  std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str());
+  // A link to /dev/zero read until memory ran out; now refused at once, naming the file.
+  const std::string zero = dir + "/zero.npz";
+  ASSERT_EQ(symlink("/dev/zero", zero.c_str()), 0);
+  try {
+    load_npz_dataset(zero, "test", 0, -1, nullptr);
+    ADD_FAILURE() << "a link to /dev/zero was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("zero.npz' is not a regular file (a device)"), std::string::npos) << e.what();
+  }
+  // A FIFO blocked for ever in open(); if it still does, the test opens the writing end itself
+  // after 10 s to unblock it (and fails).
+  const std::string fifo = dir + "/x.npz";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0644), 0);
+  auto done = std::async(std::launch::async, [&] {
+    try {
+      load_npz_dataset(fifo, "test", 0, -1, nullptr);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  });
+  if (done.wait_for(std::chrono::seconds(10)) != std::future_status::ready) {
+    ADD_FAILURE() << "reading a FIFO blocked";
+    const int fd = open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) close(fd);
+  }
+  EXPECT_NE(done.get().find("x.npz' is not a regular file (a FIFO)"), std::string::npos);
+  std::system(("rm -rf '" + dir + "'").c_str());
 }
