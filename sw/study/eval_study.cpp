@@ -27,6 +27,37 @@ EvalSpec parse_eval_spec(const ConfigTree& cfg) {
   return s;
 }
 
+namespace {
+
+std::string shape_text(const Shape& s) {
+  return std::to_string(s.c) + "x" + std::to_string(s.h) + "x" + std::to_string(s.w);
+}
+
+}  // namespace
+
+void check_dataset_fits(const Model& model, const Dataset& d, const std::string& dataset, const std::string& split) {
+  // Which array (or file) of the dataset this split came from, for the message.
+  std::string where;
+  if (is_npz_dataset(dataset)) {
+    const bool own = split == "calib" && d.name == dataset && d.from_calib_array;
+    where = "'" + dataset + "', array '" + (own ? "calib_images" : "images") + "'";
+  } else {
+    where = "the " + dataset + " " + (split == "calib" ? "calibration" : "test") + " images";
+  }
+  if (!(d.shape == model.input))
+    throw InputError(where + ": the images are " + shape_text(d.shape) + " but the model expects " +
+                     shape_text(model.input));
+  if (split == "calib") return;  // calibration labels are never read
+  const int classes = model.values.at(model.output).size();
+  for (int k = 0; k < d.count(); ++k)
+    if (d.labels[k] < 0 || d.labels[k] >= classes) {
+      const std::string labels = is_npz_dataset(dataset) ? "'" + dataset + "', array 'labels'" : where;
+      throw InputError(labels + ": label " + std::to_string(d.labels[k]) + " of image " +
+                       std::to_string(d.first + k) + " is outside the model's " + std::to_string(classes) +
+                       " classes (0.." + std::to_string(classes - 1) + ")");
+    }
+}
+
 EvalData load_eval_data(const Model& model, std::string dataset, const std::string& data_dir, const EvalSpec& spec) {
   if (dataset.empty()) dataset = model.dataset;
   if (dataset.empty()) throw InputError("the model names no dataset in its metadata: give --dataset");
@@ -57,10 +88,8 @@ EvalData load_eval_data(const Model& model, std::string dataset, const std::stri
     d.note += std::string(d.note.empty() ? "" : "; ") + "calibrating on " + std::to_string(d.calib.count()) +
               " of the " + std::to_string(spec.calibration_images) +
               " images eval.calibration_images asks for (all the " + dataset + " calibration set has)";
-  if (!(d.test.shape == model.input))
-    throw InputError("dataset images are " + std::to_string(d.test.shape.c) + "x" + std::to_string(d.test.shape.h) +
-                     "x" + std::to_string(d.test.shape.w) + " but the model expects " + std::to_string(model.input.c) +
-                     "x" + std::to_string(model.input.h) + "x" + std::to_string(model.input.w));
+  check_dataset_fits(model, d.test, dataset, "test");
+  check_dataset_fits(model, d.calib, dataset, "calib");
   return d;
 }
 

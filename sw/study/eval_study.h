@@ -27,6 +27,10 @@ struct EvalData {
   std::string note;
 };
 /// Loads `dataset` (the model's metadata when empty) from `data_dir` for `model`.
+/// Throws InputError naming the file and array when the images of `d` (the `split` "test" or
+/// "calib" of `dataset`) are not of the model's input shape, or when a test label is outside the
+/// model's classes (the first bad label and its image).
+void check_dataset_fits(const Model& model, const Dataset& d, const std::string& dataset, const std::string& split);
 EvalData load_eval_data(const Model& model, std::string dataset, const std::string& data_dir, const EvalSpec& spec);
 
 /// One design point of an evaluation: the analog configuration and its hardware.
