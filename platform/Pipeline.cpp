@@ -350,7 +350,14 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
 }
 
 Pipeline::~Pipeline() {
-  if (vcd_) sc_core::sc_close_vcd_trace_file(vcd_);
+  if (vcd_) sc_core::sc_close_vcd_trace_file(vcd_);  // (then vcd_file_ removes the unfinished trace)
+}
+
+void Pipeline::finish_trace() {
+  if (!vcd_) return;
+  sc_core::sc_close_vcd_trace_file(vcd_);
+  vcd_ = nullptr;
+  vcd_file_->commit();
 }
 
 const Tile& Pipeline::tile(int l) const {
@@ -362,10 +369,12 @@ const Tile& Pipeline::tile(int l) const {
 void Pipeline::trace(const std::string& vcd_path, int images) {
   // SystemC opens the file only when the simulation starts, and a trace file that failed to
   // open divides by zero when it is closed: the file must be creatable before it is made.
+  // SystemC writes the trace as the simulation runs: into a temporary file beside the target,
+  // which finish_trace() renames onto it, so a run that fails or is killed leaves the target as
+  // it was (and removes the temporary file).
   check_output_path(vcd_path, "the trace file");
-  std::string base = vcd_path;
-  if (base.size() > 4 && base.compare(base.size() - 4, 4, ".vcd") == 0) base.resize(base.size() - 4);
-  vcd_ = sc_core::sc_create_vcd_trace_file(base.c_str());
+  vcd_file_ = std::make_unique<StagedOutput>(vcd_path, ".vcd");
+  vcd_ = sc_core::sc_create_vcd_trace_file(vcd_file_->base().c_str());
   vcd_images_ = images;
   tracing_ = true;
   // Scopes follow the machine, in network order: chip.tile_T.NN_name (a machine) or

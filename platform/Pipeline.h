@@ -29,6 +29,7 @@
 #include "platform/RowBuffer.h"
 #include "platform/Tile.h"
 #include "sw/hw/mapper.h"
+#include "sw/common/output_file.h"
 #include "sw/common/task_graph.h"
 #include "sw/hw/platform_spec.h"
 #include "sw/inference/crossbar_backend.h"
@@ -125,6 +126,9 @@ class Pipeline : public sc_core::sc_module {
   /// has carried (its slope is the utilisation) for the first `images` images into
   /// `vcd_path` (before sc_start).
   void trace(const std::string& vcd_path, int images);
+  /// Closes the trace and puts it in place of `vcd_path` (after a successful run; without it the
+  /// trace is discarded and an existing file of that name left as it was).
+  void finish_trace();
 
  private:
   struct Stage;
@@ -188,6 +192,7 @@ class Pipeline : public sc_core::sc_module {
   int images_left_ = 0;
   PipelineResult result_;
   ProcessFailure failure_;
+  std::unique_ptr<StagedOutput> vcd_file_;  ///< the trace's temporary file until finish_trace()
   sc_core::sc_trace_file* vcd_ = nullptr;
   int vcd_images_ = 0;
   bool tracing_ = false;  ///< true until the first vcd_images_ images have left

@@ -301,6 +301,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
     throw InputError(
         "the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
         "for the schedule (deadlock)");
+  pipe.finish_trace();
   HardwareContext run_hw = hw;
   run_hw.platform = pc;
   nlohmann::json j = report(model, run_hw, r, replication, signed_inputs, pipe, print, machine ? &*machine : nullptr);

@@ -8,7 +8,9 @@
 ///    on commit(), so a reader never sees half a file and a failed run leaves the old file;
 ///    special files (a terminal, /dev/null, /dev/full, a pipe) are written in place; it, too,
 ///    refuses a file the run reads (registered by then), at opening and again at commit;
-///  - every write, flush and close is checked: a full disk is an InputError naming the file.
+///  - every write, flush and close is checked: a full disk is an InputError naming the file;
+///  - a temporary file is removed also when the process is ended by SIGTERM, SIGHUP or SIGINT
+///    (where their handling is still the default: Python keeps its own SIGINT handler).
 #include <fstream>
 #include <string>
 #include <vector>
@@ -44,6 +46,29 @@ class OutputFile {
   std::string path_, target_, tmp_;  ///< as given; the file it names (links resolved); the temporary file
   std::ofstream out_;
   bool committed_ = false;
+  int slot_ = -1;  ///< the temporary file's slot for removal on a signal
+};
+
+/// An output that another library writes under a name it is given (SystemC's VCD trace): the
+/// library writes `staged()`, a temporary file beside the target; commit() renames it onto the
+/// target, and without commit() (a failed or interrupted run) it is removed, so the target is
+/// either complete or as it was. `suffix` is what the library appends to the name it is given
+/// (".vcd"): base() is that name, staged() the file it writes.
+class StagedOutput {
+ public:
+  StagedOutput(std::string path, const std::string& suffix);
+  ~StagedOutput();
+  StagedOutput(const StagedOutput&) = delete;
+  StagedOutput& operator=(const StagedOutput&) = delete;
+  const std::string& base() const { return base_; }
+  const std::string& staged() const { return staged_; }
+  /// Renames the (closed) staged file onto the target; throws InputError on failure.
+  void commit();
+
+ private:
+  std::string path_, target_, base_, staged_;
+  bool committed_ = false;
+  int slot_ = -1;
 };
 
 /// Writes `text` to `path` through an OutputFile.
