@@ -1,7 +1,8 @@
 #include "sw/inference/crossbar_backend.h"
 
-#include <limits>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -73,7 +74,10 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       ty.hi.resize(L);
       for (int l = 0; l < L; ++l) {
         const RowMatrixXf& in = trace.inputs[l];
-        ty.x_max[l] = static_cast<double>(in.cwiseAbs().maxCoeff());
+        // A value a float cannot hold (an unbounded Clip, a huge LeakyRelu slope, pixels of
+        // 1e300) has no crossbar full scale: recorded as NaN, reported below with the layer.
+        ty.x_max[l] = in.allFinite() ? static_cast<double>(in.cwiseAbs().maxCoeff())
+                                     : std::numeric_limits<double>::quiet_NaN();
         ty.sign[l] = in.minCoeff() < 0;
         ty.rows[l].resize(per_image, in.cols());
         const std::vector<Eigen::Index> picks = calibration_row_picks(cfg_.calibration.seed, k, l, in.rows(), per_image);
@@ -94,6 +98,12 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     st.samples.resize(n, model_.linear[l].rows());
     for (int k = 0; k < images; ++k) {
       const ImageTally& ty = tally[k];
+      if (std::isnan(ty.x_max[l]))
+        throw InputError("layer " + model_.linear[l].name + ": its input on calibration image " +
+                         std::to_string(calib.first + k) +
+                         " holds a value that is not a finite float (inf or NaN), so the crossbar has no input full "
+                         "scale: check the operators before it (a Clip without finite bounds, an activation's "
+                         "parameter such as LeakyRelu's alpha) and the images and preprocessing");
       st.x_max = std::max(st.x_max, ty.x_max[l]);
       st.signed_inputs = st.signed_inputs || ty.sign[l];
       st.out_lo = st.out_lo.cwiseMin(ty.lo[l]);

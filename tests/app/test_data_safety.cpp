@@ -17,6 +17,7 @@
 
 #include "tests/app/cli_test_util.h"
 #include "tests/app/tiny_network.h"
+#include "tests/npz_writer.h"
 
 namespace {
 
@@ -370,4 +371,118 @@ TEST_F(Safety, UnderMpiAnErrorEveryRankHasIsPrintedOnce) {
        at = one.out.find("model 'nosuch' not found", at + 1))
     ++n;
   EXPECT_EQ(n, 1u) << one.out;
+}
+
+// Issue 38, items 1 and 6: every array of a .npz dataset is checked against the model before any
+// work. Calibration images of another shape overflowed the heap (malloc(): corrupted top size,
+// exit 134) or, smaller or of one channel, calibrated on wrong rows with exit 0; a label
+// outside the model's classes gave accuracy 0 with exit 0.
+TEST_F(Safety, NpzArraysMustFitTheModel) {
+  using namespace npz_writer;
+  const int n = 4;
+  auto images = [](int count, const std::string& shape, size_t per) {
+    std::vector<uint8_t> px(static_cast<size_t>(count) * per);
+    for (size_t k = 0; k < px.size(); ++k) px[k] = static_cast<uint8_t>((k * 37) % 256);
+    return npy("|u1", shape, bytes_of(px.data(), px.size()));
+  };
+  std::vector<int64_t> labels = {3, 1, 4, 1};
+  const std::string test = images(n, "(4, 3, 32, 32)", 3 * 32 * 32);
+  auto lab = [&] { return npy("<i8", "(4,)", bytes_of(labels.data(), labels.size() * 8)); };
+  const std::string npz = path("mine.npz");
+  struct Case {
+    std::string calib, shape;
+  };
+  for (const Case& c : {Case{images(n, "(4, 3, 64, 64)", 3 * 64 * 64), "3x64x64"},
+                        Case{images(n, "(4, 3, 16, 16)", 3 * 16 * 16), "3x16x16"},
+                        Case{images(n, "(4, 32, 32)", 32 * 32), "1x32x32"}}) {
+    SCOPED_TRACE(c.shape);
+    write_zip(npz, {{"images.npy", test}, {"labels.npy", lab()}, {"calib_images.npy", c.calib}}, false);
+    for (const char* cmd : {"eval", "simulate"}) {
+      const Result r = run(std::string(cmd) + " --model " + model() + " --dataset " + npz + " --images 2");
+      EXPECT_EQ(r.code, 2) << cmd << ": " << r.out;
+      EXPECT_NE(r.out.find("mine.npz', array 'calib_images': the images are " + c.shape +
+                           " but the model expects 3x32x32"),
+                std::string::npos)
+          << cmd << ": " << r.out;
+    }
+  }
+  labels[2] = 99;
+  write_zip(npz, {{"images.npy", test}, {"labels.npy", lab()}}, false);
+  const Result r = run("eval --model " + model() + " --dataset " + npz);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("mine.npz', array 'labels': label 99 of image 2 is outside the model's 10 classes"),
+            std::string::npos)
+      << r.out;
+}
+
+// Issue 38, item 8: SystemC wrote the VCD trace in place, so a run killed three seconds in (or
+// one that failed) replaced an existing trace with a truncated one. Now the trace is staged
+// beside the target: complete, or the old file untouched and no temporary file left.
+TEST_F(Safety, VcdIsCompleteOrUntouched) {
+  const std::string vcd = path("run.vcd");
+  auto leftovers = [&] {
+    const Result ls = xbarsim_test::run_xbarsim("", "ls -A '" + dir_ + "' | grep -c xbarsim- ; true #");
+    return ls.out;
+  };
+  for (const char* sig : {"TERM", "INT"}) {
+    SCOPED_TRACE(sig);
+    spit(vcd, "an earlier trace\n");
+    const Result r = xbarsim_test::run_xbarsim(
+        "simulate --preset resnet20 --timing-only --images 5000 --vcd " + vcd + " --vcd-images 5000",
+        std::string("timeout -s ") + sig + " 3 ");
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_TRUE(slurp(vcd) == "an earlier trace\n") << "the earlier trace was replaced";
+    EXPECT_EQ(leftovers(), "0\n");
+  }
+  const Result ok = xbarsim_test::run_xbarsim("simulate --preset resnet20 --timing-only --images 2 --vcd " + vcd);
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  const std::string trace = slurp(vcd);
+  EXPECT_EQ(trace.rfind("$date", 0), 0u);
+  EXPECT_NE(trace.find("$enddefinitions"), std::string::npos);
+  EXPECT_EQ(leftovers(), "0\n");
+}
+
+// Issue 38, item 11: values a float cannot hold were reported as "analog layer: input full scale
+// must be > 0", naming neither the node nor the cause. Now pixels of 1e300 name the file and
+// array, and an activation that overflows (LeakyRelu with alpha 3e38) names the layer it feeds.
+TEST_F(Safety, NonFiniteValuesAreNamed) {
+  using namespace npz_writer;
+  const std::vector<double> huge(2 * 3 * 32 * 32, 1e300);
+  const std::vector<int64_t> labels = {0, 1};
+  write_zip(path("huge.npz"),
+            {{"images.npy", npy("<f8", "(2, 3, 32, 32)", bytes_of(huge.data(), huge.size() * 8))},
+             {"labels.npy", npy("<i8", "(2,)", bytes_of(labels.data(), 16))}},
+            false);
+  Result r = run("eval --model " + model() + " --dataset " + path("huge.npz"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("huge.npz', array 'images' holds a value a float cannot hold (1e+300) at element 0"),
+            std::string::npos)
+      << r.out;
+
+  using namespace onnx_builder;
+  onnx::ModelProto m = onnx_builder::model("leaky", "xbarsim tests");
+  auto* g = m.mutable_graph();
+  io(g->add_input(), "x", {1, 3, 32, 32});
+  float_init(g, "w1", {4, 3, 3, 3}, [](size_t k) { return k % 2 ? 0.3f : -0.3f; });
+  float_init(g, "w2", {10, 900}, [](size_t k) { return k % 3 ? 0.01f : -0.01f; });
+  auto* c = node(g, "Conv", {"x", "w1"}, "c1");
+  ints_attr(c, "kernel_shape", {3, 3});
+  ints_attr(c, "strides", {2, 2});
+  auto* a = node(g, "LeakyRelu", {"c1"}, "r1")->add_attribute();
+  a->set_name("alpha");
+  a->set_type(onnx::AttributeProto::FLOAT);
+  a->set_f(3e38f);
+  node(g, "Flatten", {"r1"}, "f1");
+  int_attr(node(g, "Gemm", {"f1", "w2"}, "y"), "transB", 1);
+  io(g->add_output(), "y", {1, 10});
+  meta(m, "dataset", "cifar10");
+  {
+    std::ofstream f(path("leaky.onnx"), std::ios::binary);
+    m.SerializeToOstream(&f);
+  }
+  r = run("eval --model " + path("leaky.onnx") + " --images 2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("layer Gemm_y: its input on calibration image 0 holds a value that is not a finite float"),
+            std::string::npos)
+      << r.out;
 }
