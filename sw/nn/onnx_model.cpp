@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <set>
 #include <sstream>
 
 #include "sw/common/errors.h"
@@ -124,9 +125,7 @@ class Loader {
     for (const auto& node : g.node()) {
       if (node.op_type() != "Constant" && !ops().count(node.op_type()))
         unsupported.push_back("'" + node.name() + "' (" + node.op_type() + ")");
-      for (const std::string& in : node.input()) ++uses_[in];
     }
-    for (const auto& out : g.output()) ++uses_[out.name()];
     if (!unsupported.empty()) {
       std::string list, names;
       for (const std::string& u : unsupported) list += (list.empty() ? "" : ", ") + u;
@@ -135,15 +134,80 @@ class Loader {
                        (unsupported.size() == 1 ? " has an unsupported operator: " : "s have unsupported operators: ") +
                        list + " (supported: " + names + "Constant)");
     }
+    refuse_redefinitions();
     for (const auto& node : g.node()) add_node(node);
     if (g.output_size() != 1) throw InputError(path_ + ": expected exactly one graph output");
     if (model_.linear.empty()) throw InputError(path_ + ": the graph has no Conv, Gemm or MatMul layer");
     model_.output = value(g.output(0).name(), "graph output");
+    fold_biases();
   }
 
  private:
   std::string where(const onnx::NodeProto& n) const {
     return path_ + ": node '" + n.name() + "' (" + n.op_type() + ")";
+  }
+  /// Every value is defined once (ONNX graphs are in SSA form): a node output that names the
+  /// graph input, an initializer or another node's output is refused.
+  void refuse_redefinitions() const {
+    const auto& g = m_.graph();
+    std::map<std::string, std::string> defined;  // value name -> what defines it
+    for (const auto& t : g.initializer()) defined.emplace(t.name(), "an initializer");
+    for (const auto& in : g.input()) defined.emplace(in.name(), "a graph input");
+    for (const auto& node : g.node())
+      for (const std::string& out : node.output()) {
+        if (out.empty()) continue;  // an optional output left out
+        const auto [it, fresh] = defined.emplace(out, "the output of node '" + node.name() + "'");
+        if (!fresh)
+          throw InputError(where(node) + ": output '" + out + "' redefines the value '" + out + "', already " +
+                           it->second + " (every value must be defined once)");
+      }
+  }
+  /// Folds into its linear layer every bias Add (an Affine op of add_arith) whose input is a
+  /// linear layer's output that nothing else reads: counted over the value ids the ops read,
+  /// so that a reader through any alias (Identity, Dropout, Cast, a view) counts. Then
+  /// renumbers the values so that every one is some op's output (or the input).
+  void fold_biases() {
+    std::vector<char> removed(model_.ops.size(), 0);
+    for (size_t k = 0; k < model_.ops.size(); ++k) {
+      const Op& add = model_.ops[k];
+      if (add.kind != OpKind::Affine || !bias_adds_.count(add.out)) continue;
+      const int in = add.in[0];
+      int readers = model_.output == in ? 1 : 0;
+      const Op* producer = nullptr;
+      for (size_t q = 0; q < model_.ops.size(); ++q) {
+        if (removed[q]) continue;
+        const Op& op = model_.ops[q];
+        readers += static_cast<int>(std::count(op.in.begin(), op.in.end(), in));
+        if (op.out == in) producer = &op;
+      }
+      if (readers != 1 || !producer || producer->kind != OpKind::Linear) continue;
+      LinearLayer& L = model_.linear[static_cast<size_t>(producer->linear)];
+      L.bias += add.shift;
+      removed[k] = 1;
+      const int gone = add.out;
+      for (Op& op : model_.ops)
+        for (int& id : op.in)
+          if (id == gone) id = in;
+      if (model_.output == gone) model_.output = in;
+    }
+    std::vector<Op> ops;
+    for (size_t k = 0; k < model_.ops.size(); ++k)
+      if (!removed[k]) ops.push_back(std::move(model_.ops[k]));
+    model_.ops = std::move(ops);
+    // Renumber: the input, then the ops' outputs in order (ids grow along the topological order).
+    std::vector<int> id(model_.values.size(), -1);
+    std::vector<Shape> values{model_.values[0]};
+    id[0] = 0;
+    for (Op& op : model_.ops) {
+      id[static_cast<size_t>(op.out)] = static_cast<int>(values.size());
+      values.push_back(model_.values[static_cast<size_t>(op.out)]);
+    }
+    for (Op& op : model_.ops) {
+      for (int& v : op.in) v = id[static_cast<size_t>(v)];
+      op.out = id[static_cast<size_t>(op.out)];
+    }
+    model_.output = id[static_cast<size_t>(model_.output)];
+    model_.values = std::move(values);
   }
   int define(const std::string& name, Shape s) {
     if (s.c < 1 || s.h < 1 || s.w < 1 || s.c > kMaxDim || s.h > kMaxDim || s.w > kMaxDim ||
@@ -153,6 +217,12 @@ class Loader {
     ids_[name] = static_cast<int>(model_.values.size());
     model_.values.push_back(s);
     return ids_[name];
+  }
+  /// A value no ONNX name refers to (an intermediate result of node `n`), of shape `s`.
+  int define_unnamed(const onnx::NodeProto& n, Shape s) {
+    if (s.size() < 1) reject(n, "empty intermediate result");
+    model_.values.push_back(s);
+    return static_cast<int>(model_.values.size()) - 1;
   }
   /// The id of computed value `name`, of rank 2 (N x K) or 4 (N x C x H x W).
   int value(const std::string& name, const std::string& ctx) const {
@@ -180,6 +250,47 @@ class Loader {
     if (d != dims_.end()) return d->second;
     const Shape s = model_.values[static_cast<size_t>(ids_.at(name))];
     return {1, s.c, s.h, s.w};
+  }
+  static std::string dims_text(const std::vector<int64_t>& d) {
+    std::string t;
+    for (int64_t x : d) t += (t.empty() ? "" : "x") + std::to_string(x);
+    return t;
+  }
+  /// The id of computed value `name`, of rank 4 (N x C x H x W), for node `n`.
+  int map_value(const onnx::NodeProto& n, const std::string& name) const {
+    const int id = value(name, where(n));
+    if (dims_of(name).size() != 4)
+      reject(n, "input '" + name + "' of shape " + dims_text(dims_of(name)) + " (this operator reads N x C x H x W)");
+    return id;
+  }
+  /// `axis` of a value of dims `d` in [0, rank): a negative one counts from the end.
+  int64_t normalized_axis(const onnx::NodeProto& n, int64_t axis, const std::vector<int64_t>& d) const {
+    const int64_t r = static_cast<int64_t>(d.size());
+    if (axis < -r || axis >= r) reject(n, "axis " + std::to_string(axis) + " of a value of rank " + std::to_string(r));
+    return axis < 0 ? axis + r : axis;
+  }
+  /// The C x H x W that holds a value of ONNX dims `d` (batch first): rank 4 is C x H x W,
+  /// rank 2 (N x K) is K x 1 x 1; any other rank is a view held as `view`.
+  static Shape shape_for(const std::vector<int64_t>& d, Shape view) {
+    if (d.size() == 4) return Shape{static_cast<int>(d[1]), static_cast<int>(d[2]), static_cast<int>(d[3])};
+    if (d.size() == 2) return Shape{static_cast<int>(d[1]), 1, 1};
+    return view;
+  }
+  /// Throws unless every output of node `n` is held as its ONNX dims say (shape_for): the
+  /// data of every value are its dims' row-major order, so a mismatch would compute numbers
+  /// ONNX does not define.
+  void check_output_shapes(const onnx::NodeProto& n) const {
+    for (const std::string& out : n.output()) {
+      const auto it = ids_.find(out);
+      if (out.empty() || it == ids_.end()) continue;
+      const Shape held = model_.values[static_cast<size_t>(it->second)];
+      const std::vector<int64_t> d = dims_of(out);
+      int64_t count = 1;
+      for (int64_t x : d) count *= x;
+      if (!(shape_for(d, held) == held) || count != held.size())
+        reject(n, "result '" + out + "' of shape " + dims_text(d) + " (held as " + std::to_string(held.c) + "x" +
+                      std::to_string(held.h) + "x" + std::to_string(held.w) + ")");
+    }
   }
   const Init& init(const std::string& name, const std::string& ctx) const {
     auto it = inits_.find(name);
@@ -312,6 +423,7 @@ class Loader {
         const Shape o = model_.values[static_cast<size_t>(ids_.at(out))];
         if (o.h == 1 && o.w == 1) dims_[out] = {1, o.c};
       }
+    check_output_shapes(n);
   }
 
   using Adder = void (Loader::*)(const onnx::NodeProto&, const std::string&, const std::string&);
@@ -361,7 +473,7 @@ class Loader {
     if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
     const int64_t group = int_attr(n, "group", 1);
     const auto dil = checked_ints(n, "dilations", {1, 1}, 2, 1, kMaxDim);
-    const int in_id = value(n.input(0), ctx);
+    const int in_id = map_value(n, n.input(0));
     const Init& w = init(n.input(1), ctx);
     if (w.dims.size() != 4) reject(n, "weight rank");
     for (auto d : w.dims)
@@ -431,7 +543,9 @@ class Loader {
     require_io(n, 2);
     const int in_id = value(n.input(0), ctx);
     const Shape in = model_.values[in_id];
-    if (in.h != 1 || in.w != 1) reject(n, "input that is not a flat vector (insert Flatten)");
+    if (dims_of(n.input(0)).size() != 2)
+      reject(n, "input '" + n.input(0) + "' of shape " + dims_text(dims_of(n.input(0))) +
+                    " (only N x K; insert Flatten)");
     const Init& w = init(n.input(1), ctx);
     if (w.dims.size() != 2 || w.dims[0] < 1 || w.dims[1] < 1 || w.dims[0] > kMaxDim * 64 || w.dims[1] > kMaxDim)
       reject(n, "weight rank or dims");
@@ -477,7 +591,9 @@ class Loader {
     if (!c0 && !c1) {
       if (t != "Add") reject(n, "operator of two computed values (only Add)");
       const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
-      if (!(model_.values[a] == model_.values[b])) reject(n, "broadcasting (inputs of different shapes)");
+      if (dims_of(n.input(0)) != dims_of(n.input(1)))
+        reject(n, "broadcasting (inputs of shapes " + dims_text(dims_of(n.input(0))) + " and " +
+                      dims_text(dims_of(n.input(1))) + ")");
       Op op = make_op(OpKind::Add, n.name(), {a, b});
       op.out = define(n.output(0), model_.values[a]);
       model_.ops.push_back(op);
@@ -489,23 +605,19 @@ class Loader {
     const Shape in = model_.values[in_id];
     const std::vector<float>& k = floats(n.input(c0 ? 0 : 1), ctx);
     const Init& kt = init(n.input(c0 ? 0 : 1), ctx);
-    // One value, or one per channel ([C], [1, C], [C, 1, 1] or [1, C, 1, 1]).
-    int channel_dims = 0;
-    for (int64_t d : kt.dims) channel_dims += d != 1;
-    if (!(k.size() == 1 || (static_cast<int>(k.size()) == in.c && channel_dims <= 1 &&
-                            (kt.dims.size() == 1 || (kt.dims.size() >= 2 && kt.dims[kt.dims.size() >= 3 ? kt.dims.size() - 3 : 1] == in.c)))))
-      reject(n, "constant operand of shape other than a scalar or one value per channel");
-    auto at = [&](int c) { return k.size() == 1 ? k[0] : k[static_cast<size_t>(c)]; };
-    // A bias after a linear layer whose output only this node reads: folded into the layer.
-    if (t == "Add" && uses_[var] == 1) {
-      for (Op& op : model_.ops)
-        if (op.out == in_id && op.kind == OpKind::Linear) {
-          LinearLayer& L = model_.linear[static_cast<size_t>(op.linear)];
-          for (int c = 0; c < L.c_out; ++c) L.bias(c) += at(c);
-          ids_[n.output(0)] = in_id;
-          return;
-        }
+    // One value, or one per channel: by ONNX's broadcasting (dims aligned at the end), a
+    // constant that varies only along axis 1 of the computed value and leaves its shape as it
+    // is ([C] and [1, C] of an N x C vector; [C, 1, 1] or [1, C, 1, 1] of an N x C x H x W map).
+    const std::vector<int64_t> d = dims_of(var);
+    bool fits = kt.dims.size() <= d.size();
+    for (size_t q = 0; q < kt.dims.size() && fits; ++q) {
+      const size_t ax = d.size() - kt.dims.size() + q;
+      fits = kt.dims[q] == 1 || (ax == 1 && kt.dims[q] == d[ax]);
     }
+    if (!fits || !(k.size() == 1 || static_cast<int>(k.size()) == in.c))
+      reject(n, "constant operand of shape " + dims_text(kt.dims) + " for a value of shape " + dims_text(d) +
+                    " (only a scalar or one value per channel, along axis 1)");
+    auto at = [&](int c) { return k.size() == 1 ? k[0] : k[static_cast<size_t>(c)]; };
     Op op = make_op(OpKind::Affine, n.name(), {in_id});
     op.scale = Eigen::VectorXf::Ones(in.c);
     op.shift = Eigen::VectorXf::Zero(in.c);
@@ -525,6 +637,9 @@ class Loader {
       }
     }
     op.out = define(n.output(0), in);
+    // A bias after a linear layer whose output nothing else reads is folded into the layer once
+    // the whole graph is read (fold_biases: only then are all the readers known).
+    if (t == "Add") bias_adds_.insert(op.out);
     model_.ops.push_back(op);
   }
 
@@ -571,7 +686,8 @@ class Loader {
       inits_[n.output(0)] = copy;
       return;
     }
-    ids_[n.output(0)] = value(n.input(0), ctx);
+    ids_[n.output(0)] = view(n.input(0), ctx);
+    if (dims_.count(n.input(0))) dims_[n.output(0)] = dims_.at(n.input(0));
   }
 
   void add_activation(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
@@ -613,9 +729,11 @@ class Loader {
     check_known_attrs(n, {"axis"});
     const int in_id = value(n.input(0), ctx);
     const Shape in = model_.values[in_id];
-    const int64_t axis = int_attr(n, "axis", -1);
-    // Over the channels: axis 1 (or -3 of N x C x H x W), or the last axis of a vector.
-    if (!(axis == 1 || axis == -3 || (axis == -1 && in.h == 1 && in.w == 1))) reject(n, "axis (only the channels)");
+    // Over the channels only: axis 1 of N x K or N x C x H x W (opset 13: that one axis).
+    const std::vector<int64_t> d = dims_of(n.input(0));
+    if (normalized_axis(n, int_attr(n, "axis", -1), d) != 1)
+      reject(n, "axis " + std::to_string(int_attr(n, "axis", -1)) + " of a value of shape " + dims_text(d) +
+                    " (only the channels, axis 1)");
     Op op = make_op(OpKind::Softmax, n.name(), {in_id});
     op.out = define(n.output(0), in);
     model_.ops.push_back(op);
@@ -637,13 +755,17 @@ class Loader {
     std::vector<int> in;
     for (const std::string& name : n.input()) in.push_back(value(name, ctx));
     const Shape first = model_.values[in.front()];
-    const int64_t axis = int_attr(n, "axis", 1);
-    if (!(axis == 1 || axis == -3 || (axis == -1 && first.h == 1 && first.w == 1))) reject(n, "axis (only the channels)");
+    const std::vector<int64_t> d0 = dims_of(n.input(0));
+    if (normalized_axis(n, int_attr(n, "axis", 1), d0) != 1)
+      reject(n, "axis " + std::to_string(int_attr(n, "axis", 1)) + " of values of shape " + dims_text(d0) +
+                    " (only the channels, axis 1)");
     Shape out{0, first.h, first.w};
-    for (int id : in) {
-      const Shape s = model_.values[id];
-      if (s.h != first.h || s.w != first.w) reject(n, "inputs of different heights or widths");
-      out.c += s.c;
+    for (int q = 0; q < n.input_size(); ++q) {
+      const std::vector<int64_t> dq = dims_of(n.input(q));
+      bool same = dq.size() == d0.size();
+      for (size_t a = 0; a < dq.size() && same; ++a) same = a == 1 || dq[a] == d0[a];
+      if (!same) reject(n, "inputs of shapes " + dims_text(d0) + " and " + dims_text(dq) + " (they must differ only in axis 1)");
+      out.c += model_.values[in[static_cast<size_t>(q)]].c;
     }
     Op op = make_op(OpKind::Concat, n.name(), in);
     op.out = define(n.output(0), out);
@@ -655,25 +777,24 @@ class Loader {
     check_known_attrs(n, {"axes", "keepdims", "noop_with_empty_axes"});
     std::vector<int64_t> axes = ints(n, "axes", {});
     if (has_input(n, 1)) axes = integers(n.input(1), ctx);  // opset 18
-    for (int64_t& a : axes)
-      if (a < 0) a += 4;
+    const int in_id = map_value(n, n.input(0));
+    for (int64_t& a : axes) a = normalized_axis(n, a, dims_of(n.input(0)));
     std::sort(axes.begin(), axes.end());
-    if (axes != std::vector<int64_t>{2, 3}) reject(n, "axes (only the spatial axes 2 and 3)");
-    const int in_id = value(n.input(0), ctx);
+    if (axes != std::vector<int64_t>{2, 3}) reject(n, "axes (only the spatial axes 2 and 3 of N x C x H x W)");
     Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
     op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
     if (int_attr(n, "keepdims", 1) == 0) dims_[n.output(0)] = {1, model_.values[in_id].c};
     model_.ops.push_back(op);
   }
 
-  void add_pool(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+  void add_pool(const onnx::NodeProto& n, const std::string& t, const std::string& /*ctx*/) {
     check_known_attrs(n, {"kernel_shape", "strides", "pads", "ceil_mode", "dilations", "storage_order",
                           "count_include_pad", "auto_pad"});
     const auto* ap = attr(n, "auto_pad");
     if (ap && ap->s() != "NOTSET") reject(n, "auto_pad '" + ap->s() + "'");
     const bool ceil_mode = int_attr(n, "ceil_mode", 0) != 0;
     checked_ints(n, "dilations", {1, 1}, 2, 1, 1);
-    const int in_id = value(n.input(0), ctx);
+    const int in_id = map_value(n, n.input(0));
     const Shape in = model_.values[in_id];
     const auto k = checked_ints(n, "kernel_shape", {}, 2, 1, kMaxDim);
     const auto st = checked_ints(n, "strides", {1, 1}, 2, 1, kMaxDim);
@@ -708,9 +829,9 @@ class Loader {
     model_.ops.push_back(op);
   }
 
-  void add_global_avg_pool(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& ctx) {
+  void add_global_avg_pool(const onnx::NodeProto& n, const std::string& /*op_type*/, const std::string& /*ctx*/) {
     check_known_attrs(n, {});
-    const int in_id = value(n.input(0), ctx);
+    const int in_id = map_value(n, n.input(0));
     Op op = make_op(OpKind::GlobalAvgPool, n.name(), {in_id});
     op.out = define(n.output(0), Shape{model_.values[in_id].c, 1, 1});
     model_.ops.push_back(op);
@@ -935,13 +1056,32 @@ class Loader {
       op.perm[static_cast<size_t>(c)] = static_cast<int>(src);
       identity = identity && src == c;
     }
-    dims_[n.output(0)] = e;
+    // The result is held as its own dims say (shape_for): N x C' x H' x W' as C' x H' x W',
+    // which differs from the input's C x H x W when the transpose moves a channel axis into
+    // H or W (only axes of size 1 or channel factors move: the data stay in place or are a
+    // channel permutation, then relabelled).
+    const Shape s = shape_for(e, in);
     if (identity) {
-      ids_[n.output(0)] = in_id;
+      if (s == in) {
+        ids_[n.output(0)] = in_id;
+        dims_[n.output(0)] = e;
+      } else {
+        relabel(n, n.input(0), e, n.output(0));
+      }
       return;
     }
-    op.out = define(n.output(0), in);
+    if (s == in) {
+      op.out = define(n.output(0), in);
+      dims_[n.output(0)] = e;
+      model_.ops.push_back(op);
+      return;
+    }
+    op.out = define_unnamed(n, in);
     model_.ops.push_back(op);
+    Op re = make_op(OpKind::Flatten, n.name(), {op.out});
+    re.out = define(n.output(0), s);
+    dims_[n.output(0)] = e;
+    model_.ops.push_back(re);
   }
 
   /// Split of a computed value along the channels, height or width: one Slice per output.
@@ -1021,7 +1161,7 @@ class Loader {
         if (starts[q] != 0 || steps[q] != 1) reject(n, "slicing of the batch axis");
         continue;
       }
-      if (ax < 1 || ax > 3) reject(n, "axis " + std::to_string(axes[q]));
+      if (ax < 1 || ax >= rank) reject(n, "axis " + std::to_string(axes[q]) + " of a value of rank " + std::to_string(rank));
       if (steps[q] < 1 || steps[q] > kMaxDim) reject(n, "step outside [1, " + std::to_string(kMaxDim) + "]");
       const int d = dims[ax - 1];
       auto clampi = [&](int64_t v) {
@@ -1046,14 +1186,15 @@ class Loader {
     const Shape in = model_.values[in_id];
     require_io(n, 2);
     const std::vector<int64_t>& p = integers(n.input(1), ctx);
-    if (p.size() != 8) reject(n, "pads that are not 4-D");
-    if (p[0] != 0 || p[4] != 0) reject(n, "padding of the batch axis");
+    const size_t r = dims_of(n.input(0)).size();  // 2 or 4
+    if (p.size() != 2 * r) reject(n, "pads of length " + std::to_string(p.size()) + " for a value of rank " + std::to_string(r));
+    if (p[0] != 0 || p[r] != 0) reject(n, "padding of the batch axis");
     Op op = make_op(OpKind::Pad, n.name(), {in_id});
-    for (int q = 0; q < 3; ++q) {
-      if (p[1 + q] < 0 || p[5 + q] < 0 || p[1 + q] > kMaxDim || p[5 + q] > kMaxDim)
+    for (size_t q = 0; q + 1 < r; ++q) {
+      if (p[1 + q] < 0 || p[r + 1 + q] < 0 || p[1 + q] > kMaxDim || p[r + 1 + q] > kMaxDim)
         reject(n, "pads outside [0, " + std::to_string(kMaxDim) + "]");
       op.pad_lo[q] = static_cast<int>(p[1 + q]);
-      op.pad_hi[q] = static_cast<int>(p[5 + q]);
+      op.pad_hi[q] = static_cast<int>(p[r + 1 + q]);
     }
     if (has_input(n, 2)) op.pad_value = floats(n.input(2), ctx, 1)[0];
     op.out = define(n.output(0), Shape{in.c + op.pad_lo[0] + op.pad_hi[0], in.h + op.pad_lo[1] + op.pad_hi[1],
@@ -1089,7 +1230,7 @@ class Loader {
   Model& model_;
   std::map<std::string, Init> inits_;
   std::map<std::string, int> ids_;
-  std::map<std::string, int> uses_;  ///< per value name: the nodes (and graph outputs) that read it
+  std::set<int> bias_adds_;  ///< the Affine ops' outputs that add a constant (fold_biases)
   /// ONNX dims (batch first) of computed values that are not N x C x H x W: vectors (N x K)
   /// and views of other ranks; the rest are [1, C, H, W] of their Shape.
   std::map<std::string, std::vector<int64_t>> dims_;

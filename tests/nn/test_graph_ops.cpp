@@ -3,6 +3,7 @@
 #include <onnx/onnx_pb.h>
 
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include "sw/common/errors.h"
@@ -442,5 +443,235 @@ TEST(Graph, ChannelShuffleFromShapeArithmeticAndSplit) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("only channel permutations"), std::string::npos) << e.what();
+  }
+}
+
+namespace {
+
+void int_attr(onnx::NodeProto* n, const std::string& name, int64_t v) {
+  auto* a = n->add_attribute();
+  a->set_name(name);
+  a->set_type(onnx::AttributeProto::INT);
+  a->set_i(v);
+}
+
+/// The InputError message of loading `m` (saved as `file`), "" when it loads.
+std::string load_error(onnx::ModelProto& m, int c, int h, int w, const std::string& out, const std::string& file) {
+  try {
+    load_onnx_model(save(m, c, h, w, out, file));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+// Issue 38, item 3: MatMul -> Identity/Dropout -> Add(b) where the MatMul's output is also read
+// directly (through the same name, or another alias defined later): out = y + (y + b) = 2 y + b
+// with y = W x. Folding b into the layer gave 2 y + 2 b.
+TEST(Graph, BiasIsNotFoldedWhenTheLayerOutputIsReadThroughAnAlias) {
+  const int K = 4, N = 3;
+  const auto w = randv(K * N, 31);
+  const std::vector<float> b = {0.5f, -1.0f, 2.0f};
+  for (const char* alias : {"Identity", "Dropout"})
+    for (bool later_alias : {false, true}) {
+      SCOPED_TRACE(std::string(alias) + (later_alias ? " + later alias" : ""));
+      onnx::ModelProto m;
+      auto* g = m.mutable_graph();
+      add_init(g, "w", {K, N}, w);
+      add_init(g, "b", {N}, b);
+      add_node(g, "Flatten", "flat", {"input"}, "f");
+      add_node(g, "MatMul", "mm", {"f", "w"}, "y");
+      add_node(g, alias, "alias", {"y"}, "ya");
+      add_node(g, "Add", "bias", {"ya", "b"}, "z");
+      if (later_alias) add_node(g, "Identity", "alias2", {"y"}, "y2");
+      add_node(g, "Add", "sum", {later_alias ? "y2" : "y", "z"}, "out");
+      const Model model = load_onnx_model(save(m, K, 1, 1, "out", "fold_alias"));
+      const auto x = randv(K, 32);
+      SoftwareBackend sw(model);
+      const Eigen::VectorXf out = run_image(model, x.data(), sw);
+      ASSERT_EQ(out.size(), N);
+      for (int j = 0; j < N; ++j) {
+        double y = 0;
+        for (int k = 0; k < K; ++k) y += x[k] * w[k * N + j];
+        EXPECT_NEAR(out[j], 2 * y + b[j], 1e-5) << j;
+      }
+    }
+  // Read only through the alias: still folded into the layer (no digital op for the bias).
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  add_init(g, "w", {K, N}, w);
+  add_init(g, "b", {N}, b);
+  add_node(g, "Flatten", "flat", {"input"}, "f");
+  add_node(g, "MatMul", "mm", {"f", "w"}, "y");
+  add_node(g, "Identity", "alias", {"y"}, "ya");
+  add_node(g, "Add", "bias", {"ya", "b"}, "out");
+  const Model model = load_onnx_model(save(m, K, 1, 1, "out", "fold_alias_only"));
+  ASSERT_EQ(model.ops.size(), 2u);
+  EXPECT_EQ(model.ops[1].kind, OpKind::Linear);
+  EXPECT_FLOAT_EQ(model.linear[0].bias(2), 2.0f);
+}
+
+// Issue 38, item 11: a node output that names an existing value (another node's output, the
+// graph input or an initializer) is refused, naming the node and the value.
+TEST(Graph, ANodeThatRedefinesAValueIsRefused) {
+  for (const char* clash : {"a", "input", "w"}) {
+    SCOPED_TRACE(clash);
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    add_init(g, "w", {2, 2, 1, 1}, {1, 0, 0, 1});
+    add_node(g, "Conv", "conv", {"input", "w"}, "a");
+    add_node(g, "Relu", "again", {"a"}, clash);
+    add_node(g, "Relu", "last", {clash}, "out");
+    const std::string e = load_error(m, 2, 2, 2, "out", "redefine");
+    EXPECT_NE(e.find("node 'again' (Relu)"), std::string::npos) << e;
+    EXPECT_NE(e.find("'" + std::string(clash) + "'"), std::string::npos) << e;
+  }
+}
+
+namespace {
+
+/// input (1 x 8 x 1 x 1) -> a 1x1 Conv (8 -> 8, seeded) -> "c", then Transpose perm (0, 2, 1, 3)
+/// -> "t" of shape 1 x 1 x 8 x 1. Returns the conv's output for `x` through `c`.
+void conv_then_transpose(onnx::GraphProto* g, const std::vector<float>& wc, const std::vector<float>& x,
+                         std::vector<double>& c) {
+  add_init(g, "wc", {8, 8, 1, 1}, wc);
+  add_node(g, "Conv", "conv", {"input", "wc"}, "c");
+  ints_attr(add_node(g, "Transpose", "tr", {"c"}, "t"), "perm", {0, 2, 1, 3});
+  c.assign(8, 0.0);
+  for (int o = 0; o < 8; ++o)
+    for (int k = 0; k < 8; ++k) c[o] += wc[o * 8 + k] * x[k];
+}
+
+}  // namespace
+
+// Issue 38, item 4: shapes after a Transpose follow ONNX's rules. Expected values by ONNX's
+// definitions, by hand: 1 x 8 x 1 x 1 transposed (0, 2, 1, 3) is 1 x 1 x 8 x 1.
+TEST(Graph, ShapesAfterTransposeFollowOnnx) {
+  const auto wc = randv(64, 41), x = randv(8, 42);
+  std::vector<double> c;
+  {  // Softmax over axis 1, now of size 1: every value is 1 (it was a softmax over 8 values).
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    conv_then_transpose(g, wc, x, c);
+    int_attr(add_node(g, "Softmax", "sm", {"t"}, "out"), "axis", 1);
+    const Model model = load_onnx_model(save(m, 8, 1, 1, "out", "tr_softmax"));
+    EXPECT_EQ(model.values[model.output], (Shape{1, 8, 1}));
+    SoftwareBackend sw(model);
+    const Eigen::VectorXf y = run_image(model, x.data(), sw);
+    ASSERT_EQ(y.size(), 8);
+    for (int k = 0; k < 8; ++k) EXPECT_NEAR(y[k], 1.0, 1e-6) << k;
+  }
+  {  // Split along axis 2 (the 8) into 3 + 5: the second part is c[3..7] (it read out of bounds).
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    conv_then_transpose(g, wc, x, c);
+    add_init_i64(g, "parts", {3, 5});
+    auto* sp = add_node(g, "Split", "split", {"t", "parts"}, "a");
+    sp->add_output("out");
+    int_attr(sp, "axis", 2);
+    const Model model = load_onnx_model(save(m, 8, 1, 1, "out", "tr_split"));
+    EXPECT_EQ(model.values[model.output], (Shape{1, 5, 1}));
+    SoftwareBackend sw(model);
+    const Eigen::VectorXf y = run_image(model, x.data(), sw);
+    ASSERT_EQ(y.size(), 5);
+    for (int k = 0; k < 5; ++k) EXPECT_NEAR(y[k], c[3 + k], 1e-5) << k;
+  }
+  {  // Split (4, 4) -> Flatten (1 x 4) -> Gemm 4 -> 3: a valid model (it was refused, "inner
+     // dimension 4 vs input 32").
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    conv_then_transpose(g, wc, x, c);
+    add_init_i64(g, "parts", {4, 4});
+    auto* sp = add_node(g, "Split", "split", {"t", "parts"}, "a");
+    sp->add_output("b");
+    int_attr(sp, "axis", 2);
+    add_node(g, "Flatten", "flat", {"b"}, "f");
+    const auto wg = randv(3 * 4, 43);
+    add_init(g, "wg", {4, 3}, wg);
+    add_node(g, "Gemm", "gemm", {"f", "wg"}, "out");
+    const Model model = load_onnx_model(save(m, 8, 1, 1, "out", "tr_split_gemm"));
+    SoftwareBackend sw(model);
+    const Eigen::VectorXf y = run_image(model, x.data(), sw);
+    ASSERT_EQ(y.size(), 3);
+    for (int j = 0; j < 3; ++j) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += wg[k * 3 + j] * c[4 + k];
+      EXPECT_NEAR(y[j], s, 1e-5) << j;
+    }
+  }
+  // What the internal C x H x W cannot express is refused, naming the node: a Softmax over the
+  // last axis of 1 x 8 x 1 x 1 (its W, of size 1; it was taken as the channels).
+  {
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    conv_then_transpose(g, wc, x, c);
+    add_node(g, "Softmax", "sm", {"c"}, "out");  // default axis -1
+    const std::string e = load_error(m, 8, 1, 1, "out", "softmax_w");
+    EXPECT_NE(e.find("node 'sm' (Softmax)"), std::string::npos) << e;
+  }
+}
+
+// Issue 38, item 4: axes are read in the value's actual rank (ONNX's rules), and what the
+// C x H x W representation cannot express is refused naming the node, not computed otherwise.
+TEST(Graph, AxesAreInterpretedInTheActualShape) {
+  auto base = [](onnx::GraphProto* g) {  // input 1 x 4 x 1 x 1 -> Conv -> "c" (1 x 4 x 1 x 1)
+    add_init(g, "wc", {4, 4, 1, 1}, randv(16, 51));
+    add_node(g, "Conv", "conv", {"input", "wc"}, "c");
+    add_node(g, "Flatten", "flat", {"c"}, "v");  // 1 x 4
+  };
+  struct Case {
+    const char* name;
+    std::function<void(onnx::GraphProto*)> add;
+    const char* node;
+  };
+  const std::vector<Case> cases = {
+      // Concat along W of two 1 x 4 x 1 x 1: 1 x 4 x 1 x 2, interleaved (was a channel concat).
+      {"concat_w",
+       [](onnx::GraphProto* g) { int_attr(add_node(g, "Concat", "cat", {"c", "c"}, "out"), "axis", -1); },
+       "node 'cat' (Concat)"},
+      // ReduceMean over the last axis of a 1 x 4 vector: 1 x 1 (was an identity).
+      {"reduce_vector",
+       [](onnx::GraphProto* g) { ints_attr(add_node(g, "ReduceMean", "rm", {"v"}, "out"), "axes", {-2, -1}); },
+       "node 'rm' (ReduceMean)"},
+      // Softmax over axis -3 of a vector: no such axis.
+      {"softmax_rank2",
+       [](onnx::GraphProto* g) { int_attr(add_node(g, "Softmax", "sm", {"v"}, "out"), "axis", -3); },
+       "node 'sm' (Softmax)"},
+      // A [1, 4] vector plus a 1 x 4 x 1 x 1 map broadcasts to 1 x 4 x 1 x 4 (was element-wise).
+      {"add_ranks", [](onnx::GraphProto* g) { add_node(g, "Add", "add", {"v", "c"}, "out"); }, "node 'add' (Add)"},
+      // A constant [4] against 1 x 4 x 1 x 1 aligns with W (size 1): 1 x 4 x 1 x 4 (was per channel).
+      {"add_const_w",
+       [](onnx::GraphProto* g) {
+         add_init(g, "k", {4}, {1, 2, 3, 4});
+         add_node(g, "Mul", "mul", {"c", "k"}, "out");
+       },
+       "node 'mul' (Mul)"},
+      // Slice of axis 2 of a vector: no such axis.
+      {"slice_rank2",
+       [](onnx::GraphProto* g) {
+         add_init_i64(g, "s0", {0});
+         add_init_i64(g, "s1", {1});
+         add_init_i64(g, "s2", {2});
+         add_node(g, "Slice", "sl", {"v", "s0", "s1", "s2"}, "out");
+       },
+       "node 'sl' (Slice)"},
+      // Gemm of a 1 x 4 x 1 x 1 map (Gemm reads N x K).
+      {"gemm_rank4",
+       [](onnx::GraphProto* g) {
+         add_init(g, "wg", {4, 2}, randv(8, 52));
+         add_node(g, "Gemm", "gemm", {"c", "wg"}, "out");
+       },
+       "node 'gemm' (Gemm)"},
+  };
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.name);
+    onnx::ModelProto m;
+    auto* g = m.mutable_graph();
+    base(g);
+    k.add(g);
+    const std::string e = load_error(m, 4, 1, 1, "out", std::string("axes_") + k.name);
+    EXPECT_NE(e.find(k.node), std::string::npos) << "'" << e << "'";
   }
 }
