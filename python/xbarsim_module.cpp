@@ -17,6 +17,7 @@
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
+#include "sw/common/cancel.h"
 #include "sw/common/config.h"
 #include "sw/common/errors.h"
 
@@ -24,6 +25,29 @@ namespace py = pybind11;
 using namespace xbarsim;
 
 namespace {
+
+/// Runs f() with the GIL released, checking for signals (Ctrl-C) every 100 ms at most: the
+/// check briefly takes the GIL and calls PyErr_CheckSignals (Python runs its handlers on the
+/// main thread only; elsewhere the check finds nothing). When a handler raises (SIGINT's raises
+/// KeyboardInterrupt) the computation stops at its next check (sw/common/cancel.h) and that
+/// exception is raised here, once the worker threads are joined.
+template <typename F>
+auto interruptible(F&& f) -> decltype(f()) {
+  std::optional<py::error_already_set> raised;
+  CancelScope scope([&raised] {
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    raised.emplace();  // takes the Python error (KeyboardInterrupt) out of the thread state
+    return true;
+  });
+  try {
+    py::gil_scoped_release release;
+    return f();
+  } catch (const Cancelled&) {
+    if (raised) throw *raised;
+    throw;
+  }
+}
 
 /// A Python value as the YAML text --set takes: lists as [a, b], booleans as true/false. Any
 /// int (NumPy's too) is written whole and floats with 17 digits, so the configuration's range
@@ -159,10 +183,11 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
                      std::to_string(g.rows()) + " rows (one voltage per row is needed)");
   if (!g.allFinite() || !v.allFinite()) throw InputError("conductances and voltages must be finite");
   if (g.minCoeff() <= 0) throw InputError("conductances must be > 0");
-  py::gil_scoped_release release;  // the solve runs on this thread (and the solver's) without the GIL
-  auto solver = make_crossbar_solver(params, opts);
-  solver->program(g);
-  return solver->column_currents(v);
+  return interruptible([&] {  // the solve runs on this thread (and the solver's) without the GIL
+    auto solver = make_crossbar_solver(params, opts);
+    solver->program(g);
+    return solver->column_currents(v);
+  });
 }
 
 /// X (vectors x inputs) through every stage of the layer, in precision S (float: as eval).
@@ -172,10 +197,11 @@ AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, const AnalogLayer::RowMat<S
     throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
                      std::to_string(layer.inputs()) + " inputs");
   if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
-  py::gil_scoped_release release;
-  AnalogLayer::Mat<S> y;
-  layer.forward<S>(x, y);
-  return y;
+  return interruptible([&] {
+    AnalogLayer::Mat<S> y;
+    layer.forward<S>(x, y);
+    return y;
+  });
 }
 
 }  // namespace
@@ -254,8 +280,7 @@ PYBIND11_MODULE(_core, m) {
                                 " values each, but the weight matrix has " + std::to_string(w.rows()) + " rows");
              if (calib && !calib->allFinite()) throw InputError("the calibration vectors hold a non-finite value");
              auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt);
-             py::gil_scoped_release release;
-             layer->program(calib ? *calib : Eigen::MatrixXd());
+             interruptible([&] { layer->program(calib ? *calib : Eigen::MatrixXd()); });
              return layer;
            }),
            py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
