@@ -17,6 +17,7 @@
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
+#include "sw/common/cancel.h"
 #include "sw/common/config.h"
 #include "sw/common/errors.h"
 
@@ -25,10 +26,35 @@ using namespace xbarsim;
 
 namespace {
 
-/// A Python value as the YAML text --set takes: lists as [a, b], booleans as true/false.
+/// Runs f() with the GIL released, checking for signals (Ctrl-C) every 100 ms at most: the
+/// check briefly takes the GIL and calls PyErr_CheckSignals (Python runs its handlers on the
+/// main thread only; elsewhere the check finds nothing). When a handler raises (SIGINT's raises
+/// KeyboardInterrupt) the computation stops at its next check (sw/common/cancel.h) and that
+/// exception is raised here, once the worker threads are joined.
+template <typename F>
+auto interruptible(F&& f) -> decltype(f()) {
+  std::optional<py::error_already_set> raised;
+  CancelScope scope([&raised] {
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    raised.emplace();  // takes the Python error (KeyboardInterrupt) out of the thread state
+    return true;
+  });
+  try {
+    py::gil_scoped_release release;
+    return f();
+  } catch (const Cancelled&) {
+    if (raised) throw *raised;
+    throw;
+  }
+}
+
+/// A Python value as the YAML text --set takes: lists as [a, b], booleans as true/false. Any
+/// int (NumPy's too) is written whole and floats with 17 digits, so the configuration's range
+/// checks see the value itself (2**63 is out of range there, not an overflow here).
 std::string yaml_text(const py::handle& v) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "true" : "false";
-  if (py::isinstance<py::int_>(v)) return std::to_string(v.cast<long long>());
+  if (py::isinstance<py::int_>(v)) return py::str(v).cast<std::string>();
   if (py::isinstance<py::float_>(v)) {
     std::ostringstream s;
     s.precision(17);
@@ -42,8 +68,32 @@ std::string yaml_text(const py::handle& v) {
     return out + "]";
   }
   if (v.is_none()) return "none";
-  throw InputError("a configuration value must be a number, string, bool, None or list (got " +
-                   py::str(v.get_type()).cast<std::string>() + ")");
+  // NumPy scalars and arrays: as the Python numbers and lists tolist() gives.
+  if (py::hasattr(v, "dtype") && py::hasattr(v, "tolist")) return yaml_text(v.attr("tolist")());
+  throw InputError("a configuration value must be a number, string, bool, None or a list of those (got " +
+                   py::str(v.get_type().attr("__name__")).cast<std::string>() + ")");
+}
+
+/// yaml_text for the value of `key`; a value it cannot write is an InputError naming the key.
+std::string value_text(const std::string& key, const py::handle& v) {
+  try {
+    return yaml_text(v);
+  } catch (const InputError& e) {
+    throw InputError("configuration key '" + key + "': " + e.what());
+  }
+}
+
+/// A configuration key given from Python: a str.
+std::string key_text(const py::handle& k) {
+  if (!py::isinstance<py::str>(k))
+    throw InputError("configuration keys are dotted names (strings), got " + py::repr(k).cast<std::string>());
+  return k.cast<std::string>();
+}
+
+/// The override `key=value` as --set takes it.
+std::string assignment(const py::handle& k, const py::handle& v) {
+  const std::string key = key_text(k);
+  return key + "=" + value_text(key, v);
 }
 
 /// The value at `key`, typed: a list, an int, a float, a bool or a string.
@@ -72,20 +122,56 @@ py::object typed_value(const ConfigTree& cfg, const std::string& key) {
   return py::str(text);
 }
 
-/// Checks every numeric value against its documented range, as the commands do when they read
-/// it (words such as `none` are checked by the command that reads the key).
+/// Checks a numeric key's value `text` against its documented range, as the commands do when
+/// they read it (words such as `none` are checked by the command that reads the key).
+void check_range(const ConfigTree& cfg, const std::string& key, const std::string& text) {
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size()) return;
+  if (ConfigTree::is_integer(key))
+    cfg.get_int(key);
+  else
+    cfg.get_double(key);
+}
+
+/// check_range for every numeric value, each value of a sweep list too.
 void check_ranges(const ConfigTree& cfg) {
   for (const std::string& key : cfg.leaf_keys()) {
-    if (!ConfigTree::is_numeric(key) || cfg.is_list(key)) continue;
-    const std::string text = cfg.get_string(key);
-    char* end = nullptr;
-    std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size()) continue;
-    if (ConfigTree::is_integer(key))
-      cfg.get_int(key);
-    else
-      cfg.get_double(key);
+    if (!ConfigTree::is_numeric(key)) continue;
+    if (!cfg.is_list(key)) {
+      check_range(cfg, key, cfg.get_string(key));
+      continue;
+    }
+    ConfigTree point = cfg;
+    for (const std::string& item : cfg.list_items(key)) {
+      point.set_scalar(key, item);
+      check_range(point, key, item);
+    }
   }
+}
+
+/// The configuration at `path` (a str or os.PathLike; None or "" for the defaults) with `overrides`.
+ConfigTree load_config(const py::handle& path, const py::handle& overrides) {
+  std::string file;
+  if (!path.is_none()) {
+    if (!py::isinstance<py::str>(path) && !py::hasattr(path, "__fspath__"))
+      throw InputError("Config: path must be the path of a YAML file (a str or os.PathLike), got " +
+                       py::repr(path).cast<std::string>());
+    const py::object fs = py::module_::import("os").attr("fspath")(path);
+    if (!py::isinstance<py::str>(fs))
+      throw InputError("Config: path must be the path of a YAML file (a str), got " + py::repr(fs).cast<std::string>());
+    file = fs.cast<std::string>();
+  }
+  std::vector<std::string> sets;
+  if (!overrides.is_none()) {
+    if (!py::hasattr(overrides, "items"))
+      throw InputError("Config: overrides must be a dict of {'dotted.key': value}, got " +
+                       py::repr(overrides).cast<std::string>());
+    for (const auto& [k, v] : py::dict(py::reinterpret_borrow<py::object>(overrides))) sets.push_back(assignment(k, v));
+  }
+  ConfigTree cfg = ConfigTree::load(file, sets);
+  check_ranges(cfg);
+  return cfg;
 }
 
 Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const ConfigTree& cfg) {
@@ -97,10 +183,11 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
                      std::to_string(g.rows()) + " rows (one voltage per row is needed)");
   if (!g.allFinite() || !v.allFinite()) throw InputError("conductances and voltages must be finite");
   if (g.minCoeff() <= 0) throw InputError("conductances must be > 0");
-  py::gil_scoped_release release;  // the solve runs on this thread (and the solver's) without the GIL
-  auto solver = make_crossbar_solver(params, opts);
-  solver->program(g);
-  return solver->column_currents(v);
+  return interruptible([&] {  // the solve runs on this thread (and the solver's) without the GIL
+    auto solver = make_crossbar_solver(params, opts);
+    solver->program(g);
+    return solver->column_currents(v);
+  });
 }
 
 /// X (vectors x inputs) through every stage of the layer, in precision S (float: as eval).
@@ -110,10 +197,11 @@ AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, const AnalogLayer::RowMat<S
     throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
                      std::to_string(layer.inputs()) + " inputs");
   if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
-  py::gil_scoped_release release;
-  AnalogLayer::Mat<S> y;
-  layer.forward<S>(x, y);
-  return y;
+  return interruptible([&] {
+    AnalogLayer::Mat<S> y;
+    layer.forward<S>(x, y);
+    return y;
+  });
 }
 
 }  // namespace
@@ -123,8 +211,8 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = XBARSIM_VERSION;
   m.attr("_binary") = XBARSIM_BINARY_PATH;
   m.attr("_installed_binary") = XBARSIM_INSTALLED_BINARY;
-  m.def("_yaml_text", [](const py::handle& v) { return yaml_text(v); },
-        "A Python value as the YAML text --set takes (the package's one conversion)");
+  m.def("_assignment", &assignment, py::arg("key"), py::arg("value"),
+        "The override key=value as --set takes it (the package's one conversion; ValueError naming the key)");
   static py::exception<SolverError> solver_error(m, "SolverError", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -139,20 +227,16 @@ PYBIND11_MODULE(_core, m) {
   py::class_<ConfigTree>(m, "Config",
                          "Configuration: the documented defaults (configs/default.yaml), then a YAML file, then "
                          "overrides; validated as the CLI validates it.")
-      .def(py::init([](const std::string& path, const py::dict& overrides) {
-             std::vector<std::string> sets;
-             for (const auto& [k, v] : overrides) sets.push_back(py::str(k).cast<std::string>() + "=" + yaml_text(v));
-             ConfigTree cfg = ConfigTree::load(path, sets);
-             check_ranges(cfg);
-             return cfg;
-           }),
-           py::arg("path") = "", py::arg("overrides") = py::dict(),
-           "Config(path='', overrides={}): defaults, the YAML file at `path`, then {'dotted.key': value}")
+      .def(py::init(&load_config),
+           py::arg("path") = py::none(), py::arg("overrides") = py::none(),
+           "Config(path=None, overrides=None): defaults, the YAML file at `path` (str or os.PathLike), then "
+           "{'dotted.key': value}; a bad value raises ValueError naming its key")
       .def(
           "set",
-          [](ConfigTree& c, const std::string& key, const py::handle& v) {
+          [](ConfigTree& c, const py::handle& k, const py::handle& v) {
+            const std::string key = key_text(k);
             ConfigTree next = c;
-            next.set(key, yaml_text(v));
+            next.set(key, value_text(key, v));
             check_ranges(next);
             c = next;
           },
@@ -196,8 +280,7 @@ PYBIND11_MODULE(_core, m) {
                                 " values each, but the weight matrix has " + std::to_string(w.rows()) + " rows");
              if (calib && !calib->allFinite()) throw InputError("the calibration vectors hold a non-finite value");
              auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt);
-             py::gil_scoped_release release;
-             layer->program(calib ? *calib : Eigen::MatrixXd());
+             interruptible([&] { layer->program(calib ? *calib : Eigen::MatrixXd()); });
              return layer;
            }),
            py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,

@@ -46,7 +46,7 @@ def _config_args(config, overrides, tmp):
         else:  # a path to a YAML file
             args += ["--config", os.fspath(config)]
     for key, value in (overrides or {}).items():
-        args += ["--set", f"{key}={_core._yaml_text(value)}"]
+        args += ["--set", _core._assignment(key, value)]
     return args
 
 

@@ -5,7 +5,8 @@
     logits = analog(images)           # Conv2d/Linear on crossbars, the rest in torch
     result = xbarsim.torch.evaluate(analog, loader, reference=model)
 
-Each Conv2d (any stride, padding, dilation and groups) and Linear becomes an xbarsim.Crossbar
+Each Conv2d (any stride, padding -- 'same' and 'valid' too -- padding_mode, dilation and
+groups) and Linear becomes an xbarsim.Crossbar
 programmed as eval programs the same layer of the model's ONNX export: the same matrix rows on
 the crossbars (eval's im2col order; grouped and dilated convolutions as the ONNX import maps
 them), the same input range [0, x_max] (or signed) and calibration vectors (eval's picks from
@@ -53,13 +54,41 @@ def _weight_matrix(module):
     return np.ascontiguousarray(full.transpose(2, 1, 0, 3).reshape(kw * kh * in_per_group * groups, out_c))
 
 
+def _pads(module):
+    """A convolution's padding as F.pad takes it, (left, right, top, bottom): its padding on
+    each side, or for padding='same' the kernel's span less one, split as torch splits it
+    (the odd one after)."""
+    if module.padding == "valid":
+        return (0, 0, 0, 0)
+    if module.padding == "same":
+        out = []
+        for d, k in reversed(list(zip(module.dilation, module.kernel_size))):
+            total = d * (k - 1)
+            out += [total // 2, total - total // 2]
+        return tuple(out)
+    ph, pw = module.padding
+    return (pw, pw, ph, ph)
+
+
+def _padded(module, x):
+    """A convolution's input padded as the layer pads it (padding_mode zeros, reflect,
+    replicate or circular): data movement before the crossbar, done in torch."""
+    pads = _pads(module)
+    if not any(pads):
+        return x
+    if module.padding_mode == "zeros":
+        return F.pad(x, pads)
+    return F.pad(x, pads, mode=module.padding_mode)
+
+
 def _columns(module, x):
     """The layer's input vectors, one per row, in eval's im2col order: a convolution's windows
-    (one per output position, row-major) with values ordered as _weight_matrix's rows."""
+    (one per output position, row-major) of its padded input, with values ordered as
+    _weight_matrix's rows."""
     if isinstance(module, torch.nn.Linear):
         return x.reshape(-1, x.shape[-1])
     kh, kw = _span(module)
-    cols = F.unfold(x, (kh, kw), padding=module.padding, stride=module.stride)
+    cols = F.unfold(_padded(module, x), (kh, kw), stride=module.stride)
     n, _, positions = cols.shape
     cols = cols.reshape(n, -1, kh, kw, positions).permute(0, 4, 3, 2, 1)
     return cols.reshape(n * positions, -1)
@@ -83,8 +112,9 @@ class AnalogConv2d(_Analog):
     def forward(self, x):
         m = self.software
         n, _, h, w = x.shape
-        oh = (h + 2 * m.padding[0] - m.dilation[0] * (m.kernel_size[0] - 1) - 1) // m.stride[0] + 1
-        ow = (w + 2 * m.padding[1] - m.dilation[1] * (m.kernel_size[1] - 1) - 1) // m.stride[1] + 1
+        left, right, top, bottom = _pads(m)
+        oh = (h + top + bottom - m.dilation[0] * (m.kernel_size[0] - 1) - 1) // m.stride[0] + 1
+        ow = (w + left + right - m.dilation[1] * (m.kernel_size[1] - 1) - 1) // m.stride[1] + 1
         y = self._matmul(_columns(m, x)).to(x.dtype).reshape(n, oh * ow, -1).transpose(1, 2).reshape(n, -1, oh, ow)
         if m.bias is not None:
             y = y + m.bias.detach().reshape(1, -1, 1, 1)

@@ -1,4 +1,5 @@
 #include "sw/analog/analog_layer.h"
+#include "sw/common/cancel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -114,9 +115,12 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
   const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
   const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
-  xbars_.clear();
-  reports_.clear();
+  // All or nothing: the crossbars replace the layer's only once every one is programmed (an
+  // error or a cancellation leaves the layer as it was).
+  std::vector<std::unique_ptr<Crossbar>> xbars;
+  std::vector<CrossbarReport> reports;
   for (size_t b = 0; b < blocks_.size(); ++b) {
+    check_cancel();
     try {
       const Block& blk = blocks_[b];
       auto xb = std::make_unique<Crossbar>();
@@ -135,12 +139,14 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
       add_programming_noise(*xb, static_cast<int>(b));
       set_adc_ranges(*xb, range_x);
       calibrate(*xb, in);
-      xbars_.push_back(std::move(xb));
-      reports_.push_back(rep);
+      xbars.push_back(std::move(xb));
+      reports.push_back(rep);
     } catch (const std::exception&) {
       rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
     }
   }
+  xbars_ = std::move(xbars);
+  reports_ = std::move(reports);
 }
 
 std::string AnalogLayer::crossbar_name(const Block& blk) const {
@@ -323,6 +329,7 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   }
   Mat<S> cur;
   for (int b = 0; b < crossbars(); ++b) {
+    check_cancel();
     try {
       analog<S>(b, *xq, cur);
       adc_inplace<S>(b, cur, *xq);

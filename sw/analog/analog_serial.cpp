@@ -17,6 +17,7 @@
 #endif
 
 #include "sw/analog/analog_layer_impl.h"
+#include "sw/common/cancel.h"
 
 namespace xbarsim {
 
@@ -460,6 +461,7 @@ void AnalogLayer::forward_serial(const RowMat<S>& xq, Mat<S>& y) const {
   for (int b = 0; b < crossbars(); ++b) {
     try {
       for (Eigen::Index first = 0; first < n; first += tile) {
+        check_cancel();
         analog<S>(b, codes, first, std::min(tile, n - first), cur);
         adc_inplace<S>(b, cur);
         recover_add<S>(b, cur, y);

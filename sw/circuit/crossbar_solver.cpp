@@ -1,5 +1,6 @@
 #include "sw/circuit/crossbar_solver.h"
 
+#include "sw/common/cancel.h"
 #include "sw/common/task_graph.h"
 
 #include <unistd.h>
@@ -8,6 +9,7 @@
 #include <cstdio>
 
 #include <cmath>
+#include <condition_variable>
 #include <exception>
 #include <mutex>
 #include <sstream>
@@ -95,22 +97,48 @@ Eigen::MatrixXd CrossbarSolver::column_currents(const Eigen::MatrixXd& v_in) con
 void parallel_for(int count, int threads, const std::function<void(int)>& f) {
   threads = std::max(1, std::min(threads, count));
   if (threads == 1 || on_worker_thread()) {  // nested (e.g. a solve inside a parallel image loop): inline
-    for (int k = 0; k < count; ++k) f(k);
+    for (int k = 0; k < count; ++k) {
+      check_cancel();
+      f(k);
+    }
     return;
   }
   std::exception_ptr error;
   std::mutex mu;
+  std::condition_variable done_cv;
+  int running = threads;
+  CancelScope* const scope = CancelScope::current();  // the workers stop when it asks to
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&, t] {
       on_worker_thread() = true;
+      CancelScope::Adopt adopt(scope);
       try {
-        for (int k = t; k < count; k += threads) f(k);
+        for (int k = t; k < count; k += threads) {
+          check_cancel();
+          f(k);
+        }
       } catch (...) {
         std::lock_guard<std::mutex> lock(mu);
         if (!error) error = std::current_exception();
       }
+      std::lock_guard<std::mutex> lock(mu);
+      if (--running == 0) done_cv.notify_all();
     });
+  }
+  if (scope && scope->owned_here()) {  // the owner keeps checking while the workers run
+    std::unique_lock<std::mutex> lock(mu);
+    do {
+      lock.unlock();
+      try {
+        scope->poll();  // calls the check when due
+      } catch (...) {   // a stop: the workers see it at their next check
+        lock.lock();
+        if (!error) error = std::current_exception();
+        continue;
+      }
+      lock.lock();
+    } while (!done_cv.wait_for(lock, scope->interval(), [&] { return running == 0; }));
   }
   for (auto& th : pool) th.join();
   if (error) std::rethrow_exception(error);

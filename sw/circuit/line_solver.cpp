@@ -1,4 +1,5 @@
 #include "sw/circuit/line_solver.h"
+#include "sw/common/cancel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -138,6 +139,7 @@ int LineSolver::pcg(const System& s, const double* rhs, double* x, Workspace& w,
   std::copy(z, z + mn, p);
   const double target2 = tol * tol * rz;
   for (int it = 1; it <= options_.max_iterations; ++it) {
+    check_cancel();
     schur_apply(s, p, q, w);
     const double alpha = rz / line_dot(p, q, mn);
     for (int k = 0; k < mn; ++k) {
@@ -180,6 +182,7 @@ int LineSolver::gmres(const System& s, const double* rhs, double* x, Workspace& 
   int total = 0;
   double prev_beta = 0;
   while (total < options_.max_iterations) {
+    check_cancel();
     const double beta = std::sqrt(line_dot(r, r, mn));
     if (beta <= target) return total;
     if (!std::isfinite(beta) || (prev_beta > 0 && beta > 0.99 * prev_beta)) break;  // overflow, stagnation
@@ -469,6 +472,7 @@ CircuitSolution LineSolver::solve_newton(const Eigen::VectorXd& v_in, Workspace&
   double last_step = 0;
   int inner_total = 0;
   for (int it = 1; it <= options_.newton_max_iterations; ++it) {
+    check_cancel();
     inner_total += newton_direction(st, w);
     last_step = newton_update(v_in, st, f_norm);
     f_norm = newton_residual(v_in, st, false, true);
@@ -513,6 +517,7 @@ Eigen::MatrixXd LineSolver::compute_effective_matrix() const {
     Workspace& w = ws[tid];
     std::vector<double> r_t(mn), r_b(mn), t(mn), b(mn);
     for (int c = tid; c < count; c += nthreads) {
+      check_cancel();
       std::fill(r_t.begin(), r_t.end(), 0.0);
       std::fill(r_b.begin(), r_b.end(), 0.0);
       if (by_rows) {

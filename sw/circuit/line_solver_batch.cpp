@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "sw/circuit/line_solver.h"
+#include "sw/common/cancel.h"
 #include "sw/circuit/line_solver_workspace.h"
 #include "sw/circuit/wire_voltages.h"
 #include "sw/common/errors.h"
@@ -106,6 +107,7 @@ Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
     BatchState st(mn, g.data(), ratio.data());
     Workspace w(mn, false);
     for (int k = tid; k < count; k += threads) {
+      check_cancel();
       try {
         if (batch_solve(v.row(k).data(), st, w, out.row(k).data())) continue;
       } catch (const SolverError&) {  // an inner solve failed: as for non-convergence

@@ -1,4 +1,5 @@
 #include "sw/circuit/nodal_solver.h"
+#include "sw/common/cancel.h"
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
@@ -161,6 +162,7 @@ CircuitSolution NodalSolver::solve_nonlinear(const Eigen::VectorXd& v_in) const 
   double last_step = 0;
   residual(x, rhs, f, &trip);
   for (int it = 1; it <= options_.newton_max_iterations; ++it) {
+    check_cancel();
     jac.setFromTriplets(trip.begin(), trip.end());
     if (!analyzed) {
       lu.analyzePattern(jac);

@@ -5,6 +5,7 @@
 
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/nodal_solver.h"
+#include "sw/common/cancel.h"
 #include "tests/circuit/random_crossbar.h"
 
 using namespace xbarsim;
@@ -180,5 +181,37 @@ TEST(Solvers, BadInputsAreRejected) {
     s->program(g);
     EXPECT_THROW(s->solve(Eigen::VectorXd::Zero(2)), InputError);
     EXPECT_THROW(s->column_currents(Eigen::MatrixXd::Zero(2, 2)), InputError);
+  }
+}
+
+// Cancellation (issue 38, Ctrl-C from Python): a scope whose check asks to stop makes a long
+// solve throw Cancelled, on one thread and on several (the owner keeps checking while it waits
+// for the workers); a scope that never stops changes no result; without a scope nothing checks.
+TEST(Cancellation, StopsSolvesOnOneAndSeveralThreads) {
+  CrossbarParams p;
+  p.memristor.model = MemristorModel::Sinh;
+  const auto g = random_g(32, 16, p, 7);
+  const auto v = random_v(400, 32, 0.0, 0.3, 8);
+  for (const int threads : {1, 2}) {
+    SolverOptions o;
+    o.threads = threads;
+    auto solver = make_crossbar_solver(p, o);
+    solver->program(g);
+    const Eigen::MatrixXd want = solver->column_currents(v.topRows(4));
+    int checks = 0;
+    {
+      CancelScope never([&] { return ++checks, false; }, std::chrono::milliseconds(0));
+      EXPECT_EQ(solver->column_currents(v.topRows(4)), want) << threads;
+    }
+    EXPECT_GT(checks, 0) << threads;
+    checks = 0;
+    {
+      CancelScope stop([&] { return ++checks >= 1; }, std::chrono::milliseconds(0));
+      EXPECT_THROW(solver->column_currents(v), Cancelled) << threads;
+      EXPECT_THROW(check_cancel(), Cancelled);  // stopped for good
+    }
+    EXPECT_EQ(checks, 1) << threads;
+    EXPECT_EQ(solver->column_currents(v.topRows(4)), want) << threads;  // no scope: solves as before
+    EXPECT_EQ(CancelScope::current(), nullptr);
   }
 }

@@ -136,3 +136,44 @@ def test_examples_run(script, tmp_path):
                        text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert r.stdout.count("\n") >= 3
+
+
+@pytest.mark.parametrize("key,value", [
+    ("converters.adc_bits", 2**63),          # beyond a C++ long long
+    ("converters.adc_bits", -2**64),
+    ("crossbar.r_wire", 10**400),            # an int beyond a double
+    ("crossbar.r_wire", float("nan")),
+    ("crossbar.r_wire", float("inf")),
+    ("crossbar.r_wire", {"a": 1}),           # wrong types
+    ("crossbar.r_wire", object()),
+    ("crossbar.r_wire", [1.0, {"a": 1}]),
+    ("converters.adc_bits", 4.5),
+    ("converters.adc_bits", [4, 99]),        # a sweep's value out of range
+])
+def test_every_bad_config_value_raises_value_error_naming_the_key(key, value):
+    # Issue 38: Config(overrides={key: 2**63}) raised RuntimeError "Unable to cast".
+    with pytest.raises(ValueError, match=key.replace(".", r"\.")):
+        xbarsim.Config(overrides={key: value})
+    cfg = xbarsim.Config()
+    with pytest.raises(ValueError, match=key.replace(".", r"\.")):
+        cfg.set(key, value)
+    assert cfg.get(key) == xbarsim.Config().get(key)  # left as it was
+    with pytest.raises(ValueError, match=key.replace(".", r"\.")):
+        xbarsim.overhead(preset="resnet20", overrides={key: value})
+
+
+def test_config_path_must_be_a_path(tmp_path):
+    with pytest.raises(ValueError, match="path must be the path of a YAML file"):
+        xbarsim.Config(2**63)
+    with pytest.raises(ValueError, match="configuration keys are dotted names"):
+        xbarsim.Config(overrides={1: 2})
+    with pytest.raises(ValueError, match="overrides must be a dict"):
+        xbarsim.Config(overrides=5)
+    with pytest.raises(ValueError, match="configuration keys are dotted names"):
+        xbarsim.Config().set(None, 2)
+    (tmp_path / "c.yaml").write_text("crossbar:\n  r_wire: 2.5\n")
+    assert xbarsim.Config(tmp_path / "c.yaml").get("crossbar.r_wire") == 2.5  # os.PathLike
+    # NumPy's scalars are numbers
+    cfg = xbarsim.Config(overrides={"converters.adc_bits": np.int64(6), "crossbar.r_wire": np.float32(0.5)})
+    assert cfg.get("converters.adc_bits") == 6 and cfg.get("crossbar.r_wire") == 0.5
+    assert xbarsim.Config(overrides={"converters.adc_bits": np.array([4, 6])}).sweep_points() == 2

@@ -87,3 +87,33 @@ def test_signed_layers_must_name_layers_of_the_model():
     analog = xtorch.convert(net, xbarsim.Config(), calibration=x, signed_layers=["0"])
     assert analog[0].crossbar.signed_inputs
     assert analog[0].crossbar.x_max == pytest.approx(float(x.max()), rel=1e-6)
+
+
+IDEAL = {"crossbar.r_wire": 1e-6, "crossbar.r_in": 1e-6, "crossbar.r_out": 1e-6, "converters.dac_bits": "none",
+         "converters.adc_bits": "none", "mitigation.method": "none"}
+
+
+@pytest.mark.parametrize("conv", [
+    dict(padding=1, padding_mode="reflect"),
+    dict(padding=(2, 1), padding_mode="replicate"),
+    dict(padding=(1, 2), padding_mode="circular", stride=2),
+    dict(padding="same", kernel_size=(2, 4)),  # even kernels: asymmetric, the extra row/column after
+    dict(padding="same", kernel_size=3, dilation=2, padding_mode="reflect"),
+    dict(padding="valid", groups=3),
+])
+def test_padding_modes_and_same_give_torchs_outputs(conv):
+    # Issue 38: reflect/replicate/circular padding became zero padding and padding='same'
+    # converted but failed on forward. The padding is data movement before the crossbar, so on an
+    # ideal circuit the converted layer gives torch's own Conv2d outputs.
+    torch.manual_seed(1)
+    args = dict(kernel_size=3)
+    args.update(conv)
+    net = torch.nn.Sequential(torch.nn.Conv2d(3, 6, **args)).eval()
+    x = torch.rand(2, 3, 7, 8)
+    with torch.no_grad():
+        want = net(x)
+    analog = xtorch.convert(net, xbarsim.Config(overrides=IDEAL), calibration=x)
+    with torch.no_grad():
+        got = analog(x)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=0, atol=1e-5 * float(want.abs().max()))
