@@ -187,7 +187,7 @@ MachineTraffic machine_traffic(const Model& m, const std::vector<std::vector<int
   MachineTraffic t;
   std::vector<int> source(m.values.size(), -1);  // the network's input: the off-chip port
   for (size_t k = 0; k < m.ops.size(); ++k) source[static_cast<size_t>(m.ops[k].out)] = op_tiles[k].front();
-  std::vector<std::pair<int, int>> tree;
+  std::vector<std::pair<long long, int>> tree;
   std::vector<std::pair<MeshGeometry::Link, int>> path;
   for (size_t v = 0; v < m.values.size(); ++v) {
     std::vector<int> remote;  // the consumers' tiles that are not the source's, in network order
