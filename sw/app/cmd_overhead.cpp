@@ -95,7 +95,7 @@ void print_machine(const MachineReport& r, const HardwareContext& hw) {
     return;
   }
   std::printf(
-      "mapping: %d of %d IMAs (%.1f %%) on %d of %d tiles; %.2f %% of the chip's cells hold weights; "
+      "mapping: %lld of %lld IMAs (%.1f %%) on %lld of %lld tiles; %.2f %% of the chip's cells hold weights; "
       "bottleneck %s\n",
       m.imas_used, m.imas_available, 100.0 * m.imas_used / m.imas_available, m.tiles_used, m.tiles_available,
       100.0 * m.cell_utilization, m.bottleneck >= 0 ? m.layers[m.bottleneck].name.c_str() : "-");
