@@ -412,7 +412,8 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
   }
   trace_buffer(output_, top + ".memory_out.bytes");
   sc_core::sc_trace(vcd_, bus_bytes_sig_, top + (machine_ ? ".noc.bytes_carried" : ".bus.bytes_carried"));
-  if (noc_) noc_->trace(vcd_, top + ".noc", &tracing_);  // every link's bytes: its utilization
+  // Every link's bytes (its utilization) where the network's tiles can send.
+  if (noc_) noc_->trace(vcd_, top + ".noc", &tracing_, machine_->mapping.tiles_used);
 }
 
 void Pipeline::traced(Stage& s, int image, bool busy, bool stall) {

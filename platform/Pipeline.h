@@ -62,7 +62,7 @@ struct PipelineResult {
   /// On a machine: bytes times the routers they crossed, the time transfers waited for busy
   /// links, and the bytes that stayed on their tile (written to its eDRAM without the mesh).
   double router_bytes = 0, noc_contention_ns = 0;
-  int noc_links = 0;  ///< the mesh's directed links (bus_busy_ns is summed over them)
+  long long noc_links = 0;  ///< the mesh's directed links (bus_busy_ns is summed over them)
   long long local_bytes = 0;
   /// platform.check_protocol: transactions checked and the base-protocol rules they broke.
   long long protocol_transactions = 0;

@@ -106,6 +106,7 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
           run_in_child([&] { return simulate_model(cfg, model, SimulationData{}, "", false).json; })));
     }
     const EvalPoint design = parse_eval_point(p.cfg);
+    require_fit(model, design.hw);  // as simulate and eval, before the crossbars are programmed
     // The crossbars are programmed once, on the evaluation's calibration images, for both the
     // platform (in a child process, which inherits them) and the evaluation.
     const auto t0 = std::chrono::steady_clock::now();

@@ -246,6 +246,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
     std::fprintf(stderr,
                  "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
                  "(batched Newton, about 0.6 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
+  require_fit(model, hw);  // before the crossbars are programmed
   std::unique_ptr<CrossbarBackend> own;
   if (!given && pc.timing_only) {  // the crossbars' layout only: nothing to program
     own = std::make_unique<CrossbarBackend>(model, ac);
@@ -267,9 +268,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
       throw InputError("mapping.scheme: sparse is not simulated on a machine (architecture.machine " + hw.arch.name +
                        "): its IMAs hold dense layers");
     machine = machine_report(model, hw, signed_inputs);
-    if (!machine->mapping.fits)
-      throw InputError("the network does not fit architecture.machine " + hw.arch.name + ": " +
-                       machine->mapping.reason);
+    require_fit(machine->mapping, hw.arch);
     plan = std::make_unique<MachinePlan>(MachinePlan{hw.arch, machine->mapping});
     pc.clock_mhz = 1e3 / hw.arch.ima.read_ns;     // the tiles' datapath clock: one read per cycle
     pc.crossbar_settle_ns = hw.arch.ima.read_ns;  // a read occupies the crossbars for a cycle

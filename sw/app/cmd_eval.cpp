@@ -46,6 +46,7 @@ int cmd_eval(int argc, char** argv) {
   const std::vector<EvalPoint> designs = check_sweep<EvalPoint>(base, points, parse_eval_point);
   Model model = load_onnx_model(find_model_file(args.require("--model"), base));
   apply_preprocessing_overrides(base, model.pre, model.input.c);
+  for (const EvalPoint& d : designs) require_fit(model, d.hw);  // every point, before any runs
   if (const std::string w = preprocessing_warning(model, base); !w.empty() && Ranks::root())
     std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);

@@ -3,6 +3,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
+#include <tuple>
 
 #include "sw/analog/input_slicing.h"
 #include "sw/common/input_file.h"
@@ -44,9 +46,13 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
   a.ima.input_register_bytes = ima.integer("input_register_bytes");
   a.ima.output_register_bytes = ima.integer("output_register_bytes");
   ima.finish();
-  if ((static_cast<long long>(a.ima.crossbars) * a.crossbar.cols) % a.ima.adcs != 0)
+  const long long ima_columns = static_cast<long long>(a.ima.crossbars) * a.crossbar.cols;
+  if (ima_columns > Architecture::kMaxImaColumns)
+    throw InputError(origin + ": an IMA's columns ('ima.crossbars' x 'crossbar.cols') = " + std::to_string(ima_columns) +
+                     " must be at most 2^30 = " + std::to_string(Architecture::kMaxImaColumns));
+  if (ima_columns % a.ima.adcs != 0)
     throw InputError(origin + ": 'ima.adcs' = " + std::to_string(a.ima.adcs) + " must divide the IMA's " +
-                     std::to_string(static_cast<long long>(a.ima.crossbars) * a.crossbar.cols) +
+                     std::to_string(ima_columns) +
                      " physical columns (crossbars x cols), which its ADCs share equally");
 
   YamlSection tile(root, "tile", origin);
@@ -87,11 +93,14 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
   YamlSection chip(root, "chip", origin);
   a.chip.tiles = chip.integer("tiles");
   a.chip.tiles_per_router = chip.integer("tiles_per_router");
-  {
+  const bool mesh_given = chip.has("mesh");
+  if (mesh_given) {
     YamlSection m = chip.section("mesh");
     a.chip.mesh_rows = m.integer("rows");
     a.chip.mesh_cols = m.integer("cols");
     m.finish();
+  } else {
+    std::tie(a.chip.mesh_rows, a.chip.mesh_cols) = derive_mesh(a.chip.routers_needed());
   }
   {
     YamlSection router = chip.section("router");
@@ -103,12 +112,40 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     offchip.finish();
   }
   chip.finish();
-  const long long places = static_cast<long long>(a.chip.routers()) * a.chip.tiles_per_router;
+  // The chip's crossbars (each factor at most 2^30: the product fits in 128 bits; within the
+  // limit every count of the machine fits in 64).
+  const __int128 chip_crossbars = static_cast<__int128>(a.chip.tiles) * a.tile.imas * a.ima.crossbars;
+  if (chip_crossbars > Architecture::kMaxChipCrossbars)
+    throw InputError(origin + ": the chip's crossbars ('chip.tiles' x 'tile.imas' x 'ima.crossbars') = " +
+                     std::to_string(a.chip.tiles) + " x " + std::to_string(a.tile.imas) + " x " +
+                     std::to_string(a.ima.crossbars) + " must be at most 2^53 = " +
+                     std::to_string(Architecture::kMaxChipCrossbars));
+  const long long places = a.chip.routers() * a.chip.tiles_per_router;
   if (places < a.chip.tiles)
     throw InputError(origin + ": 'chip.tiles' = " + std::to_string(a.chip.tiles) + " do not fit the mesh: " +
                      std::to_string(a.chip.mesh_rows) + " x " + std::to_string(a.chip.mesh_cols) + " routers of " +
                      std::to_string(a.chip.tiles_per_router) + " tiles hold " + std::to_string(places));
+  // Tile t sits at router t / tiles_per_router: routers beyond the last tile's would be priced
+  // (and simulated) for nothing.
+  const long long needed = a.chip.routers_needed();
+  if (mesh_given && a.chip.routers() > needed)
+    throw InputError(origin + ": 'chip.mesh' = " + std::to_string(a.chip.mesh_rows) + " x " +
+                     std::to_string(a.chip.mesh_cols) + ": " + std::to_string(a.chip.routers() - needed) +
+                     " of its " + std::to_string(a.chip.routers()) + " routers serve no tile ('chip.tiles' " +
+                     std::to_string(a.chip.tiles) + " at 'chip.tiles_per_router' " +
+                     std::to_string(a.chip.tiles_per_router) + " need " + std::to_string(needed) +
+                     "); give a mesh of " + std::to_string(needed) +
+                     " routers, or leave chip.mesh out to derive one");
   return a;
+}
+
+std::pair<int, int> derive_mesh(long long routers) {
+  if (routers < 1) throw std::logic_error("derive_mesh: no routers");
+  long long rows = static_cast<long long>(std::sqrt(static_cast<double>(routers)));
+  while (rows * rows > routers) --rows;
+  while ((rows + 1) * (rows + 1) <= routers) ++rows;
+  while (routers % rows != 0) --rows;
+  return {static_cast<int>(rows), static_cast<int>(routers / rows)};
 }
 
 const std::vector<std::string>& digital_op_names() {
@@ -190,7 +227,12 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
   v.weight_slices = mapping.weight_slices();
   CostModel per_read = cost;
   per_read.clock_mhz = 1e3 / arch.ima.read_ns;
-  const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v), leak = per_read.leakage_mw(v);
+  // Conversions are actions: a read converts every physical column once, at most what the
+  // ADCs can at their sample rate (fewer ADCs stretch the read); idle converters only leak.
+  const double conversions_per_ns =
+      std::min(v.adcs * lib.adc_sample_rate_gsps, static_cast<double>(v.sample_holds) / arch.ima.read_ns);
+  const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v, conversions_per_ns),
+                           leak = per_read.leakage_mw(v);
   const std::pair<const char*, double ComponentBreakdown::*> parts[] = {
       {"crossbar", &ComponentBreakdown::crossbar},
       {"adc", &ComponentBreakdown::adc},

@@ -6,6 +6,7 @@
 /// seed paper's setting, and every command's behaviour before machines existed).
 /// Architecture files live in configs/architectures/ (built in by name) or anywhere (a path).
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sw/analog/analog_spec.h"
@@ -20,7 +21,7 @@ namespace xbarsim {
 /// activation (Clip, LeakyRelu, Sigmoid, Tanh, HardSigmoid, HardSwish), softmax).
 struct UnitUse {
   std::string unit;
-  int count = 1;
+  long long count = 1;
   double actions_per_ns = 0;
   std::vector<std::string> ops;
 };
@@ -51,24 +52,42 @@ struct Architecture {
   struct Chip {
     int tiles = 0;
     int tiles_per_router = 1;
+    /// The routers' grid: chip.mesh, or derived (derive_mesh) when the file leaves it out.
     int mesh_rows = 0, mesh_cols = 0;
     UnitUse router;     ///< one per mesh node; actions_per_ns per link
     double hop_ns = 0;  ///< a transfer's head through one router
     UnitUse offchip;    ///< off-chip links
-    int routers() const { return mesh_rows * mesh_cols; }
+    long long routers() const { return static_cast<long long>(mesh_rows) * mesh_cols; }
+    /// Routers the tiles need: ceil(tiles / tiles_per_router).
+    long long routers_needed() const { return (static_cast<long long>(tiles) + tiles_per_router - 1) / tiles_per_router; }
   } chip;
+  /// Counts of the machine are 64-bit products of the file's counts (each at most 2^30); the
+  /// file's limits (parse_architecture) keep an IMA's columns within 2^30 and the chip's
+  /// crossbars within 2^53 (exact as doubles, which price them).
+  static constexpr long long kMaxImaColumns = 1LL << 30;
+  static constexpr long long kMaxChipCrossbars = 1LL << 53;
   /// Physical columns one ADC serves: the IMA's columns shared by its ADCs.
-  int columns_per_adc() const { return ima.crossbars * crossbar.cols / ima.adcs; }
-  long long crossbars() const { return static_cast<long long>(chip.tiles) * tile.imas * ima.crossbars; }
+  int columns_per_adc() const {
+    return static_cast<int>(static_cast<long long>(ima.crossbars) * crossbar.cols / ima.adcs);
+  }
+  long long imas() const { return static_cast<long long>(chip.tiles) * tile.imas; }
+  long long crossbars() const { return imas() * ima.crossbars; }
   /// Operations per ns a tile performs of the digital operation `op` (a name of
   /// digital_op_names()): every unit that lists it, at its rate; 0 when none does.
   double ops_per_ns(const std::string& op) const;
 };
 
 /// Parses an architecture file; errors name `origin`, the section and the key (unknown or
-/// missing keys, non-positive counts, a mesh too small for the tiles, ADCs that do not divide
-/// the IMA's columns).
+/// missing keys, non-positive counts or counts above 2^30, an IMA of more than 2^30 columns, a
+/// chip of more than 2^53 crossbars, ADCs that do not divide the IMA's columns, a mesh too small
+/// for the tiles or with routers that serve no tile). Without chip.mesh the mesh is derived:
+/// ceil(tiles / tiles_per_router) routers as rows x cols, rows the largest divisor not above
+/// the square root (ISAAC-CE's 42: 6 x 7; a prime count is a line).
 Architecture parse_architecture(const std::string& yaml_text, const std::string& origin);
+
+/// The mesh of exactly `routers` routers, as square as a rectangle of them can be: rows the
+/// largest divisor of `routers` not above its square root, cols = routers / rows.
+std::pair<int, int> derive_mesh(long long routers);
 
 /// The text of configs/architectures/<name>.yaml compiled in, or nullptr.
 const char* builtin_architecture_yaml(const char* name);

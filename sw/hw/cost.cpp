@@ -94,12 +94,16 @@ ComponentBreakdown CostModel::leakage_mw(const LayerInventory& v) const {
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
+  return peak_power_mw(v, v.adcs * lib.adc_sample_rate_gsps);
+}
+
+ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conversions_per_ns) const {
   // pJ per action x actions per ns (GHz) = mW. Every cell and converter of every array is
   // active: the arrays' cells present, not only the used ones (the paper's table).
   const double clock_ghz = clock_mhz * 1e-3;
   ComponentBreakdown p = leakage_mw(v);
   p.crossbar += v.cells_present * lib.cell.read_pj * clock_ghz;
-  p.adc += v.adcs * lib.adc.conversion_pj_at(adc_bits_priced()) * lib.adc_sample_rate_gsps;
+  p.adc += conversions_per_ns * lib.adc.conversion_pj_at(adc_bits_priced());
   p.dac += v.dacs * dac_conversion_pj() * clock_ghz;
   p.accumulator += v.accumulators * lib.accumulator.accumulate_pj * clock_ghz;
   // One read per cycle: every DAC reads its input register entry, every column is sampled;
@@ -107,7 +111,6 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
   p.shift_register += v.dacs * lib.shift_register.read_pj * clock_ghz;
   p.sample_hold += v.sample_holds * lib.sample_hold.sample_pj * clock_ghz;
   if (v.sliced()) {
-    const double conversions_per_ns = v.adcs * lib.adc_sample_rate_gsps;
     p.shift_add += conversions_per_ns * lib.shift_add.op_pj;
     p.output_register += conversions_per_ns * lib.output_register.write_pj;
   }

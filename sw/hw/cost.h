@@ -60,7 +60,12 @@ struct CostModel {
   long long shift_add_units(const LayerInventory& v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;
+  /// Every unit at its highest action rate: the ADCs at the library's sample rate.
   ComponentBreakdown peak_power_mw(const LayerInventory& v) const;
+  /// The same with the ADCs converting `conversions_per_ns` in all (what the reads need, when
+  /// that is less than they could: the idle ones only leak); each conversion is shifted, added
+  /// and written to the output register when reads are sliced.
+  ComponentBreakdown peak_power_mw(const LayerInventory& v, double conversions_per_ns) const;
   /// Area and leakage of the platform-level units: one interconnect, `digital_units` units.
   ComponentBreakdown platform_area_mm2(int digital_units) const;
   ComponentBreakdown platform_leakage_mw(int digital_units) const;

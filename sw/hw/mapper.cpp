@@ -32,7 +32,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
   m.machine = arch.name;
   m.imas_per_tile = arch.tile.imas;
   m.tiles_available = arch.chip.tiles;
-  m.imas_available = arch.chip.tiles * arch.tile.imas;
+  m.imas_available = arch.imas();
   const int L = static_cast<int>(layers.size());
   if (!pc.replication_per_layer.empty() && static_cast<int>(pc.replication_per_layer.size()) != L)
     throw InputError("platform.replication_per_layer lists " + std::to_string(pc.replication_per_layer.size()) +
@@ -43,7 +43,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     LayerPlacement p;
     p.name = v.name;
     p.crossbars = v.crossbars;
-    p.imas = static_cast<int>((v.crossbars + arch.ima.crossbars - 1) / arch.ima.crossbars);
+    p.imas = (v.crossbars + arch.ima.crossbars - 1) / arch.ima.crossbars;
     p.replication = pc.replication_per_layer.empty() ? pc.replication : pc.replication_per_layer[l];
     if (pc.auto_replication && pc.replication_per_layer.empty()) p.replication = 1;
     p.cell_utilization = static_cast<double>(v.cells_used) / (static_cast<double>(p.imas) * cells_per_ima);
@@ -85,7 +85,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     }
   }
   const long long needed = used();
-  m.imas_used = static_cast<int>(std::min<long long>(needed, m.imas_available));
+  m.imas_used = std::min(needed, m.imas_available);
   if (needed > m.imas_available) {
     long long crossbars = 0;
     for (const LayerPlacement& p : m.layers) crossbars += p.crossbars * p.replication;
@@ -96,8 +96,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
                std::to_string(arch.tile.imas) + ")";
     return m;
   }
-  int next = 0;
-  long long cells = 0;
+  long long next = 0, cells = 0;
   for (int l = 0; l < L; ++l) {
     m.layers[l].first_ima = next;
     next += m.layers[l].imas * m.layers[l].replication;
@@ -187,7 +186,7 @@ MachineTraffic machine_traffic(const Model& m, const std::vector<std::vector<int
   MachineTraffic t;
   std::vector<int> source(m.values.size(), -1);  // the network's input: the off-chip port
   for (size_t k = 0; k < m.ops.size(); ++k) source[static_cast<size_t>(m.ops[k].out)] = op_tiles[k].front();
-  std::vector<std::pair<int, int>> tree;
+  std::vector<std::pair<long long, int>> tree;
   std::vector<std::pair<MeshGeometry::Link, int>> path;
   for (size_t v = 0; v < m.values.size(); ++v) {
     std::vector<int> remote;  // the consumers' tiles that are not the source's, in network order

@@ -22,9 +22,9 @@ namespace xbarsim {
 struct LayerPlacement {
   std::string name;
   long long crossbars = 0;  ///< one copy
-  int imas = 0;             ///< one copy: ceil(crossbars / crossbars per IMA)
+  long long imas = 0;       ///< one copy: ceil(crossbars / crossbars per IMA)
   int replication = 1;
-  int first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
+  long long first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
   /// Per image, one copy's share: per row group (platform.grain_rows output rows), its
   /// iterations over the copies, rounded up, x input slices x read_ns.
   double compute_ns = 0;
@@ -32,7 +32,7 @@ struct LayerPlacement {
   double input_ns = 0;
   double stage_ns() const { return compute_ns > input_ns ? compute_ns : input_ns; }
   double cell_utilization = 0;  ///< cells its weights use / cells of its IMAs
-  int last_ima() const { return first_ima + imas * replication - 1; }
+  long long last_ima() const { return first_ima + imas * replication - 1; }
 };
 
 struct Mapping {
@@ -40,12 +40,12 @@ struct Mapping {
   bool fits = true;
   std::string reason;  ///< why it does not fit
   std::vector<LayerPlacement> layers;
-  int imas_used = 0, imas_available = 0, tiles_used = 0, tiles_available = 0;
+  long long imas_used = 0, imas_available = 0, tiles_used = 0, tiles_available = 0;  ///< 64-bit: tiles x IMAs
   double cell_utilization = 0;  ///< cells the weights use / cells of the chip
   int bottleneck = -1;          ///< the layer with the longest stage (-1: none)
-  int imas_per_tile = 0;
+  long long imas_per_tile = 0;
   /// The tile holding the chip-wide IMA `ima`.
-  int tile_of(int ima) const { return imas_per_tile ? ima / imas_per_tile : 0; }
+  int tile_of(long long ima) const { return imas_per_tile ? static_cast<int>(ima / imas_per_tile) : 0; }
   nlohmann::json to_json() const;
 };
 

@@ -19,7 +19,9 @@ struct MeshGeometry {
   /// injection (tile, 4) or ejection (tile, 5) port.
   using Link = std::pair<int, int>;
 
-  int tiles() const { return rows * cols * tiles_per_router; }
+  /// Counts of the mesh in 64 bits (a mesh of 2^30 routers has 2^32 links).
+  long long routers() const { return static_cast<long long>(rows) * cols; }
+  long long tiles() const { return routers() * tiles_per_router; }
   int router_of(int tile) const { return tile < 0 ? 0 : tile / tiles_per_router; }
   int x_of(int router) const { return router % cols; }
   int y_of(int router) const { return router / cols; }
@@ -29,13 +31,13 @@ struct MeshGeometry {
     return std::abs(x_of(a) - x_of(b)) + std::abs(y_of(a) - y_of(b));
   }
   /// The directed links of the mesh and of the tiles' ports (the off-chip port's not counted).
-  int links() const { return 4 * rows * cols + 2 * tiles(); }
+  long long links() const { return 4 * routers() + 2 * tiles(); }
   /// Slots for link_index(): every link and the off-chip port's two.
-  int link_slots() const { return 4 * rows * cols + 2 * (tiles() + 1); }
+  long long link_slots() const { return 4 * routers() + 2 * (tiles() + 1); }
   /// A link's index: the routers' mesh links first, then the two ports of the off-chip port
   /// (tile -1) and of every tile.
-  int link_index(const Link& l) const {
-    return l.second < 4 ? 4 * l.first + l.second : 4 * rows * cols + 2 * (l.first + 1) + (l.second - 4);
+  long long link_index(const Link& l) const {
+    return l.second < 4 ? 4LL * l.first + l.second : 4 * routers() + 2 * (l.first + 1LL) + (l.second - 4);
   }
 
   /// The links of the XY path from tile a to tile b, with the number of routers passed before
@@ -61,16 +63,18 @@ struct MeshGeometry {
   /// The multicast tree from `source` to `destinations` into `tree` as (link_index, depth),
   /// every link once (the XY paths from one source share their common links at one depth);
   /// returns the depth of the deepest destination. `path` is scratch.
-  int multicast_tree(int source, const std::vector<int>& destinations, std::vector<std::pair<int, int>>& tree,
+  int multicast_tree(int source, const std::vector<int>& destinations, std::vector<std::pair<long long, int>>& tree,
                      std::vector<std::pair<Link, int>>& path) const {
     tree.clear();
     int deepest = 0;
     for (int d : destinations) {
       path.clear();
       xy_path(source, d, path);
+      const bool first = tree.empty();  // one XY path passes a link once
       for (const auto& [link, depth] : path) {
-        const int k = link_index(link);
-        if (std::none_of(tree.begin(), tree.end(), [&](const std::pair<int, int>& e) { return e.first == k; }))
+        const long long k = link_index(link);
+        if (first ||
+            std::none_of(tree.begin(), tree.end(), [&](const std::pair<long long, int>& e) { return e.first == k; }))
           tree.push_back({k, depth});
       }
       deepest = std::max(deepest, path.back().second);

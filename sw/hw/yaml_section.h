@@ -66,12 +66,16 @@ class YamlSection {
                        " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return v;
   }
-  /// A positive integer (bits, column counts): 8.5 or 0 is an error, not truncated.
+  /// The largest count a hardware file may give (2^30): products of counts are then taken in
+  /// 64 bits, and a file states its own limits on them.
+  static constexpr int kMaxCount = 1 << 30;
+  /// A positive integer (bits, column counts) at most kMaxCount: 8.5 or 0 is an error, not truncated.
   int integer(const std::string& key) {
-    const double v = number(key, true);
-    if (v != std::floor(v) || v > (1 << 30))
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer, got '" +
-                       node_[key].Scalar() + "'");
+    const YAML::Node n = get(key);
+    double v = 0;
+    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || !(v >= 1) || v != std::floor(v) || v > kMaxCount)
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer at most " +
+                       std::to_string(kMaxCount) + ", got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return static_cast<int>(v);
   }
   Scaling scaling(const std::string& key) {

@@ -354,6 +354,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
                     double program_time_s, const std::function<void(int, int)>& evaluating, const ImageShard& shard,
                     const EvalJournal* journal) {
   const AnalogConfig& ac = point.ac;
+  require_fit(model, point.hw);  // as simulate: a machine the network does not fit is refused
   EvalResult r;
   r.ac = &point.ac;
   r.model = model.path;

@@ -1,6 +1,7 @@
 #include "sw/study/hardware.h"
 
 #include "sw/analog/input_slicing.h"
+#include "sw/nn/network.h"
 
 namespace xbarsim {
 
@@ -117,6 +118,15 @@ MachineReport machine_report(const Model& m, const HardwareContext& hw, const st
   const double weights = static_cast<double>(a.crossbar.rows) * (a.crossbar.cols / hw.mapping.columns_per_weight());
   r.peak_gops = 2.0 * weights / (slices * a.ima.read_ns) * static_cast<double>(a.crossbars());
   return r;
+}
+
+void require_fit(const Mapping& mapping, const Architecture& arch) {
+  if (!mapping.fits)
+    throw InputError("the network does not fit architecture.machine " + arch.name + ": " + mapping.reason);
+}
+
+void require_fit(const Model& m, const HardwareContext& hw) {
+  if (hw.arch.machine) require_fit(machine_report(m, hw, linear_inputs_signed(m)).mapping, hw.arch);
 }
 
 nlohmann::json MachineReport::to_json() const {

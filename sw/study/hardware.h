@@ -92,4 +92,14 @@ struct MachineReport {
 /// platform.replication); `signed_inputs` per linear layer as linear_inputs_signed.
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs);
 
+/// The rule every command applies on a machine (eval, simulate, explore's points, overhead):
+/// the network with its replication fits, or InputError "the network does not fit
+/// architecture.machine NAME: REASON" (the mapper's reason: the IMAs it needs against the
+/// machine's).
+void require_fit(const Mapping& mapping, const Architecture& arch);
+/// The same before any work: `m` mapped onto hw's machine with its layers' inputs as the graph
+/// says (linear_inputs_signed; whether a layer fits does not depend on its input slices).
+/// Nothing to check for layer-sized.
+void require_fit(const Model& m, const HardwareContext& hw);
+
 }  // namespace xbarsim

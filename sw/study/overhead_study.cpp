@@ -61,7 +61,10 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
     }
     r.layers.push_back(std::move(o));
   }
-  if (hw.arch.machine) r.machine = machine_report(m, hw, signed_inputs);
+  if (hw.arch.machine) {
+    r.machine = machine_report(m, hw, signed_inputs);
+    require_fit(r.machine->mapping, hw.arch);  // as every command: the network must fit the machine
+  }
   return r;
 }
 

@@ -184,3 +184,40 @@ TEST_F(BitSerialCli, SimulateQuantumSweepMovesTimingWithinTheBound) {
   }
   EXPECT_NE(j[3]["latency_us"].get<double>(), lat0);  // a quantum beyond an image's time does move it
 }
+
+// Issue 38 item 5: a network that does not fit the machine is refused by every command with
+// simulate's message (eval used to exit 0, pricing a 1-IMA chip that runs a 2-IMA network;
+// overhead printed the status after the bill). The tiny network's two layers take a 128 x 128
+// crossbar each: two IMAs of one crossbar; the machine has one.
+TEST_F(BitSerialCli, ANetworkTooLargeForTheMachineIsRefusedByEveryCommand) {
+  std::ofstream(path("small.yaml"))
+      << "name: small\ncrossbar: {rows: 128, cols: 128, cell_bits: 2}\n"
+         "ima: {crossbars: 1, adcs: 1, read_ns: 100, input_register_bytes: 128, output_register_bytes: 32}\n"
+         "tile:\n  imas: 1\n  edram: {kib: 64, bytes_per_ns: 38.4}\n  bus: {unit: tile_bus, bytes_per_ns: 38.4}\n"
+         "  units:\n    sigmoid: {count: 2, actions_per_ns: 1.2, ops: [relu, affine, activation, softmax]}\n"
+         "    maxpool: {count: 1, actions_per_ns: 1.2, ops: [maxpool, avgpool, globalavgpool]}\n"
+         "chip:\n  tiles: 1\n  tiles_per_router: 1\n  mesh: {rows: 1, cols: 1}\n"
+         "  router: {unit: router, bytes_per_ns: 38.4, hop_ns: 1}\n"
+         "  offchip: {unit: hypertransport, count: 1, bytes_per_ns: 6.4}\n";
+  const std::string machine = " --set architecture.machine=" + path("small.yaml") +
+                              " --set mapping.max_rows=128 --set mapping.max_cols=128 --set components.library=isaac";
+  const std::string message =
+      "the network does not fit architecture.machine small: the network needs 2 IMAs (2 crossbars in whole IMAs of "
+      "1), small has 1 (1 tiles x 1)";
+  for (const auto& [command, args] :
+       {std::pair<std::string, std::string>{"simulate", "--model tiny --images 2 --timing-only"},
+        {"eval", "--model tiny --images 2"},
+        {"overhead", "--model tiny"}}) {
+    const auto r = run(command, args + machine);
+    EXPECT_EQ(r.code, 2) << command << "\n" << r.out;
+    EXPECT_NE(r.out.find("error: " + message + "\n"), std::string::npos) << command << "\n" << r.out;
+  }
+  // explore: the point fails with the same reason.
+  const auto x = run("explore", "--model tiny --images 2" + machine + " --out " + path("x.jsonl") + " --json " +
+                                    path("x.json"));
+  ASSERT_EQ(x.code, 0) << x.out;
+  const auto j = json(path("x.json"));
+  ASSERT_EQ(j["points"].size(), 1u);
+  EXPECT_EQ(j["points"][0]["status"], "failed");
+  EXPECT_EQ(j["points"][0]["reason"], message);
+}

@@ -218,3 +218,45 @@ TEST(Robustness, RerunsWithNoiseAreByteIdenticalApartFromTiming) {  // determini
   };
   EXPECT_EQ(strip("/tmp/xbarsim_rb_a.json"), strip("/tmp/xbarsim_rb_b.json"));
 }
+
+namespace {
+
+/// ISAAC-CE's file with the chip's section replaced by `chip` (its tiles, router and mesh).
+std::string isaac_with(const std::string& name, long long tiles, long long imas, const std::string& mesh) {
+  return file(name, "name: big\ncrossbar: {rows: 128, cols: 128, cell_bits: 2}\n"
+                    "ima: {crossbars: 8, adcs: 8, read_ns: 100, input_register_bytes: 2048, output_register_bytes: 256}\n"
+                    "tile:\n  imas: " + std::to_string(imas) +
+                        "\n  edram: {kib: 64, bytes_per_ns: 38.4}\n  bus: {unit: tile_bus, bytes_per_ns: 38.4}\n"
+                        "  units:\n    sigmoid: {count: 2, actions_per_ns: 1.2, ops: [relu, affine, activation]}\n"
+                        "    maxpool: {count: 1, actions_per_ns: 1.2, ops: [maxpool, avgpool, globalavgpool]}\n"
+                        "chip:\n  tiles: " + std::to_string(tiles) + "\n  tiles_per_router: 4\n" +
+                        (mesh.empty() ? "" : "  mesh: " + mesh + "\n") +
+                        "  router: {unit: router, bytes_per_ns: 38.4, hop_ns: 1}\n"
+                        "  offchip: {unit: hypertransport, count: 4, bytes_per_ns: 6.4}\n");
+}
+
+}  // namespace
+
+// Issue 38 item 2: a machine's counts are 64-bit (overhead printed "409 of 496275456 IMAs" for
+// 1.68e11), a count beyond its limit is refused naming the key, and a simulation's memory
+// follows what the network uses: LeNet on a 5000 x 5000 mesh (1e8 tiles) ran out of memory
+// under 1.5 GB (its links' table alone took 2.4 GB).
+TEST(Robustness, HugeMachinesAreCountedInSixtyFourBitsAndSimulatedInTheMemoryTheyUse) {
+  const std::string isaac = " --config " + std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml --preset lenet";
+  const Result big = run("overhead" + isaac + " --set architecture.machine=" +
+                         isaac_with("big.yaml", 14000000, 12000, "{rows: 1750, cols: 2000}"));
+  ASSERT_EQ(big.code, 0) << big.out;
+  EXPECT_NE(big.out.find(" of 168000000000 IMAs"), std::string::npos) << big.out;
+  EXPECT_NE(big.out.find("14000000 tiles x 12000 IMAs"), std::string::npos) << big.out;
+  expect_clean_error(run("overhead" + isaac + " --set architecture.machine=" + isaac_with("t.yaml", 10000000000LL, 12, "")),
+                     2, "'chip.tiles' must be a positive integer at most 1073741824", "tiles 1e10");
+  expect_clean_error(
+      run("overhead" + isaac + " --set architecture.machine=" + isaac_with("p.yaml", 1 << 30, 1 << 30, "")), 2,
+      "'tile.imas'", "tiles x IMAs x crossbars beyond 2^53");
+#if !defined(__SANITIZE_ADDRESS__)
+  const Result sim = run("simulate" + isaac + " --timing-only --images 1 --set architecture.machine=" +
+                             isaac_with("mesh.yaml", 100000000, 12, "{rows: 5000, cols: 5000}"),
+                         "ulimit -v 1500000; ");
+  EXPECT_EQ(sim.code, 0) << sim.out;
+#endif
+}

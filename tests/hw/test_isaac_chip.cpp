@@ -132,7 +132,7 @@ TEST(Architecture, BadFilesAreRefusedWithTheKey) {
     }
   };
   refused("  adcs: 8 ", "  adcs: 7 ", "'ima.adcs' = 7 must divide");
-  refused("  tiles: 168", "  tiles: 169", "do not fit the mesh");
+  refused("  tiles: 168", "  tiles: 169\n  mesh: {rows: 6, cols: 7}", "do not fit the mesh");
   refused("  crossbars: 8", "  crossbars: 0", "'ima.crossbars' must be a positive");
   refused("  imas: 12", "  imas: 12\n  imaz: 3", "unknown key 'tile.imaz'");
   refused("    unit: tile_bus\n", "", "missing key 'tile.bus.unit'");
@@ -292,4 +292,129 @@ TEST(Mapper, EveryComputingOperationHasAUnitNameArchitecturesAccept) {
     const auto& names = digital_op_names();
     EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
   }
+}
+
+namespace {
+
+/// An architecture file: ISAAC-CE's units with the counts given; `mesh` is the chip.mesh
+/// section's text ("" leaves it out).
+std::string machine_yaml(long long tiles, long long imas, long long crossbars, long long adcs,
+                         const std::string& mesh = "", long long tiles_per_router = 4) {
+  return "name: m\ncrossbar: {rows: 128, cols: 128, cell_bits: 2}\n"
+         "ima: {crossbars: " + std::to_string(crossbars) + ", adcs: " + std::to_string(adcs) +
+         ", read_ns: 100, input_register_bytes: 2048, output_register_bytes: 256}\n"
+         "tile:\n  imas: " + std::to_string(imas) +
+         "\n  edram: {kib: 64, bytes_per_ns: 38.4}\n  bus: {unit: tile_bus, bytes_per_ns: 38.4}\n"
+         "  units:\n    sigmoid: {count: 2, actions_per_ns: 1.2, ops: [relu, affine, activation, softmax]}\n"
+         "    maxpool: {count: 1, actions_per_ns: 1.2, ops: [maxpool, avgpool, globalavgpool]}\n"
+         "    tile_shift_add: {count: 1, actions_per_ns: 1.2, ops: [add]}\n"
+         "    tile_output_register: {count: 1, actions_per_ns: 1.2}\n"
+         "chip:\n  tiles: " + std::to_string(tiles) + "\n  tiles_per_router: " + std::to_string(tiles_per_router) +
+         "\n" + (mesh.empty() ? "" : "  mesh: " + mesh + "\n") +
+         "  router: {unit: router, bytes_per_ns: 38.4, hop_ns: 0.8333}\n"
+         "  offchip: {unit: hypertransport, count: 4, bytes_per_ns: 6.4}\n";
+}
+
+std::string refusal(const std::string& yaml) {
+  try {
+    parse_architecture(yaml, "arch.yaml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+}  // namespace
+
+// Issue 38 item 2: the machine's counts are 64-bit products of the file's counts (each at most
+// 2^30); a product beyond 2^53 is refused naming its keys. (Before: tiles x IMAs wrapped in
+// 32 bits: 1.68e11 IMAs reported as 496275456, 1e9 tiles x 12 IMAs as -884901888.)
+TEST(Architecture, MachineCountsAreSixtyFourBitProducts) {
+  PlatformConfig pc;
+  const LayerInventory one = [] {
+    LayerInventory v;
+    v.name = "l";
+    v.crossbars = 8;
+    v.iterations = 1;
+    v.input = Shape{1, 1, 1};
+    v.cells_used = 1;
+    return v;
+  }();
+  // 14e6 tiles of 12000 IMAs on a 1750 x 2000 mesh of routers of 4 tiles (every router used).
+  const Architecture big = parse_architecture(machine_yaml(14000000, 12000, 8, 8, "{rows: 1750, cols: 2000}"), "a");
+  EXPECT_EQ(big.crossbars(), 14000000LL * 12000 * 8);
+  const Mapping m = map_network({one}, big, pc);
+  EXPECT_TRUE(m.fits) << m.reason;
+  EXPECT_EQ(m.imas_available, 168000000000LL);
+  // 1e9 tiles (the mesh derived: 2.5e8 routers).
+  const Architecture giga = parse_architecture(machine_yaml(1000000000, 12, 8, 8), "a");
+  EXPECT_EQ(giga.chip.routers(), 250000000LL);
+  const Mapping g = map_network({one}, giga, pc);
+  EXPECT_TRUE(g.fits) << g.reason;
+  EXPECT_EQ(g.imas_available, 12000000000LL);
+  EXPECT_EQ(g.tiles_available, 1000000000LL);
+  // Limits: a count above 2^30, and products above 2^53, are refused naming the key.
+  EXPECT_NE(refusal(machine_yaml(2000000000, 12, 8, 8)).find("'chip.tiles' must be a positive integer at most 1073741824"),
+            std::string::npos)
+      << refusal(machine_yaml(2000000000, 12, 8, 8));
+  const std::string chip = refusal(machine_yaml(1 << 30, 1 << 30, 8, 8));
+  EXPECT_NE(chip.find("arch.yaml: the chip's crossbars ('chip.tiles' x 'tile.imas' x 'ima.crossbars')"),
+            std::string::npos)
+      << chip;
+  EXPECT_NE(chip.find("at most 2^53"), std::string::npos) << chip;
+  const std::string ima = refusal(machine_yaml(4, 1, 1 << 30, 1 << 30));
+  EXPECT_NE(ima.find("an IMA's columns ('ima.crossbars' x 'crossbar.cols') = 137438953472"), std::string::npos) << ima;
+}
+
+// Issue 38 item 12: the mesh is derived from tiles / tiles_per_router when not given (21
+// routers for 84 tiles, as 3 x 7), and a given mesh with a router that serves no tile is
+// refused. Prices from ISAAC's published unit figures (Table 6), counted by hand: 84 tiles of
+// 12 IMAs, eDRAM, bus, 2 sigmoid, shift-and-add, max-pool, output register; 21 routers; 4
+// HyperTransport links = 54.17 mm^2 (with the 42 routers of 6 x 7: 57.34 mm^2).
+TEST(Architecture, TheMeshServesTheTilesAndIsDerivedWhenNotGiven) {
+  // The 6 x 7 mesh left in place for 84 tiles: 21 of its routers would serve none.
+  const std::string why = refusal(machine_yaml(84, 12, 8, 8, "{rows: 6, cols: 7}"));
+  EXPECT_NE(why.find("'chip.mesh'"), std::string::npos) << why;
+  EXPECT_NE(why.find("21 of its 42 routers serve no tile"), std::string::npos) << why;
+  const Architecture a = parse_architecture(machine_yaml(84, 12, 8, 8), "a");
+  EXPECT_EQ(a.chip.routers(), 21);
+  EXPECT_EQ(a.chip.mesh_rows, 3);
+  EXPECT_EQ(a.chip.mesh_cols, 7);
+  const Isaac isaac;  // ISAAC's library and datapath
+  const MachineBill bill = price_machine(a, isaac.cost, isaac.converters, isaac.mapping);
+  const double tile_mm2 = kImas.area_mm2 + kEdram.area_mm2 + kBus.area_mm2 + 2 * kSigmoid.area_mm2 +
+                          kShiftAdd.area_mm2 + kMaxPool.area_mm2 + kOutputRegister.area_mm2;
+  const double chip_mm2 = 84 * tile_mm2 + 21 * kRouterPerFourTiles.area_mm2 + kHyperTransport.area_mm2;
+  EXPECT_NEAR(chip_mm2, 54.17, 0.01);
+  expect_within_1_percent(MachineBill::area(bill.chip), chip_mm2, "84-tile chip area");
+  // ISAAC-CE's 168 tiles derive its published 6 x 7 mesh.
+  const Architecture ce = parse_architecture(machine_yaml(168, 12, 8, 8), "a");
+  EXPECT_EQ(ce.chip.mesh_rows, 6);
+  EXPECT_EQ(ce.chip.mesh_cols, 7);
+  // 83 tiles: 21 routers, the last serving 3.
+  EXPECT_EQ(parse_architecture(machine_yaml(83, 12, 8, 8), "a").chip.routers(), 21);
+  EXPECT_EQ(parse_architecture(machine_yaml(84, 12, 8, 8, "{rows: 7, cols: 3}"), "a").chip.routers(), 21);
+}
+
+// Issue 38 item 12: an ADC's conversions are actions (a read converts every physical column of
+// the IMA once per read_ns), idle converters only leak. An IMA of 4 crossbars with 8 ADCs
+// needs 512 conversions per 100 ns, half what its ADCs could do at 1.28 GS/s: 5.12 per ns x
+// 1.5625 pJ = 8 mW (not 16), its shift-and-add 5.12 x 0.01953125 pJ = 0.1 mW and its output
+// register 5.12 x 0.0224609375 pJ = 0.115 mW; with 0.5 mW of leakage per ADC, 8 x 0.5 more.
+// ADCs too few for a read per read_ns run at their full rate: 4 ADCs for 8 crossbars, 8 mW.
+TEST(IsaacChip, AnImaPricesTheConversionsItsReadsNeed) {
+  Isaac isaac;
+  auto line = [&](const Architecture& a, const char* unit) {
+    return isaac.line(price_machine(a, isaac.cost, isaac.converters, isaac.mapping).ima, unit);
+  };
+  const Architecture half = parse_architecture(machine_yaml(168, 12, 4, 8, "{rows: 6, cols: 7}"), "a");
+  EXPECT_NEAR(line(half, "adc").peak_mw, 8.0, 1e-9);
+  EXPECT_NEAR(line(half, "shift_add").peak_mw, 0.1, 1e-9);
+  EXPECT_NEAR(line(half, "output_register").peak_mw, 0.115, 1e-9);
+  isaac.cost.lib.adc.leakage_mw = 0.5;
+  EXPECT_NEAR(line(half, "adc").peak_mw, 8.0 + 8 * 0.5, 1e-9);
+  EXPECT_NEAR(line(half, "adc").leakage_mw, 8 * 0.5, 1e-9);
+  isaac.cost.lib.adc.leakage_mw = 0;
+  const Architecture scarce = parse_architecture(machine_yaml(168, 12, 8, 4, "{rows: 6, cols: 7}"), "a");
+  EXPECT_NEAR(line(scarce, "adc").peak_mw, 4 * 2.0, 1e-9);
 }

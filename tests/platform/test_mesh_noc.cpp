@@ -3,6 +3,7 @@
 // through the annotated delay (loosely timed), without running the simulation.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
 #include <tlm_utils/simple_initiator_socket.h>
 
 #include "platform/MeshNoc.h"
@@ -117,4 +118,22 @@ TEST(MeshNoc, ATransferMovesItsWireBytesNotItsDataLength) {
   if (!made) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone";
   EXPECT_DOUBLE_EQ(made->send(0, {3}, 400, 0, 100), 13.0);  // as 100 bytes: 10 ns per link, depth 3
   EXPECT_EQ(made->noc.bytes(), 100);
+}
+
+// Issue 38 item 2: the mesh's memory follows the links transfers use, not the mesh's size. A
+// 20000 x 20000 mesh of 4 tiles per router (1.6e9 tiles, 2.4e9 link slots, 19 GB as a table
+// of doubles; before, the count wrapped in 32 bits and a 3.8 GiB table was indexed past its
+// end) times a transfer across it by hand: tile 0 to the last tile crosses 19999 + 19999
+// mesh links, depth 39999 at 1 ns per router, plus 10 ns for 100 bytes.
+TEST(MeshNoc, AHugeMeshTakesMemoryForTheLinksItUses) {
+  Mesh* made = Mesh::make(20000, 20000, 4);
+  if (!made) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone";
+  const int last = 20000 * 20000 * 4 - 1;
+  EXPECT_EQ(made->noc.geometry().tiles(), 1600000000LL);
+  EXPECT_EQ(made->noc.hops(0, last), 39998);
+  EXPECT_DOUBLE_EQ(made->send(0, {last}, 100, 0), 39999 + 10.0);
+  EXPECT_EQ(made->noc.links(), 4LL * 20000 * 20000 + 2LL * 1600000000);
+  struct rusage ru;
+  getrusage(RUSAGE_SELF, &ru);
+  EXPECT_LT(ru.ru_maxrss, 512 * 1024) << "KiB resident";  // the process, SystemC and gtest included
 }
