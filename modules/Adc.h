@@ -13,6 +13,7 @@
 
 #include "modules/LayerJob.h"
 #include "sw/hw/inventory.h"
+#include "sw/hw/platform_spec.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
@@ -54,9 +55,7 @@ class Adc : public sc_core::sc_module {
   int adcs_for(int columns) const { return static_cast<int>(adcs_for_columns(columns, columns_per_adc_)); }
   /// Time of one iteration's conversions on a crossbar of `columns` columns (ns).
   double iteration_ns(int columns) const {
-    if (crossbars_per_adc_ > 1) return static_cast<double>(columns) * crossbars_per_adc_ / rate_gsps_;
-    const int a = adcs_for(columns);
-    return std::ceil(static_cast<double>(columns) / a) / rate_gsps_;
+    return adc_read_ns(columns, columns_per_adc_, crossbars_per_adc_, rate_gsps_);
   }
 
  private:

@@ -243,35 +243,35 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     : sc_module(name),
       model_(model),
       programmed_(programmed),
-      cfg_(cfg),
+      cfg_(machine ? machine_platform(cfg, machine->arch) : cfg),
       sparse_ns_(std::move(sparse_ns)),
       image_(std::move(image)),
       progress_(std::move(progress)),
       machine_(machine),
       consumers_of_(model.values.size()),
       values_(std::make_unique<Values>(model, cfg.timing_only)) {
-  if (!cfg.timing_only) {
+  if (!cfg_.timing_only) {
     // The values are computed by worker tasks in the order the processes reach them, at most
     // `window_` images ahead of the last whose values are done (their activations are kept).
-    const int workers = std::max(1, cfg.threads);
+    const int workers = std::max(1, cfg_.threads);
     scratch_.resize(static_cast<size_t>(workers));
     for (auto& per_worker : scratch_)
       for (size_t l = 0; l < model.linear.size(); ++l) per_worker.push_back(std::make_unique<LayerJob>());
     window_ = std::max(4, 4 * workers);
     tasks_ = std::make_unique<TaskGraph>(workers);
   }
-  if (cfg.quantum_ns > 0)
-    tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg.quantum_ns, sc_core::SC_NS));
+  if (cfg_.quantum_ns > 0)
+    tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg_.quantum_ns, sc_core::SC_NS));
   if (machine_) {
     const Architecture& a = machine_->arch;
     noc_ = std::make_unique<MeshNoc>("noc", a.chip.mesh_rows, a.chip.mesh_cols, a.chip.tiles_per_router,
                                      a.chip.router.actions_per_ns, a.chip.hop_ns);
   } else {
-    bus_ = std::make_unique<Bus>("bus", cfg.clock_ns(), cfg.link_bytes_per_cycle, cfg.hop_cycles, cfg.bus_lanes);
+    bus_ = std::make_unique<Bus>("bus", cfg_.clock_ns(), cfg_.link_bytes_per_cycle, cfg_.hop_cycles, cfg_.bus_lanes);
   }
   // An initiator bound to a target, through a base-protocol checker when asked.
   auto bind = [&](auto& initiator, auto& target, const std::string& what) {
-    if (!cfg.check_protocol) {
+    if (!cfg_.check_protocol) {
       initiator.bind(target);
       return;
     }
@@ -293,7 +293,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     auto s = std::make_unique<Stage>(("stage_" + std::to_string(k)).c_str(), this);
     s->op = &op;
     s->out_shape = model.values[op.out];
-    s->out_row_bytes = activation_row_bytes(s->out_shape, cfg.activation_bytes);
+    s->out_row_bytes = activation_row_bytes(s->out_shape, cfg_.activation_bytes);
     s->stats.name = op.name;
     s->stats.kind = op.kind;
     s->stats.linear = op.linear;
@@ -310,13 +310,13 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
         op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
     for (int v : op.in) {
       const Shape in = model.values[v];
-      const long long rb = activation_row_bytes(in, cfg.activation_bytes);
-      const long long cap = cfg.buffer_bytes > 0
-                                ? cfg.buffer_bytes
-                                : rb * auto_buffer_rows(model, op, in, !cfg.pipelined || sparse_layer, cfg.grain_rows);
-      if (cap < rb * std::min(cfg.grain_rows, in.h))
+      const long long rb = activation_row_bytes(in, cfg_.activation_bytes);
+      const long long cap = cfg_.buffer_bytes > 0
+                                ? cfg_.buffer_bytes
+                                : rb * auto_buffer_rows(model, op, in, !cfg_.pipelined || sparse_layer, cfg_.grain_rows);
+      if (cap < rb * std::min(cfg_.grain_rows, in.h))
         throw InputError("platform.buffer_bytes = " + std::to_string(cap) + " cannot hold one transaction (" +
-                         std::to_string(std::min(cfg.grain_rows, in.h)) + " rows of " + std::to_string(rb) +
+                         std::to_string(std::min(cfg_.grain_rows, in.h)) + " rows of " + std::to_string(rb) +
                          " bytes) of the input of '" + op.name + "'");
       buffers_.push_back(std::make_unique<RowBuffer>(op.name + ".in", cap, rb, in.h));
       tiles_of_[buffers_.back().get()] = tiles;
@@ -326,7 +326,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->stats.buffer_bytes += cap;
     }
     if (op.kind == OpKind::Linear) {
-      s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg);
+      s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg_);
       s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
           ("stage2tile_" + std::to_string(op.linear)).c_str());
       bind(*s->stage2tile, s->tile->noc2tile, "tile_" + std::to_string(op.linear));
@@ -338,7 +338,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     stages_.push_back(std::move(s));
   }
   const Shape out = model.values[model.output];
-  const long long ob = activation_row_bytes(out, cfg.activation_bytes);
+  const long long ob = activation_row_bytes(out, cfg_.activation_bytes);
   buffers_.push_back(std::make_unique<RowBuffer>("memory.out", ob * out.h, ob, out.h));
   tiles_of_[buffers_.back().get()] = {-1};  // off-chip: out through router 0
   output_ = buffers_.back().get();

@@ -270,9 +270,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
     machine = machine_report(model, hw, signed_inputs);
     require_fit(machine->mapping, hw.arch);
     plan = std::make_unique<MachinePlan>(MachinePlan{hw.arch, machine->mapping});
-    pc.clock_mhz = 1e3 / hw.arch.ima.read_ns;     // the tiles' datapath clock: one read per cycle
-    pc.crossbar_settle_ns = hw.arch.ima.read_ns;  // a read occupies the crossbars for a cycle
-    pc.crossbars_per_adc = std::max(1, hw.arch.columns_per_adc() / hw.arch.crossbar.cols);
+    pc = machine_platform(pc, hw.arch);  // the tiles' timing, as the pipeline and the mapper take it
   }
   std::vector<int> replication;
   if (plan)

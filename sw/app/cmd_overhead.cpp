@@ -92,9 +92,9 @@ void print_machine(const MachineReport& r, const HardwareContext& hw) {
   const Mapping& m = r.mapping;  // it fits (overhead_study refuses a network that does not)
   std::printf(
       "mapping: %lld of %lld IMAs (%.1f %%) on %lld of %lld tiles; %.2f %% of the chip's cells hold weights; "
-      "bottleneck %s\n",
+      "predicted bottleneck %s (%.3f us per image)\n",
       m.imas_used, m.imas_available, 100.0 * m.imas_used / m.imas_available, m.tiles_used, m.tiles_available,
-      100.0 * m.cell_utilization, m.bottleneck >= 0 ? m.layers[m.bottleneck].name.c_str() : "-");
+      100.0 * m.cell_utilization, m.bottleneck_stage.empty() ? "-" : m.bottleneck_stage.c_str(), m.bottleneck_ns * 1e-3);
   std::vector<std::string> names;
   for (const LayerPlacement& p : m.layers) names.push_back(p.name);
   const Table t({{"layer", fit_width("layer", names)},

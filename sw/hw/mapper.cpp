@@ -9,37 +9,111 @@ namespace xbarsim {
 
 namespace {
 
-/// The iterations a layer's copies can share: one row group's (platform.grain_rows output
-/// rows; the pipeline hands a layer its inputs a row group at a time).
-long long group_iterations(const LayerInventory& v, int grain_rows) {
-  const long long rows = std::max(1, v.output.h), groups = (rows + grain_rows - 1) / grain_rows;
-  return (v.iterations + groups - 1) / groups;
+/// A layer's iterations as the simulated tile times them: the output's rows x columns, each
+/// iteration's interval by its output column (only the input register's reload at a row's
+/// start, or at every step when the stride skips the kernel, differs), and the fill the
+/// image's first iteration adds.
+struct LayerTiming {
+  long long rows = 1, cols = 1, iterations = 0;
+  std::vector<double> ii_ns;  ///< per output column
+  double fill_ns = 0;
+};
+
+LayerTiming layer_timing(const LayerInventory& v, const LinearLayer* L, const MappingSpec* mapping,
+                         const PlatformConfig& pc) {
+  LayerTiming t;
+  t.iterations = v.iterations;
+  if (L) {
+    t.rows = std::max(1, L->out.h);
+    t.cols = std::max(1, L->out.w);
+  } else {
+    t.rows = std::max(1, v.output.h);
+    t.cols = std::max(1LL, (v.iterations + t.rows - 1) / t.rows);
+  }
+  const double clk = pc.clock_ns(), S = v.input_slices;
+  if (!pc.detailed) {  // a read per cycle
+    t.ii_ns.assign(static_cast<size_t>(t.cols), clk * S);
+    return t;
+  }
+  auto whole_cycles = [&](double ns) { return std::ceil(ns / clk - 1e-9) * clk; };
+  // The conversions of a read: the slowest crossbar's (balanced column blocks: the widest, and
+  // one weight column narrower).
+  const long long blocks = std::max(1LL, v.col_blocks);
+  std::vector<long long> widths;
+  if (mapping) {
+    const long long wide = (v.cols + blocks - 1) / blocks, narrow = v.cols / blocks;
+    widths.push_back(mapping->physical_columns(static_cast<int>(wide)));
+    if (narrow > 0) widths.push_back(mapping->physical_columns(static_cast<int>(narrow)));
+  } else {
+    widths.push_back((v.physical_cols + blocks - 1) / blocks);
+  }
+  double adc = 0;
+  for (long long w : widths)
+    adc = std::max(adc, adc_read_ns(w, pc.adc_columns_per_unit, pc.crossbars_per_adc, pc.adc_rate_gsps));
+  const double per_read = std::max({pc.dac_latency_ns * S, pc.crossbar_settle_ns * S, adc * S});
+  auto shift_ns = [&](long long ox) -> double {
+    if (!L) return 0;
+    const bool reload = ox == 0 || L->stride_w >= L->k_w;
+    const long long entries = reload ? L->rows() : static_cast<long long>(L->stride_w) * L->k_h * L->c_in;
+    return std::ceil(static_cast<double>(entries) / pc.shift_entries_per_cycle) * clk;
+  };
+  for (long long ox = 0; ox < t.cols; ++ox)
+    t.ii_ns.push_back(whole_cycles(std::max({shift_ns(ox), per_read, pc.accumulator_latency_ns})));
+  const double first = shift_ns(0) + (pc.dac_latency_ns + pc.crossbar_settle_ns + adc) * S + pc.accumulator_latency_ns;
+  t.fill_ns = whole_cycles(first) - t.ii_ns[0];
+  return t;
 }
 
-/// Crossbar reads of one copy per image, at one read per read_ns: every row group's
-/// iterations shared by the copies, times the input slices.
-double compute_ns(const LayerInventory& v, const Architecture& arch, int copies, int grain_rows) {
-  const long long per_group = group_iterations(v, grain_rows);
-  const long long groups = (v.iterations + per_group - 1) / std::max(1LL, per_group);
-  return static_cast<double>(groups * ((per_group + copies - 1) / copies)) * v.input_slices * arch.ima.read_ns;
+/// Per image, the time `copies` copies of a layer compute, as Pipeline::busy_time: per row
+/// group, its iterations in contiguous shares over the copies (those that have one), the
+/// slowest share; the first group's first share adds the fill.
+double compute_ns(const LayerTiming& t, int copies, int grain_rows) {
+  grain_rows = std::max(1, grain_rows);
+  double total = 0;
+  for (long long r0 = 0; r0 < t.rows; r0 += grain_rows) {
+    const long long first = r0 * t.cols;
+    const long long n = std::min((std::min(t.rows, r0 + grain_rows) - r0) * t.cols, t.iterations - first);
+    if (n <= 0) break;
+    const long long nrep = std::max(1LL, std::min<long long>(copies, n));
+    double slowest = 0;
+    for (long long q = 0; q < nrep; ++q) {
+      double share = r0 == 0 && q == 0 ? t.fill_ns : 0.0;
+      for (long long k = first + q * n / nrep; k < first + (q + 1) * n / nrep; ++k)
+        share += t.ii_ns[static_cast<size_t>(k % t.cols)];
+      slowest = std::max(slowest, share);
+    }
+    total += slowest;
+  }
+  return total;
+}
+
+/// The iterations a layer's copies can share: one row group's.
+long long group_iterations(const LayerTiming& t, int grain_rows) {
+  return std::min(t.iterations, std::min<long long>(t.rows, std::max(1, grain_rows)) * t.cols);
 }
 
 }  // namespace
 
-Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc) {
+Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& config,
+                    const Model* model, const MappingSpec* mapping) {
   if (!arch.machine) throw std::logic_error("map_network: layer-sized is no machine");
+  const PlatformConfig pc = machine_platform(config, arch);  // the timing the simulated tiles run with
   Mapping m;
   m.machine = arch.name;
   m.imas_per_tile = arch.tile.imas;
   m.tiles_available = arch.chip.tiles;
   m.imas_available = arch.imas();
   const int L = static_cast<int>(layers.size());
+  if (model && model->linear.size() != layers.size())
+    throw std::logic_error("map_network: the model's linear layers are not the inventories'");
   if (!pc.replication_per_layer.empty() && static_cast<int>(pc.replication_per_layer.size()) != L)
     throw InputError("platform.replication_per_layer lists " + std::to_string(pc.replication_per_layer.size()) +
                      " values for " + std::to_string(L) + " linear layers");
   const long long cells_per_ima = static_cast<long long>(arch.ima.crossbars) * arch.crossbar.rows * arch.crossbar.cols;
+  std::vector<LayerTiming> timing;
   for (int l = 0; l < L; ++l) {
     const LayerInventory& v = layers[l];
+    timing.push_back(layer_timing(v, model ? &model->linear[static_cast<size_t>(l)] : nullptr, mapping, pc));
     LayerPlacement p;
     p.name = v.name;
     p.crossbars = v.crossbars;
@@ -48,6 +122,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     if (pc.auto_replication && pc.replication_per_layer.empty()) p.replication = 1;
     p.cell_utilization = static_cast<double>(v.cells_used) / (static_cast<double>(p.imas) * cells_per_ima);
     p.input_ns = static_cast<double>(v.input.size()) * pc.activation_bytes / arch.chip.router.actions_per_ns;
+    p.iteration_ns = timing.back().ii_ns.back();
     m.layers.push_back(p);
   }
   auto used = [&] {
@@ -55,18 +130,17 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     for (const LayerPlacement& p : m.layers) n += static_cast<long long>(p.imas) * p.replication;
     return n;
   };
-  auto update_times = [&] {
-    for (int l = 0; l < L; ++l)
-      m.layers[l].compute_ns = compute_ns(layers[l], arch, m.layers[l].replication, pc.grain_rows);
+  auto update_time = [&](int l) {
+    m.layers[l].compute_ns = compute_ns(timing[l], m.layers[l].replication, pc.grain_rows);
   };
-  update_times();
+  for (int l = 0; l < L; ++l) update_time(l);
   if (pc.auto_replication && pc.replication_per_layer.empty()) {
     // Greedy, as ISAAC balances its pipeline: more copies of the slowest stage that can gain
     // from them: compute-bound (a stage bound by its input link gains nothing), and IMAs for
     // the fewest copies that take an iteration off each copy's share of a row group. Once the
     // bottleneck cannot grow, the spare IMAs shorten the other stages (latency, and the fill).
     auto next_copies = [&](int l) {  // 0: no more copies help
-      const long long g = group_iterations(layers[l], pc.grain_rows), c = m.layers[l].replication;
+      const long long g = group_iterations(timing[l], pc.grain_rows), c = m.layers[l].replication;
       const long long share = (g + c - 1) / c;
       return share <= 1 ? 0LL : (g + share - 2) / (share - 1);
     };
@@ -81,7 +155,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
       }
       if (slow < 0) break;
       m.layers[slow].replication = static_cast<int>(next_copies(slow));
-      update_times();
+      update_time(slow);
     }
   }
   const long long needed = used();
@@ -105,6 +179,32 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
   }
   m.tiles_used = next ? m.tile_of(next - 1) + 1 : 0;
   m.cell_utilization = static_cast<double>(cells) / (static_cast<double>(m.imas_available) * cells_per_ima);
+  if (m.bottleneck >= 0) {
+    m.bottleneck_stage = m.layers[m.bottleneck].name;
+    m.bottleneck_ns = m.layers[m.bottleneck].stage_ns();
+  }
+  if (model) {
+    // Its digital operations, as the simulation runs them: a row group's operations at the
+    // rate of the tile's units that perform them.
+    const std::vector<std::vector<int>> tiles = place_operations(*model, m);
+    for (size_t k = 0; k < model->ops.size(); ++k) {
+      const Op& op = model->ops[k];
+      if (op.kind == OpKind::Linear) continue;
+      DigitalPlacement d;
+      d.name = op.name;
+      d.operation = digital_op_name(op.kind);
+      const Shape& out = model->values[static_cast<size_t>(op.out)];
+      d.ops = digital_row_ops(op, out, model->values[static_cast<size_t>(op.in[0])]) * out.h;
+      const double rate = d.operation.empty() ? 0.0 : arch.ops_per_ns(d.operation);
+      d.busy_ns = rate > 0 ? static_cast<double>(d.ops) / rate : 0.0;
+      d.tile = tiles[k].front();
+      if (d.busy_ns > m.bottleneck_ns) {
+        m.bottleneck_stage = d.name;
+        m.bottleneck_ns = d.busy_ns;
+      }
+      m.digital.push_back(d);
+    }
+  }
   return m;
 }
 
@@ -120,6 +220,7 @@ nlohmann::json Mapping::to_json() const {
          {"tiles", p.first_ima < 0 ? nlohmann::json() : nlohmann::json{tile_of(p.first_ima), tile_of(p.last_ima())}},
          {"compute_ns", p.compute_ns},
          {"input_ns", p.input_ns},
+         {"iteration_ns", p.iteration_ns},
          {"stage_ns", p.stage_ns()},
          {"cell_utilization", p.cell_utilization}});
   nlohmann::json j = {{"machine", machine},
@@ -130,8 +231,19 @@ nlohmann::json Mapping::to_json() const {
                       {"tiles_available", tiles_available},
                       {"ima_utilization", imas_available ? static_cast<double>(imas_used) / imas_available : 0.0},
                       {"cell_utilization", cell_utilization},
-                      {"bottleneck", bottleneck >= 0 ? nlohmann::json(layers[bottleneck].name) : nlohmann::json()},
+                      {"predicted_bottleneck", bottleneck_stage.empty() ? nlohmann::json() : nlohmann::json(bottleneck_stage)},
+                      {"predicted_bottleneck_us", bottleneck_ns * 1e-3},
                       {"layers", layers_json}};
+  if (!digital.empty()) {
+    nlohmann::json d = nlohmann::json::array();
+    for (const DigitalPlacement& p : digital)
+      d.push_back({{"name", p.name},
+                   {"operation", p.operation.empty() ? "data movement" : p.operation},
+                   {"tile", p.tile},
+                   {"operations", p.ops},
+                   {"busy_ns", p.busy_ns}});
+    j["digital"] = d;
+  }
   if (!fits) j["reason"] = reason;
   return j;
 }

@@ -25,14 +25,31 @@ struct LayerPlacement {
   long long imas = 0;       ///< one copy: ceil(crossbars / crossbars per IMA)
   int replication = 1;
   long long first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
-  /// Per image, one copy's share: per row group (platform.grain_rows output rows), its
-  /// iterations over the copies, rounded up, x input slices x read_ns.
+  /// Per image, the time its copies compute, as the simulated tile times it (a closed form of
+  /// platform/Tile.h and Pipeline::busy_time, with machine_platform's timing): every iteration
+  /// takes its slowest stage in whole cycles (input register shifts, DACs, the crossbars' read,
+  /// the ADCs' conversions (adc_read_ns, k crossbars sharing an ADC: k times a crossbar's
+  /// columns), accumulation; slices x a read for the per-read stages); per row group
+  /// (platform.grain_rows output rows) the copies take contiguous shares of its iterations and
+  /// the slowest share counts; the image's first group adds the datapath's fill.
   double compute_ns = 0;
+  double iteration_ns = 0;  ///< the interval of an iteration that does not reload its input register
   /// Per image: its input activations over one router link (replication does not shorten it).
   double input_ns = 0;
   double stage_ns() const { return compute_ns > input_ns ? compute_ns : input_ns; }
   double cell_utilization = 0;  ///< cells its weights use / cells of its IMAs
   long long last_ima() const { return first_ima + imas * replication - 1; }
+};
+
+/// A digital operation of the network (ReLU, Add, pooling, ...) as the simulation runs it: on
+/// the tile its first input comes from, by the tile's units that list it (tile.units.*.ops), all
+/// of them at their summed rate (Architecture::ops_per_ns).
+struct DigitalPlacement {
+  std::string name;
+  std::string operation;  ///< its unit operation (digital_op_name), "" when it only moves data
+  long long ops = 0;      ///< per image
+  double busy_ns = 0;     ///< per image: ops / the tile's rate for it (0: moves data, or no unit performs it)
+  int tile = -1;
 };
 
 struct Mapping {
@@ -42,7 +59,12 @@ struct Mapping {
   std::vector<LayerPlacement> layers;
   long long imas_used = 0, imas_available = 0, tiles_used = 0, tiles_available = 0;  ///< 64-bit: tiles x IMAs
   double cell_utilization = 0;  ///< cells the weights use / cells of the chip
-  int bottleneck = -1;          ///< the layer with the longest stage (-1: none)
+  int bottleneck = -1;          ///< the linear layer with the longest stage (-1: none)
+  std::vector<DigitalPlacement> digital;  ///< with the model: its digital operations, in network order
+  /// The stage predicted to bound the pipeline: the longest of every linear layer's stage and
+  /// every digital operation's busy time (the simulation reports the one it measured).
+  std::string bottleneck_stage;
+  double bottleneck_ns = 0;
   long long imas_per_tile = 0;
   /// The tile holding the chip-wide IMA `ima`.
   int tile_of(long long ima) const { return imas_per_tile ? static_cast<int>(ima / imas_per_tile) : 0; }
@@ -51,8 +73,12 @@ struct Mapping {
 
 /// Places `layers` (the inventory of each linear layer, in network order, one copy) on
 /// `arch` with the replication `pc` asks for (platform.replication: a number, per layer, or
-/// auto: copies of the slowest compute-bound stage while IMAs remain).
-Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc);
+/// auto: copies of the slowest compute-bound stage while IMAs remain), timed with
+/// machine_platform(pc, arch). `model` (whose linear layers `layers` are) adds the input
+/// register's shifts to the iterations' timing and plans its digital operations; `mapping`
+/// gives the crossbars' exact widths (without it: the column blocks' average).
+Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& pc,
+                    const Model* model = nullptr, const MappingSpec* mapping = nullptr);
 
 /// The name a machine's digital units list an operation by (tile.units.<unit>.ops), or "" for
 /// operations that only move data (and linear layers, which are the IMAs').

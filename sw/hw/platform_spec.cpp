@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "sw/common/parse.h"
+#include "sw/hw/architecture.h"
 #include "sw/hw/inventory.h"
 
 namespace xbarsim {
@@ -71,6 +72,23 @@ double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
   const double t =
       load + (cfg.dac_latency_ns + cfg.crossbar_settle_ns + adc) * v.input_slices + cfg.accumulator_latency_ns;
   return std::ceil(t / clk - 1e-9) * clk;
+}
+
+PlatformConfig machine_platform(PlatformConfig pc, const Architecture& arch) {
+  if (!arch.machine) return pc;
+  pc.clock_mhz = 1e3 / arch.ima.read_ns;     // the tiles' datapath clock: one read per cycle
+  pc.crossbar_settle_ns = arch.ima.read_ns;  // a read occupies the crossbars for a cycle
+  const int per_adc = arch.columns_per_adc(), cols = std::max(1, arch.crossbar.cols);
+  pc.adc_columns_per_unit = std::max(1, std::min(per_adc, cols));
+  pc.crossbars_per_adc = std::max(1, per_adc / cols);
+  return pc;
+}
+
+double adc_read_ns(long long columns, int columns_per_adc, int crossbars_per_adc, double rate_gsps) {
+  if (columns <= 0) return 0;
+  if (crossbars_per_adc > 1) return static_cast<double>(columns) * crossbars_per_adc / rate_gsps;
+  const long long adcs = std::max<long long>(1, adcs_for_columns(columns, columns_per_adc));
+  return std::ceil(static_cast<double>(columns) / adcs) / rate_gsps;
 }
 
 }  // namespace xbarsim

@@ -46,6 +46,21 @@ struct PlatformConfig {
 };
 
 struct LayerInventory;
+struct Architecture;
+
+/// The timing a machine's tiles run with (architecture.machine): the datapath clocked once per
+/// ima.read_ns, a read occupying the crossbars for that cycle, and the IMA's ADC sharing
+/// (Architecture::columns_per_adc): fewer columns per ADC than a crossbar has give each
+/// crossbar its own ADCs (adc_columns_per_unit), more make an ADC convert the columns of
+/// crossbars_per_adc crossbars per read. The simulation runs with it and the mapper plans with
+/// it (one rule).
+PlatformConfig machine_platform(PlatformConfig pc, const Architecture& arch);
+
+/// Time (ns) of the conversions of one read of a crossbar of `columns` physical columns: an ADC
+/// per `columns_per_adc` columns converts ceil(columns / ADCs) of them, or, with ADCs shared by
+/// `crossbars_per_adc` > 1 crossbars, columns x crossbars_per_adc, at `rate_gsps` each.
+double adc_read_ns(long long columns, int columns_per_adc, int crossbars_per_adc, double rate_gsps);
+
 /// Time of the single iteration of a sparse (Toeplitz) layer: its inputs loaded into the row
 /// drivers (shift_entries_per_cycle per cycle), DAC, settling, the conversions of the most
 /// loaded ADC, accumulation, in whole cycles (ideal timing: one cycle).

@@ -113,7 +113,7 @@ MachineReport machine_report(const Model& m, const HardwareContext& hw, const st
   std::vector<LayerInventory> layers;
   for (size_t l = 0; l < m.linear.size(); ++l)
     layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l)));
-  r.mapping = map_network(layers, a, hw.platform);
+  r.mapping = map_network(layers, a, hw.platform, &m, &hw.mapping);
   const int slices = make_input_slicing(hw.converters.activation_bits(), hw.converters.dac_bits, false, 1.0).slices;
   const double weights = static_cast<double>(a.crossbar.rows) * (a.crossbar.cols / hw.mapping.columns_per_weight());
   r.peak_gops = 2.0 * weights / (slices * a.ima.read_ns) * static_cast<double>(a.crossbars());

@@ -289,3 +289,33 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   EXPECT_NE(run("simulate --preset resnet99", &out), 0);
   EXPECT_NE(out.find("resnet99"), std::string::npos);
 }
+
+// The bottleneck simulate names is the stage the simulation measured busiest per image, a
+// digital one included, and the mapper (simulate's placement, overhead) predicts the same.
+// ResNet-20 on ISAAC-CE with two output rows per transaction: every convolution's rows are
+// halved (at most 16 x 0.8 us + its fill), while layer1.0/add performs 16 x 32 x 32 additions
+// on the tile's one shift-and-add unit at 1.2 per ns: 13.65 us, the bottleneck.
+TEST(SimulateCommand, NamesTheMeasuredBottleneckAndTheMapperPredictsIt) {
+  const std::string json = ::testing::TempDir() + "xbarsim_simulate_bottleneck.json";
+  const std::string args = "--preset resnet20 --config " + std::string(XBARSIM_SOURCE_DIR) +
+                           "/configs/isaac.yaml --set platform.grain_rows=2 ";
+  std::string out;
+  ASSERT_EQ(run("simulate " + args + "--timing-only --images 2 --json " + json, &out), 0) << out;
+  const auto j = read_json(json);
+  std::string busiest;
+  double most = -1;
+  for (const char* list : {"layers", "digital_stages"})
+    for (const auto& s : j[list])
+      if (s["busy_us"].get<double>() > most) {
+        most = s["busy_us"].get<double>();
+        busiest = s["name"].get<std::string>();
+      }
+  EXPECT_EQ(busiest, "layer1.0/add");
+  EXPECT_NEAR(most, 16 * 32 * 32 / 1.2e3, 1e-6);
+  EXPECT_EQ(j["bottleneck"]["stage"], busiest);
+  EXPECT_NE(out.find("bottleneck: layer1.0/add, busy 13.653 us"), std::string::npos) << out;
+  EXPECT_EQ(j["placement"]["predicted_bottleneck"], busiest);
+  EXPECT_NEAR(j["placement"]["predicted_bottleneck_us"].get<double>(), most, 1e-6);
+  ASSERT_EQ(run("overhead " + args, &out), 0) << out;
+  EXPECT_NE(out.find("predicted bottleneck layer1.0/add (13.653 us per image)"), std::string::npos) << out;
+}

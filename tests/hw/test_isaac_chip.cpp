@@ -194,6 +194,7 @@ LayerInventory toy_layer(const std::string& name, long long crossbars, long long
 TEST(Mapper, PlacesCopiesInWholeImasInNetworkOrder) {
   const Architecture a = toy_machine();
   PlatformConfig pc;
+  pc.detailed = false;  // ideal timing: a read per read_ns, no fill (detailed: PlansIsaacCe... below)
   pc.replication_per_layer = {1, 2};
   // Layer a: 3 crossbars -> 2 IMAs; layer b: 1 crossbar -> 1 IMA, two copies.
   const Mapping m = map_network({toy_layer("a", 3, 16, 2, 100, 3 * 64), toy_layer("b", 1, 4, 1, 50, 40)}, a, pc);
@@ -219,6 +220,7 @@ TEST(Mapper, PlacesCopiesInWholeImasInNetworkOrder) {
 TEST(Mapper, AutoReplicationCopiesTheSlowestComputeBoundStageWhileImasRemain) {
   const Architecture a = toy_machine();
   PlatformConfig pc;
+  pc.detailed = false;
   pc.auto_replication = true;
   // a: 1 IMA, 320 ns; b: 1 IMA, 10 ns. Two IMAs remain: a gets both (320 -> 160 -> 107 ns:
   // ceil(16 / 3) = 6 reads of 2 slices = 120 ns).
@@ -237,6 +239,7 @@ TEST(Mapper, AutoReplicationCopiesTheSlowestComputeBoundStageWhileImasRemain) {
 TEST(Mapper, CopiesShareARowGroupsIterationsAndSpareImasGoToTheNextSlowest) {
   const Architecture a = toy_machine();
   PlatformConfig pc;
+  pc.detailed = false;
   pc.auto_replication = true;  // grain_rows 1: a layer's copies share one output row at a time
   // a: 4 rows of 2 iterations, 4 x 2 x 10 = 80 ns; b: 1 row of 4 iterations, 40 ns. a takes a
   // second copy (4 x 1 x 10 = 40 ns) and can use no third (a row has 2 iterations); the two
@@ -417,4 +420,42 @@ TEST(IsaacChip, AnImaPricesTheConversionsItsReadsNeed) {
   isaac.cost.lib.adc.leakage_mw = 0;
   const Architecture scarce = parse_architecture(machine_yaml(168, 12, 8, 4, "{rows: 6, cols: 7}"), "a");
   EXPECT_NEAR(line(scarce, "adc").peak_mw, 4 * 2.0, 1e-9);
+}
+
+// The mapper plans with the simulated tile's timing (configs/isaac.yaml: ResNet-20 on ISAAC-CE,
+// auto replication). By hand: layer2.0/conv2 (16 x 16 outputs on 3 crossbars of 128 columns in
+// one IMA, 8 bit-serial reads per iteration, a read per 100 ns), one output row per
+// transaction, gets 16 copies (a row's iterations) and takes 16 rows of one iteration each
+// plus the fill. An iteration is its slowest stage: the ADCs' 8 x 128 / 1.28 GS/s = 800 ns, or
+// with 4 ADCs per IMA (an ADC shared by 2 crossbars) 8 x 256 / 1.28 = 1600 ns. The fill is the
+// first iteration's whole datapath (input register 288 / 64 entries per cycle: 5 cycles, DACs
+// 8 ns, 8 reads, the ADCs, accumulation 2 ns) in whole 100 ns cycles, less the iteration:
+// 2200 - 800 = 3000 - 1600 = 1400 ns. Two rows per transaction halve the convolutions' rows,
+// and layer1.0/add (16 x 32 x 32 additions on one shift-and-add unit at 1.2 per ns, 13.65 us)
+// bounds the pipeline: the mapper names it, not a convolution.
+TEST(Mapper, PlansIsaacCeWithTheSimulatedTilesTiming) {
+  const Model m = make_preset("resnet20", 3);
+  auto plan = [&](int adcs, int grain_rows) {
+    const ConfigTree cfg = ConfigTree::load(std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml",
+                                            {"platform.grain_rows=" + std::to_string(grain_rows)});
+    HardwareContext hw = make_hardware_context(cfg, parse_analog_config(cfg));
+    hw.arch.ima.adcs = adcs;
+    return machine_report(m, hw, linear_inputs_signed(m)).mapping;
+  };
+  auto layer = [](const Mapping& mp, const std::string& name) {
+    for (const LayerPlacement& p : mp.layers)
+      if (p.name == name) return p;
+    ADD_FAILURE() << name;
+    return LayerPlacement{};
+  };
+  const Mapping eight = plan(8, 1), four = plan(4, 1), rows2 = plan(8, 2);
+  ASSERT_TRUE(eight.fits && four.fits && rows2.fits);
+  ASSERT_EQ(layer(eight, "layer2.0/conv2").replication, 16);
+  ASSERT_EQ(layer(four, "layer2.0/conv2").replication, 16);
+  EXPECT_DOUBLE_EQ(layer(eight, "layer2.0/conv2").compute_ns, 16 * 800.0 + 1400);
+  EXPECT_DOUBLE_EQ(layer(four, "layer2.0/conv2").compute_ns, 16 * 1600.0 + 1400);
+  EXPECT_EQ(four.bottleneck_stage, "layer2.0/conv2");
+  EXPECT_DOUBLE_EQ(four.bottleneck_ns, 27000.0);
+  EXPECT_EQ(rows2.bottleneck_stage, "layer1.0/add");
+  EXPECT_NEAR(rows2.bottleneck_ns, 16 * 32 * 32 / 1.2, 1e-6);
 }

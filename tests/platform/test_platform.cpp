@@ -6,7 +6,10 @@
 #include <systemc>
 
 #include "platform/Pipeline.h"
+#include "sw/analog/analog_layer.h"
+#include "sw/nn/network.h"
 #include "sw/nn/presets.h"
+#include "sw/study/hardware.h"
 
 using namespace xbarsim;
 
@@ -473,3 +476,72 @@ TEST(Platform, OnAMachineTheLogitsAreTheBatchEnginesAndRowsCrossTheMesh) {
   EXPECT_GT(r.local_bytes, 0);  // a tile's own eDRAM
   for (const StageStats& st : r.stages) EXPECT_GE(st.tile, 0) << st.name;
 }
+
+// The mapper plans with the timing the simulation runs: ResNet-20 on ISAAC-CE (configs/isaac.yaml,
+// auto replication), its IMAs with 8 or 4 ADCs, one or two output rows per transaction. Every
+// stage's busy time per image the mapper predicts is the one the simulation measures (to 0.1 %:
+// the closed form is exact, the simulation's times are whole picoseconds), and so is the
+// bottleneck. By hand: layer2.0/conv2 (16 x 16 outputs, 288 rows on 3 crossbars of 128 columns
+// in one IMA, 8 bit-serial reads per iteration, one read per 100 ns) with at least 16 copies
+// and one row per transaction takes 16 rows of one iteration each plus the fill: an iteration
+// is its slowest stage, the ADCs' 8 x 128 / 1.28 GS/s = 800 ns, or with 4 ADCs in the IMA (2
+// crossbars per ADC) 8 x 256 / 1.28 = 1600 ns; the fill is the first iteration's whole
+// datapath (5 cycles of input register (288 / 64 entries), 8 ns of DAC, 8 reads, 8 x the ADCs'
+// read, 2 ns of accumulation) in whole 100 ns cycles beyond the iteration: 2200 - 800 and 3000
+// - 1600 = 1400 ns. Two rows per transaction: layer1.0/add performs 16 x 32 x 32 additions on
+// one shift-and-add unit at 1.2 per ns: 13 653 ns.
+namespace {
+struct MachineCase {
+  int adcs, grain_rows;
+};
+class MapperAgreesWithTheSimulation : public ::testing::TestWithParam<MachineCase> {};
+}  // namespace
+
+TEST_P(MapperAgreesWithTheSimulation, PerStageBusyTimeAndBottleneck) {
+  ONE_SIMULATION_PER_PROCESS();
+  const MachineCase c = GetParam();
+  const ConfigTree cfg = ConfigTree::load(std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml",
+                                          {"platform.timing_only=true", "platform.images=1",
+                                           "platform.grain_rows=" + std::to_string(c.grain_rows)});
+  const AnalogConfig ac = parse_analog_config(cfg);
+  HardwareContext hw = make_hardware_context(cfg, ac);
+  hw.arch.ima.adcs = c.adcs;
+  const Model m = make_preset("resnet20", 3);
+  const MachineReport mr = machine_report(m, hw, linear_inputs_signed(m));
+  ASSERT_TRUE(mr.mapping.fits) << mr.mapping.reason;
+  const MachinePlan plan{hw.arch, mr.mapping};
+  CrossbarBackend xb(m, ac);
+  xb.structure_only();
+  std::vector<int> replication;
+  for (const LayerPlacement& p : mr.mapping.layers) replication.push_back(p.replication);
+  Pipeline pipe("acc", m, xb, hw.platform, replication, [](int, float*) {}, nullptr, {}, &plan);
+  sc_core::sc_start();
+  const PipelineResult& r = pipe.result();
+  ASSERT_TRUE(r.completed);
+  const StageStats* slowest = nullptr;
+  size_t digital = 0;
+  for (const StageStats& st : r.stages) {
+    if (!slowest || st.busy_ns > slowest->busy_ns) slowest = &st;
+    const double predicted = st.linear >= 0 ? mr.mapping.layers[st.linear].compute_ns
+                                            : mr.mapping.digital.at(digital++).busy_ns;
+    EXPECT_NEAR(st.busy_ns, predicted, 1e-3 * predicted + 1e-6) << st.name;
+    if (st.name == "layer2.0/conv2" && c.grain_rows == 1 && st.replication >= 16) {
+      EXPECT_NEAR(st.busy_ns, 16 * (c.adcs == 4 ? 1600.0 : 800.0) + 1400, 1e-3) << "by hand";
+    }
+    if (st.name == "layer1.0/add") {
+      EXPECT_NEAR(st.busy_ns, 16 * 32 * 32 / 1.2, 1e-3) << "by hand";
+    }
+  }
+  EXPECT_EQ(digital, mr.mapping.digital.size());
+  ASSERT_NE(slowest, nullptr);
+  EXPECT_EQ(mr.mapping.bottleneck_stage, slowest->name);
+  EXPECT_NEAR(mr.mapping.bottleneck_ns, slowest->busy_ns, 1e-3 * slowest->busy_ns);
+}
+
+INSTANTIATE_TEST_SUITE_P(ResNet20OnIsaacCe, MapperAgreesWithTheSimulation,
+                         ::testing::Values(MachineCase{8, 1}, MachineCase{4, 1}, MachineCase{8, 2},
+                                           MachineCase{4, 2}),
+                         [](const ::testing::TestParamInfo<MachineCase>& i) {
+                           return "adcs" + std::to_string(i.param.adcs) + "_grain" +
+                                  std::to_string(i.param.grain_rows);
+                         });
