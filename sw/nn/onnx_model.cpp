@@ -1275,7 +1275,15 @@ void read_metadata(const onnx::ModelProto& proto, const std::string& path, Model
     throw InputError(path + ": metadata 'software_accuracy_test_batch' = '" + acc + "' is not an accuracy");
 }
 
-Model load_proto(const onnx::ModelProto& proto, const std::string& path, Shape input) {
+/// Exporters may leave node names empty; a layer, a report row and every message then name
+/// nothing. An unnamed node is called by its first output (unique: every value is defined once).
+void name_unnamed_nodes(onnx::ModelProto& proto) {
+  for (onnx::NodeProto& n : *proto.mutable_graph()->mutable_node())
+    if (n.name().empty() && n.output_size() > 0 && !n.output(0).empty()) n.set_name(n.output(0));
+}
+
+Model load_proto(onnx::ModelProto& proto, const std::string& path, Shape input) {
+  name_unnamed_nodes(proto);
   Model model;
   model.path = path;
   try {

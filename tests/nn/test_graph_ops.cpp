@@ -675,3 +675,20 @@ TEST(Graph, AxesAreInterpretedInTheActualShape) {
     EXPECT_NE(e.find(k.node), std::string::npos) << "'" << e << "'";
   }
 }
+
+// Issue 38, item 11: exporters may leave node names empty, and every layer, report row and
+// message then named nothing ("layer : analog layer: ..."). An unnamed node is called by its
+// first output.
+TEST(Graph, AnUnnamedNodeIsCalledByItsOutput) {
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  add_init(g, "w", {2, 2, 1, 1}, {1, 0, 0, 1});
+  add_node(g, "Conv", "", {"input", "w"}, "features");
+  add_node(g, "Relu", "", {"features"}, "out");
+  const Model model = load_onnx_model(save(m, 2, 2, 2, "out", "unnamed"));
+  ASSERT_EQ(model.linear.size(), 1u);
+  EXPECT_EQ(model.linear[0].name, "features");
+  bool relu = false;
+  for (const Op& op : model.ops) relu = relu || (op.kind == OpKind::Relu && op.name == "out");
+  EXPECT_TRUE(relu);
+}
