@@ -57,13 +57,17 @@ class YamlSection {
     for (auto it = node_.begin(); it != node_.end(); ++it) k.push_back(it->first.as<std::string>());
     return k;
   }
-  /// A number >= 0 (> 0 when `positive`).
+  /// The largest quantity a hardware file may give, in any unit (mm^2, mW, pJ, ns, GS/s):
+  /// far above any physical component, and small enough that counts (at most 2^53) times it
+  /// stay finite in every total (1e308 mm^2 printed inf and JSON null).
+  static constexpr double kMaxQuantity = 1e12;
+  /// A number >= 0 (> 0 when `positive`), at most kMaxQuantity.
   double number(const std::string& key, bool positive = false) {
     const YAML::Node n = get(key);
     double v = 0;
-    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0))
+    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0) || v > kMaxQuantity)
       throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
-                       " number, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
+                       " number at most 1e12, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return v;
   }
   /// The largest count a hardware file may give (2^30): products of counts are then taken in
