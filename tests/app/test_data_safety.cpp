@@ -486,3 +486,17 @@ TEST_F(Safety, NonFiniteValuesAreNamed) {
             std::string::npos)
       << r.out;
 }
+
+// Issue 38, item 11: a component's unit area of 1e308 mm^2 printed inf and wrote JSON null;
+// every quantity of a hardware file is at most 1e12 (in its unit), named when it is not.
+TEST_F(Safety, HardwareQuantitiesAreBounded) {
+  std::string lib = slurp(library());
+  const size_t at = lib.find("area_mm2: 0.0012");
+  ASSERT_NE(at, std::string::npos);
+  lib.replace(at, std::string("area_mm2: 0.0012").size(), "area_mm2: 1e308");
+  spit(library(), lib);
+  const Result r = run("overhead --model " + model() + " --json " + path("o.json"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("area_mm2' must be a positive number at most 1e12, got '1e308'"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
+}
