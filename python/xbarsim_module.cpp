@@ -2,6 +2,7 @@
 // arrays. Whole commands (eval, simulate, explore, overhead) are run by python/xbarsim/__init__.py
 // through the xbarsim executable, so their results are the CLI's JSON by construction.
 #include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -191,15 +192,31 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
 }
 
 /// X (vectors x inputs) through every stage of the layer, in precision S (float: as eval).
+/// X is read in place (no conversion with the GIL held: a copy of a large X took seconds before
+/// Ctrl-C could act) and run in blocks of vectors, each crossbar's stage over a whole block, so
+/// a block bounds how long Ctrl-C waits (the layer also checks between crossbars). A vector's
+/// result does not depend on the other vectors of its block.
 template <typename S>
-AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, const AnalogLayer::RowMat<S>& x) {
-  if (x.cols() != layer.inputs())
-    throw InputError("the vectors have " + std::to_string(x.cols()) + " values each, the crossbar " +
+AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, py::array_t<S, py::array::c_style | py::array::forcecast> a) {
+  if (a.ndim() != 2) throw InputError("X must be a 2-D array (vectors x inputs), got " + std::to_string(a.ndim()) +
+                                      " dimensions");
+  const Eigen::Index rows = a.shape(0), cols = a.shape(1);
+  if (cols != layer.inputs())
+    throw InputError("the vectors have " + std::to_string(cols) + " values each, the crossbar " +
                      std::to_string(layer.inputs()) + " inputs");
-  if (!x.allFinite()) throw InputError("the vectors hold a non-finite value");
+  const Eigen::Map<const AnalogLayer::RowMat<S>> x(a.data(), rows, cols);
+  constexpr Eigen::Index kBlock = 4096;
   return interruptible([&] {
-    AnalogLayer::Mat<S> y;
-    layer.forward<S>(x, y);
+    AnalogLayer::Mat<S> y(rows, layer.outputs()), yb;
+    AnalogLayer::RowMat<S> xb;
+    for (Eigen::Index first = 0; first < rows; first += kBlock) {
+      check_cancel();
+      const Eigen::Index n = std::min(kBlock, rows - first);
+      xb = x.middleRows(first, n);
+      if (!xb.allFinite()) throw InputError("the vectors hold a non-finite value");
+      layer.forward<S>(xb, yb);
+      y.middleRows(first, n) = yb;
+    }
     return y;
   });
 }
