@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <exception>
 #include <mutex>
@@ -53,6 +54,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
   struct ImageTally {
     std::vector<double> x_max;
     std::vector<char> sign;
+    std::vector<char> bad_out;  // per layer: its software output held inf or NaN
     std::vector<Eigen::MatrixXd> rows;  // per layer: the sampled im2col rows
     std::vector<Eigen::VectorXd> lo, hi;
   };
@@ -69,6 +71,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       run_image(model_, x.data(), sw, &trace);
       ty.x_max.resize(L);
       ty.sign.resize(L);
+      ty.bad_out.assign(L, 0);
       ty.rows.resize(L);
       ty.lo.resize(L);
       ty.hi.resize(L);
@@ -83,6 +86,9 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
         const std::vector<Eigen::Index> picks = calibration_row_picks(cfg_.calibration.seed, k, l, in.rows(), per_image);
         for (int s = 0; s < per_image; ++s) ty.rows[l].row(s) = in.row(picks[s]).cast<double>();
         const Eigen::MatrixXf& out = trace.outputs[l];
+        // Finite inputs whose products overflow (a LeakyRelu slope of 3e38 gives inputs of
+        // 1e38): the software reference itself is then inf/NaN, also reported below.
+        ty.bad_out[l] = !out.allFinite();
         ty.lo[l] = out.colwise().minCoeff().transpose().cast<double>();
         ty.hi[l] = out.colwise().maxCoeff().transpose().cast<double>();
       }
@@ -104,6 +110,15 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
                          " holds a value that is not a finite float (inf or NaN), so the crossbar has no input full "
                          "scale: check the operators before it (a Clip without finite bounds, an activation's "
                          "parameter such as LeakyRelu's alpha) and the images and preprocessing");
+      if (ty.bad_out[l]) {
+        char full[32];
+        std::snprintf(full, sizeof full, "%.3g", ty.x_max[l]);
+        throw InputError("layer " + model_.linear[l].name + ": its output on calibration image " +
+                         std::to_string(calib.first + k) +
+                         " is not a finite float (inf or NaN) although its input is (up to " + full +
+                         "): inputs that large overflow the layer's sums; check the operators before it (an "
+                         "activation's parameter such as LeakyRelu's alpha) and the images and preprocessing");
+      }
       st.x_max = std::max(st.x_max, ty.x_max[l]);
       st.signed_inputs = st.signed_inputs || ty.sign[l];
       st.out_lo = st.out_lo.cwiseMin(ty.lo[l]);

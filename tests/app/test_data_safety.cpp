@@ -460,31 +460,44 @@ TEST_F(Safety, NonFiniteValuesAreNamed) {
       << r.out;
 
   using namespace onnx_builder;
-  onnx::ModelProto m = onnx_builder::model("leaky", "xbarsim tests");
-  auto* g = m.mutable_graph();
-  io(g->add_input(), "x", {1, 3, 32, 32});
-  float_init(g, "w1", {4, 3, 3, 3}, [](size_t k) { return k % 2 ? 0.3f : -0.3f; });
-  float_init(g, "w2", {10, 900}, [](size_t k) { return k % 3 ? 0.01f : -0.01f; });
-  auto* c = node(g, "Conv", {"x", "w1"}, "c1");
-  ints_attr(c, "kernel_shape", {3, 3});
-  ints_attr(c, "strides", {2, 2});
-  auto* a = node(g, "LeakyRelu", {"c1"}, "r1")->add_attribute();
-  a->set_name("alpha");
-  a->set_type(onnx::AttributeProto::FLOAT);
-  a->set_f(3e38f);
-  node(g, "Flatten", {"r1"}, "f1");
-  int_attr(node(g, "Gemm", {"f1", "w2"}, "y"), "transB", 1);
-  io(g->add_output(), "y", {1, 10});
-  meta(m, "dataset", "cifar10");
-  {
-    std::ofstream f(path("leaky.onnx"), std::ios::binary);
-    m.SerializeToOstream(&f);
+  // LeakyRelu(alpha) -> Conv (weights 0.3) -> Flatten -> Gemm, on pixels preprocessed to
+  // [-0.5, 0.5]: `first` puts the LeakyRelu after the Conv instead (its output then feeds the
+  // Gemm inf), else the Conv's input is finite (1.5e38) and its sums overflow.
+  for (bool first : {false, true}) {
+    SCOPED_TRACE(first ? "LeakyRelu before the Conv" : "LeakyRelu after the Conv");
+    onnx::ModelProto m = onnx_builder::model("leaky", "xbarsim tests");
+    auto* g = m.mutable_graph();
+    io(g->add_input(), "x", {1, 3, 32, 32});
+    float_init(g, "w1", {4, 3, 3, 3}, [&](size_t k) { return first ? 0.3f : (k % 2 ? 0.3f : -0.3f); });
+    float_init(g, "w2", {10, 900}, [](size_t k) { return k % 3 ? 0.01f : -0.01f; });
+    auto leaky = [&](const char* in, const char* out) {
+      auto* a = node(g, "LeakyRelu", {in}, out)->add_attribute();
+      a->set_name("alpha");
+      a->set_type(onnx::AttributeProto::FLOAT);
+      a->set_f(3e38f);
+    };
+    if (first) leaky("x", "l0");
+    auto* c = node(g, "Conv", {first ? "l0" : "x", "w1"}, "c1");
+    ints_attr(c, "kernel_shape", {3, 3});
+    ints_attr(c, "strides", {2, 2});
+    if (!first) leaky("c1", "r1");
+    node(g, "Flatten", {first ? "c1" : "r1"}, "f1");
+    int_attr(node(g, "Gemm", {"f1", "w2"}, "y"), "transB", 1);
+    io(g->add_output(), "y", {1, 10});
+    meta(m, "dataset", "cifar10");
+    {
+      std::ofstream f(path("leaky.onnx"), std::ios::binary);
+      m.SerializeToOstream(&f);
+    }
+    r = run("eval --model " + path("leaky.onnx") +
+            " --images 2 --set preprocessing.scale=0.00392156862745098 --set preprocessing.mean=0.5 "
+            "--set preprocessing.std=1");
+    EXPECT_EQ(r.code, 2) << r.out;
+    const std::string want = first ? "layer Conv_c1: its output on calibration image 0 is not a finite float"
+                                   : "layer Gemm_y: its input on calibration image 0 holds a value that is not a "
+                                     "finite float";
+    EXPECT_NE(r.out.find(want), std::string::npos) << r.out;
   }
-  r = run("eval --model " + path("leaky.onnx") + " --images 2");
-  EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("layer Gemm_y: its input on calibration image 0 holds a value that is not a finite float"),
-            std::string::npos)
-      << r.out;
 }
 
 // Issue 38, item 11: a component's unit area of 1e308 mm^2 printed inf and wrote JSON null;
