@@ -286,8 +286,12 @@ Dataset load_npz_dataset(const std::string& path, const std::string& split, int 
                        " integer labels (one per image)");
     for (int64_t k = 0; k < n; ++k) {
       const double v = lb.at(k);
-      if (v < 0 || v > 1e9) throw InputError("'" + path + "', array '" + labels_key + "': label " +
-                                             std::to_string(v) + " of image " + std::to_string(k) + " is negative or too large");
+      if (v < 0 || v > 1e9) {
+        char label[32];
+        std::snprintf(label, sizeof label, "%.0f", v);  // an integer dtype: -1, not -1.000000
+        throw InputError("'" + path + "', array '" + labels_key + "': label " + label + " of image " +
+                         std::to_string(k) + " is negative or too large");
+      }
       labels[static_cast<size_t>(k)] = static_cast<int>(v);
     }
   } else if (!own_calib) {
