@@ -128,17 +128,21 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
           map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
       xb->beta = Eigen::VectorXd::Ones(xb->pcols);
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
+      // Programming reads the crossbar's own rows of every input (in0 = 0), then the crossbar
+      // reads the whole layer's inputs at its rows.
       const ProgrammingInputs in{
           cal.middleCols(blk.row0, blk.rows),
-          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
+          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(),
+          range_x.middleCols(blk.row0, blk.rows),
           cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
       add_programming_noise(*xb, static_cast<int>(b));
-      set_adc_ranges(*xb, range_x);
+      set_adc_ranges(*xb, in.range_b);
       calibrate(*xb, in);
+      xb->in0 = blk.row0;
       xbars.push_back(std::move(xb));
       reports.push_back(rep);
     } catch (const std::exception&) {
@@ -206,12 +210,12 @@ void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& curr
   if (cfg_.xbar.is_linear()) {
     // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
     if constexpr (std::is_same_v<S, float>)
-      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_f;
+      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_f;
     else
-      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_d;
+      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_d;
     return;
   }
-  const Eigen::MatrixXd v = volts(xq.middleCols(x.blk.row0, x.blk.rows).template cast<double>());
+  const Eigen::MatrixXd v = volts(xq.middleCols(x.in0, x.blk.rows).template cast<double>());
   currents = x.solver->column_currents(v).template cast<S>();
 }
 
@@ -224,7 +228,7 @@ template <typename S, typename XQ>
 void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const {
   if (cfg_.converters.adc_bits <= 0) return;
   using Col = Eigen::Array<S, Eigen::Dynamic, 1>;
-  const Col sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows).array();
+  const Col sum_x = input_sums<S>(xq, x.in0, x.blk.rows).array();
   Col offset(currents.rows());
   Eigen::ArrayXd v(currents.rows());
   const Eigen::Index ranges = x.adc_lo.cols(), per_range = currents.rows() / ranges;
@@ -260,7 +264,7 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
     const int c = x.pcols - 1;
     sum_x = iq.col(c) * static_cast<S>(1.0 / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s(c) * x.a_sum)));
   } else {
-    sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
+    sum_x = input_sums<S>(xq, x.in0, x.blk.rows);
   }
   // Per physical column: sign / (beta s), so (I / alpha - g_min sum(X)) times it is the
   // column's signed share of its weight column's product (its slice's place included).
