@@ -287,7 +287,7 @@ PYBIND11_MODULE(_core, m) {
                           "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
                           "mitigation, programming noise, converters (config's sections).")
       .def(py::init([](const Eigen::MatrixXd& w, const ConfigTree& cfg, double x_max, bool signed_inputs,
-                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt) {
+                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt, int groups, int channels) {
              const AnalogConfig ac = parse_analog_config(cfg);
              if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
              if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
@@ -296,15 +296,20 @@ PYBIND11_MODULE(_core, m) {
                throw InputError("the calibration vectors have " + std::to_string(calib->cols()) +
                                 " values each, but the weight matrix has " + std::to_string(w.rows()) + " rows");
              if (calib && !calib->allFinite()) throw InputError("the calibration vectors hold a non-finite value");
-             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt);
+             if (groups < 1) throw InputError("groups must be >= 1");
+             if (groups > 1 && channels < 1)
+               throw InputError("a grouped layer (groups > 1) needs channels: its input channels");
+             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt, RowGroups{groups, channels});
              interruptible([&] { layer->program(calib ? *calib : Eigen::MatrixXd()); });
              return layer;
            }),
            py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
-           py::arg("calibration") = std::nullopt, py::arg("salt") = 0,
-           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0): W is inputs x outputs; "
-           "inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration "
-           "images (random vectors when None). Releases the GIL while programming.")
+           py::arg("calibration") = std::nullopt, py::arg("salt") = 0, py::arg("groups") = 1, py::arg("channels") = 0,
+           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0): W is "
+           "inputs x outputs; inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as "
+           "eval's calibration images (random vectors when None). A grouped convolution (groups > 1) gives its "
+           "block-diagonal W in im2col order (input channel innermost, `channels` of them) and is programmed "
+           "group by group, as eval programs it. Releases the GIL while programming.")
       .def("matvec", &matvec<double>, py::arg("X"),
            "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery. float64 "
            "arrays compute in double precision; float32 arrays in single, as eval computes a network.")

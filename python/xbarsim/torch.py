@@ -221,7 +221,9 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
     for l, (name, m) in enumerate(layers):
         x_max, signed, calib = stats[l]
         signed = signed or name in signed_layers
-        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1)
+        grouping = {} if isinstance(m, torch.nn.Linear) else {"groups": m.groups, "channels": m.in_channels}
+        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1,
+                      **grouping)
         analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb)
         parent = model
         *path, last = name.split(".")

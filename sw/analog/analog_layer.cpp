@@ -47,7 +47,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
 }
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
-                         uint64_t salt)
+                         uint64_t salt, const RowGroups& groups)
     : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt) {
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
@@ -59,7 +59,28 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   const int bits = cfg.converters.activation_bits();
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};
   slicing_ = make_input_slicing(bits, cfg.converters.dac_bits, signed_inputs, x_max);
-  blocks_ = crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), cfg.mapping);
+  const int rows = static_cast<int>(w.rows()), cols = static_cast<int>(w.cols());
+  if (groups.count == 1) {
+    blocks_ = crossbar_blocks(rows, cols, cfg.mapping);
+    return;
+  }
+  const int g = groups.count, c = groups.channels;
+  if (g < 1 || c < 1 || c % g != 0 || rows % c != 0 || cols % g != 0)
+    throw InputError("analog layer: " + std::to_string(g) + " groups do not divide its " + std::to_string(c) +
+                     " input channels, " + std::to_string(rows) + " rows and " + std::to_string(cols) + " outputs");
+  // Group-major rows: every window position of group 0's channels, then group 1's, ...
+  const int per_group = c / g, positions = rows / c, group_rows = rows / g, group_cols = cols / g;
+  order_.resize(rows);
+  for (int k = 0, q = 0; k < g; ++k)
+    for (int p = 0; p < positions; ++p)
+      for (int ch = 0; ch < per_group; ++ch) order_(q++) = p * c + k * per_group + ch;
+  w_ = w(order_, Eigen::all);
+  for (int k = 0; k < g; ++k)
+    for (Block b : crossbar_blocks(group_rows, group_cols, cfg.mapping)) {
+      b.row0 += k * group_rows;
+      b.col0 += k * group_cols;
+      blocks_.push_back(b);
+    }
 }
 
 AnalogLayer::~AnalogLayer() = default;
@@ -109,9 +130,11 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib, const SolverOptions& sol
   program(calib);
 }
 
-void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
-  if (calib_in.size() > 0 && calib_in.cols() != w_.rows())
+void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
+  if (calib_given.size() > 0 && calib_given.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
+  const Eigen::MatrixXd calib_in =
+      order_.size() && calib_given.size() ? Eigen::MatrixXd(calib_given(Eigen::all, order_)) : calib_given;
   const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
   const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
@@ -198,6 +221,14 @@ static Eigen::Matrix<S, Eigen::Dynamic, 1> input_sums(const XQ& xq, int row0, in
 template <typename S>
 void AnalogLayer::dac_inplace(RowMat<S>& x) const {
   dac_values<S>(x.data(), x.size());
+}
+
+template <typename S>
+void AnalogLayer::arrange_inputs(RowMat<S>& x) const {
+  if (!order_.size()) return;
+  thread_local RowMat<S> arranged;
+  arranged = x(Eigen::all, order_);
+  x.swap(arranged);
 }
 
 template <typename S>
@@ -321,9 +352,10 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   if (xbars_.empty()) throw InputError("analog layer used before program()");
   RowMat<S> xq_buf;
   const RowMat<S>* xq = &x;
-  if (dac_q_.enabled() && !quantized) {
+  if ((dac_q_.enabled() && !quantized) || order_.size()) {
     xq_buf = x;
-    dac_inplace<S>(xq_buf);
+    if (!quantized) dac_inplace<S>(xq_buf);
+    arrange_inputs<S>(xq_buf);
     xq = &xq_buf;
   }
   y.setZero(x.rows(), w_.cols());
@@ -352,7 +384,9 @@ Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
 }
 
 Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
-  return partial_of(*xbars_.at(b), dac(x), /*adc=*/true, /*calibrated=*/true);
+  const Eigen::MatrixXd xq = dac(x);
+  if (order_.size()) return partial_of(*xbars_.at(b), xq(Eigen::all, order_), /*adc=*/true, /*calibrated=*/true);
+  return partial_of(*xbars_.at(b), xq, /*adc=*/true, /*calibrated=*/true);
 }
 
 Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const {
@@ -376,6 +410,7 @@ Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd
   template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
   template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
+  template void AnalogLayer::arrange_inputs<S>(RowMat<S>&) const;                  \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;
