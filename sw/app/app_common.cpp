@@ -201,12 +201,13 @@ std::string duration_text(double s) {
 void ProgressBar::update(int done) {
   if (finished_ || !Ranks::root()) return;  // under MPI, rank 0 speaks for the job
   const double t = now_s();
+  rate_.observe(t, done);
   // A terminal gets a bar redrawn 5 times a second; a log file a line every 30 s.
   if (done < total_ && t - last_ < (tty_ ? 0.2 : 30.0)) return;
   if (!tty_ && (last_ < 0 && t - start_ < 30.0)) return;
   last_ = t;
-  const double rate = done / std::max(t - start_, 1e-9);
-  const std::string eta = done > 0 && done < total_ ? "  ETA " + duration_text((total_ - done) / rate) : "";
+  const double rate = rate_.rate(), left_s = rate_.eta_s(total_);
+  const std::string eta = done < total_ && left_s >= 0 ? "  ETA " + duration_text(left_s) : "";
   if (!tty_) {
     std::fprintf(stderr, "%s: %d/%d  %.3g/s%s\n", label_.c_str(), done, total_, rate, eta.c_str());
     return;

@@ -11,6 +11,7 @@
 #include "sw/common/cli_args.h"
 #include "sw/common/config.h"
 #include "sw/common/output_file.h"
+#include "sw/common/progress_rate.h"
 #include "sw/report/html_report.h"
 #include "sw/study/sweep.h"
 
@@ -105,7 +106,9 @@ class SweepOutputs {
   nlohmann::json all_ = nlohmann::json::array();
 };
 
-/// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.
+/// A progress bar on stderr, drawn only when stderr is a terminal (a log gets a line every
+/// 30 s); rate-limited. Its rate and ETA count from the first update, not from construction
+/// (RateMeter): the setup before the first item is not spent on the items.
 class ProgressBar {
  public:
   ProgressBar(int total, std::string label);
@@ -123,6 +126,7 @@ class ProgressBar {
   std::string label_;
   bool tty_;
   double start_, last_ = -1;
+  RateMeter rate_;
   bool finished_ = false;
 };
 
