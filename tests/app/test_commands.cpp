@@ -290,6 +290,18 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   EXPECT_NE(out.find("resnet99"), std::string::npos);
 }
 
+// A sweep of the cells on a machine is refused before anything runs, and the message says how to
+// sweep them: on the layer-sized platform (issue 39, item 7).
+TEST(SimulateCommand, ASweepOfTheCellsOnAMachineSaysHowToVaryThem) {
+  std::string out;
+  EXPECT_EQ(run("simulate --preset resnet20 --timing-only --images 1 --config " + std::string(XBARSIM_SOURCE_DIR) +
+                    "/configs/isaac.yaml --set 'crossbar.cell_bits=[1,2]'",
+                &out),
+            2);
+  EXPECT_NE(out.find("crossbar.cell_bits 1"), std::string::npos) << out;
+  EXPECT_NE(out.find("--set architecture.machine=layer-sized"), std::string::npos) << out;
+}
+
 // The bottleneck simulate names is the stage the simulation measured busiest per image, a
 // digital one included, and the mapper (simulate's placement, overhead) predicts the same.
 // ResNet-20 on ISAAC-CE with two output rows per transaction: every convolution's rows are
