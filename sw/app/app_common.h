@@ -81,6 +81,12 @@ class WarningSummary {
 /// The line under a command's tables that says in which units its ratios are.
 extern const char* const kFractionsNote;
 
+/// Every stage of simulate's JSON `j` in pipeline order, as the HTML report plots them: the
+/// linear layers and the digital stages ({name, kind linear|digital, busy_us, stall_us}, by
+/// their "stage") and, on the layer-sized platform, the shared bus ("interconnect", busy
+/// interconnect_busy_us_per_image). Empty when `j` has no stages (eval's JSON).
+nlohmann::json platform_stages(const nlohmann::json& j);
+
 /// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
 /// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point);
