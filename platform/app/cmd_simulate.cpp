@@ -47,10 +47,10 @@ void print_summary(const SimulationReport& r) {
       "\n%s on %s, %s timing, %s schedule, %s: %lld iterations/image, latency %.3f us, makespan %.3f us, "
       "%s images/s\nenergy %.3f uJ/image, average power %s (energy / simulated time per image), peak power %s, "
       "area %.4f mm2, %.3f TOPS/W achieved\n",
-      r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(), count_text(r.images, "image").c_str(),
-      r.iterations_total, r.latency_us, r.makespan_us, compact_number(r.throughput_images_per_s).c_str(),
-      r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(), power_text(r.peak_power_mw).c_str(), r.area_mm2,
-      r.achieved_tops_per_w);
+      r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(),
+      count_text(r.images, "image").c_str(), r.iterations_total, r.latency_us, r.makespan_us,
+      compact_number(r.throughput_images_per_s).c_str(), r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
+      power_text(r.peak_power_mw).c_str(), r.area_mm2, r.achieved_tops_per_w);
   if (!r.bottleneck.empty())
     std::printf("bottleneck: %s, busy %.3f us per image\n", r.bottleneck.c_str(), r.bottleneck_busy_us);
   std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,

@@ -178,8 +178,7 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
   if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
   for (const char* k : {"accuracy", "software_accuracy", "images", "mean_relative_error", "worst_relative_error",
                         "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "ideal_avg_power_mw",
-                        "peak_power_mw",
-                        "throughput_images_per_s", "bottleneck", "time_ns_per_image",
+                        "peak_power_mw", "throughput_images_per_s", "bottleneck", "time_ns_per_image",
                         "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits", "accuracy_drop",
                         "accuracy_drop_ci95", "warnings"})
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];

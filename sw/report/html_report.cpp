@@ -115,7 +115,8 @@ std::string tooltip(const json& r) {
                         std::make_pair("latency_us", "latency us"),
                         std::make_pair("throughput_images_per_s", "throughput images/s")})
     if (!std::isnan(num(r, f.first))) t += "\n" + std::string(f.second) + " " + fmt_num(num(r, f.first));
-  if (!std::isnan(num(r, "avg_power_mw"))) t += "\n" + std::string(kSimulatedPower) + " " + power_text(num(r, "avg_power_mw"));
+  if (!std::isnan(num(r, "avg_power_mw")))
+    t += "\n" + std::string(kSimulatedPower) + " " + power_text(num(r, "avg_power_mw"));
   if (!std::isnan(num(r, "ideal_avg_power_mw")))
     t += "\n" + std::string(kIdealPower) + " " + power_text(num(r, "ideal_avg_power_mw"));
   if (on_front(r)) t += "\non the Pareto front";
@@ -389,14 +390,15 @@ Part front_part(const json& rows, const ReportInput& in) {
         // Accuracy on the y axis where it is one of the pair.
         const bool swap = obj[a].name == "accuracy";
         const std::string id = "plot-pair-" + std::to_string(k++);
-        const Scatter sc = scatter(rows, front, swap ? obj[b] : obj[a], swap ? obj[a] : obj[b], in, id, 440, 300, false, false);
+        const Scatter sc =
+            scatter(rows, front, swap ? obj[b] : obj[a], swap ? obj[a] : obj[b], in, id, 440, 300, false, false);
         if (sc.svg.empty()) continue;
         h += sc.svg;
         ids += (ids.empty() ? "" : " ") + id;
         for (const auto& it : sc.legend)
           if (std::find(legend.begin(), legend.end(), it) == legend.end()) legend.push_back(it);
       }
-    h += "</div>\n" + html_legend(legend, (in.color_key.empty() ? std::string() : in.color_key + ":") , ids) +
+    h += "</div>\n" + html_legend(legend, (in.color_key.empty() ? std::string() : in.color_key + ":"), ids) +
          "<p>Every pair: the points coloured as above, the front drawn large and numbered as in the key.</p>\n";
   }
   return {h, ""};
@@ -598,9 +600,10 @@ Part layers_plot(const std::vector<const json*>& sel, size_t of) {
     p.line(worst, series_colour(i), true, 1.5, label + ": worst");
     legend.emplace_back(label, series_colour(i));
   }
-  return {p.str() + html_legend(legend, "each layer's mean error over its outputs: solid; worst: dashed." +
-                                            shown_of(rows.size(), of),
-                                "plot-layers"),
+  return {p.str() +
+              html_legend(legend,
+                          "each layer's mean error over its outputs: solid; worst: dashed." + shown_of(rows.size(), of),
+                          "plot-layers"),
           ""};
 }
 
@@ -704,8 +707,8 @@ Part timing_plot(const std::vector<const json*>& sel) {
   for (const json* r : rows)
     if (!bottleneck_of(*r).empty())
       note += (note.empty() ? "" : "; ") + (rows.size() > 1 ? text(*r, "label") + ": " : std::string()) +
-              "bottleneck " + bottleneck_of(*r) + ", busy " +
-              fmt_num(num((*r)["bottleneck"], "busy_us_per_image")) + " us per image";
+              "bottleneck " + bottleneck_of(*r) + ", busy " + fmt_num(num((*r)["bottleneck"], "busy_us_per_image")) +
+              " us per image";
   const std::string kBusy = "#4e79a7", kStall = "#f28e2b", kBottleneck = "#b30000";
   if (rows.size() == 1) {
     double yhi = 0;
@@ -718,8 +721,8 @@ Part timing_plot(const std::vector<const json*>& sel) {
       const double b = t_of(L0[k], "busy_us"), s = t_of(L0[k], "stall_us");
       const bool bottleneck = !slow.empty() && full[k] == slow;
       marked = marked || bottleneck;
-      const std::string t = full[k] + (bottleneck ? " (the bottleneck)" : "") + "\nbusy " + fmt_num(b) +
-                            " us, stall " + fmt_num(s) + " us";
+      const std::string t = full[k] + (bottleneck ? " (the bottleneck)" : "") + "\nbusy " + fmt_num(b) + " us, stall " +
+                            fmt_num(s) + " us";
       la.bar(p, k, 0, b, bottleneck ? kBottleneck : kBusy, t);
       if (s > 0) la.bar(p, k, b, b + s, kStall, t);
     }
@@ -747,8 +750,8 @@ Part timing_plot(const std::vector<const json*>& sel) {
       const double t = t_of(L[k], "busy_us") + t_of(L[k], "stall_us");
       pts.push_back(la.at(k, ya.log ? std::max(t, ya.lo) : t));
       p.circle(pts.back().first, pts.back().second, 3, series_colour(i),
-               shown[i] + "\n" + full[k] + (full[k] == bottleneck_of(*rows[i]) ? " (the bottleneck)" : "") +
-                   ": busy " + fmt_num(t_of(L[k], "busy_us")) + " us, stall " + fmt_num(t_of(L[k], "stall_us")) + " us");
+               shown[i] + "\n" + full[k] + (full[k] == bottleneck_of(*rows[i]) ? " (the bottleneck)" : "") + ": busy " +
+                   fmt_num(t_of(L[k], "busy_us")) + " us, stall " + fmt_num(t_of(L[k], "stall_us")) + " us");
     }
     p.line(pts, series_colour(i), false, 2, shown[i]);
     legend.emplace_back(shown[i], series_colour(i));
@@ -791,7 +794,9 @@ Part performance_part(const json& rows) {
   if (r.empty()) return absent("throughput and latency (the platform's: simulate and explore)");
   std::string h =
       "<table><tr><th>point</th><th>throughput images/s</th><th>latency us</th><th>energy uJ/image</th>"
-      "<th>" + std::string(kSimulatedPower) + "</th><th>peak power</th><th>area mm2</th><th>bottleneck (busy us/image)</th></tr>\n";
+      "<th>" +
+      std::string(kSimulatedPower) +
+      "</th><th>peak power</th><th>area mm2</th><th>bottleneck (busy us/image)</th></tr>\n";
   for (const json* x : r) {
     std::string bottleneck;
     if (x->contains("bottleneck") && (*x)["bottleneck"].is_object())
@@ -884,10 +889,10 @@ std::string rows_table(const json& rows) {
   };
   std::vector<Col> cols;
   for (const Col& c : {Col{"accuracy", "accuracy %", 100}, Col{"mean_relative_error", "mean error %", 100},
-                       Col{"worst_relative_error", "worst error %", 100}, Col{"energy_uj_per_image", "energy uJ/image", 1},
-                       Col{"area_mm2", "area mm2", 1}, Col{"latency_us", "latency us", 1},
-                       Col{"throughput_images_per_s", "throughput images/s", 1}, Col{"avg_power_mw", kSimulatedPower, 1},
-                       Col{"ideal_avg_power_mw", kIdealPower, 1}})
+                       Col{"worst_relative_error", "worst error %", 100},
+                       Col{"energy_uj_per_image", "energy uJ/image", 1}, Col{"area_mm2", "area mm2", 1},
+                       Col{"latency_us", "latency us", 1}, Col{"throughput_images_per_s", "throughput images/s", 1},
+                       Col{"avg_power_mw", kSimulatedPower, 1}, Col{"ideal_avg_power_mw", kIdealPower, 1}})
     if (any(c.key)) cols.push_back(c);
   const bool drops = any("accuracy_drop"), fronts = std::any_of(rows.begin(), rows.end(), on_front);
   std::string s = "<table><tr><th>point</th><th>status</th>";
@@ -958,10 +963,14 @@ std::string render_html_report(const ReportInput& in) {
   const auto energy = [&] { return breakdown_plot(sel, true); };
   const auto area = [&] { return breakdown_plot(sel, false); };
   if (in.command == "explore") {
-    sections = {{"Pareto front", front},           {"All points", table},
-                {"Per-layer error of the front", layers}, {"Accuracy vs ADC bits", adc},
-                {"Accuracy vs DAC bits", dac},     {"Energy by component", energy},
-                {"Area by component", area},       {"Per-stage time on the platform", timing}};
+    sections = {{"Pareto front", front},
+                {"All points", table},
+                {"Per-layer error of the front", layers},
+                {"Accuracy vs ADC bits", adc},
+                {"Accuracy vs DAC bits", dac},
+                {"Energy by component", energy},
+                {"Area by component", area},
+                {"Per-stage time on the platform", timing}};
   } else if (in.command == "simulate") {
     sections = {{"Throughput, latency and the bottleneck", performance},
                 {"Per-stage time on the platform", timing},

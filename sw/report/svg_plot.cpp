@@ -85,8 +85,8 @@ SvgPlot::SvgPlot(std::string id, int width, int height, PlotAxis x, PlotAxis y, 
     const double room = (w_ - 20 - lw_ - ml_) / static_cast<double>(x_.categories.size());
     if (x_.rotate_labels && room < 40) x_.rotate_labels = -90;
     const double angle = x_.rotate_labels * 3.14159265358979 / 180;
-    const int need = static_cast<int>(std::ceil(
-        14 + kCharWidthPx * longest(x_) * std::abs(std::sin(angle)) + 11 * std::abs(std::cos(angle)) + 26));
+    const int need = static_cast<int>(
+        std::ceil(14 + kCharWidthPx * longest(x_) * std::abs(std::sin(angle)) + 11 * std::abs(std::cos(angle)) + 26));
     if (need > mb_) {
       h_ += need - mb_;
       mb_ = need;

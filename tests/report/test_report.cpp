@@ -298,7 +298,8 @@ std::set<std::string> attrs(const std::string& s, const std::string& tag, const 
   for (size_t p = s.find("<" + tag + " "); p != std::string::npos; p = s.find("<" + tag + " ", p + 1)) {
     const std::string el = s.substr(p, s.find('>', p) - p);
     const size_t a = el.find(" " + attr + "=\"");
-    if (a != std::string::npos) v.insert(el.substr(a + attr.size() + 3, el.find('"', a + attr.size() + 3) - a - attr.size() - 3));
+    if (a != std::string::npos)
+      v.insert(el.substr(a + attr.size() + 3, el.find('"', a + attr.size() + 3) - a - attr.size() - 3));
   }
   return v;
 }
@@ -306,7 +307,8 @@ std::set<std::string> attrs(const std::string& s, const std::string& tag, const 
 /// The colours a plot draws its data in: its marks' fills and lines.
 std::set<std::string> mark_colours(const std::string& svg) {
   const std::string m = group(svg, "marks");
-  std::set<std::string> c = attrs(m, "circle", "fill"), r = attrs(m, "rect", "fill"), l = attrs(m, "polyline", "stroke");
+  std::set<std::string> c = attrs(m, "circle", "fill"), r = attrs(m, "rect", "fill"),
+                        l = attrs(m, "polyline", "stroke");
   c.insert(r.begin(), r.end());
   c.insert(l.begin(), l.end());
   return c;
@@ -462,7 +464,8 @@ TEST(HtmlReport, NumbersReadAlikeAndEachPowerSaysWhatItIs) {
   EXPECT_EQ(compact_number(32552.4), "32.55 k");
   EXPECT_EQ(compact_number(999960), "1 M");
   EXPECT_EQ(compact_number(4902), "4902");
-  EXPECT_EQ(tick_texts({1993.6, 1993.8, 1994.0, 1994.2}), (std::vector<std::string>{"1993.6", "1993.8", "1994", "1994.2"}));
+  EXPECT_EQ(tick_texts({1993.6, 1993.8, 1994.0, 1994.2}),
+            (std::vector<std::string>{"1993.6", "1993.8", "1994", "1994.2"}));
 }
 
 // Explore: the pairs coloured as the main scatter, the bits plot with a legend, the front's
@@ -707,8 +710,9 @@ TEST(HtmlReportBrowser, EveryTickLabelIsWholeAndApartOnAGoogLeNetSizedNetwork) {
   if (browser.empty()) GTEST_SKIP() << "Chromium not found (Debian package chromium); browser test skipped";
   ReportInput ex = sample();
   for (size_t i = 0; i < 5; ++i) ex.rows[i]["latency_us"] = 1993.6 + 0.2 * i;
-  const std::vector<std::pair<std::string, ReportInput>> pages{
-      {"report_googlenet_1", googlenet_simulate(1)}, {"report_googlenet_2", googlenet_simulate(2)}, {"report_explore_ticks", ex}};
+  const std::vector<std::pair<std::string, ReportInput>> pages{{"report_googlenet_1", googlenet_simulate(1)},
+                                                               {"report_googlenet_2", googlenet_simulate(2)},
+                                                               {"report_explore_ticks", ex}};
   for (const auto& page : pages) {
     const Rendered r = render_in_chromium(browser, page.first, page.second, 1400);
     ASSERT_TRUE(r.error.empty()) << page.first << ": " << r.error;
