@@ -19,6 +19,7 @@
 #include "sw/app/table.h"
 #include "sw/common/errors.h"
 #include "sw/common/seed.h"
+#include "sw/nn/network.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/hardware.h"
 
@@ -69,9 +70,11 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   PlatformActions platform;  // counted by the simulation
   MachineActions on_machine;  // on a machine: its tile buses, mesh, digital units and off-chip links
   nlohmann::json digital = nlohmann::json::array();
-  for (const StageStats& st : r.stages) {
+  for (size_t stage = 0; stage < r.stages.size(); ++stage) {
+    const StageStats& st = r.stages[stage];
     if (st.linear < 0) {
       digital.push_back({{"name", st.name},
+                         {"stage", stage},
                          {"operation", *digital_op_name(st.kind) ? digital_op_name(st.kind) : "data movement"},
                          {"tile", st.tile},
                          {"operations", st.digital_ops / images},
@@ -103,6 +106,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
     layers.push_back({{"name", L.name},
+                      {"stage", stage},
                       {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
                       {"rows", L.rows()},
                       {"cols", L.c_out},
@@ -161,6 +165,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   // The shared bus is the bottleneck when its lanes carry longer per image than that stage
   // computes (a machine's mesh: see noc.link_utilization).
   const double bus_ns = machine ? 0.0 : r.bus_busy_ns / std::max(pc.bus_lanes, 1);
+  if (!machine) j["interconnect_busy_us_per_image"] = bus_ns / images * 1e-3;
   if (slow && bus_ns > slow->busy_ns)
     j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
   else if (slow)
@@ -230,6 +235,7 @@ SimulationReport SimulationReport::from_json(const nlohmann::json& j) {
   r.wall_time_s = j.at("simulation_wall_time_s").get<double>();
   r.images_per_wall_s = j.at("simulated_images_per_wall_s").get<double>();
   if (j.contains("accuracy")) r.accuracy = j["accuracy"].get<double>();
+  if (j.contains("software_accuracy")) r.software_accuracy = j["software_accuracy"].get<double>();
   r.json = j;
   return r;
 }
@@ -323,13 +329,20 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   j["simulation_wall_time_s"] = wall_s;
   j["simulated_images_per_wall_s"] = pc.images / std::max(wall_s, 1e-9);
   if (data.labelled && !pc.timing_only) {
-    int correct = 0;
+    // The crossbars' accuracy, and the software network's on the same images beside it.
+    const SoftwareBackend sw(model);
+    std::vector<float> x(model.input.size());
+    int correct = 0, software_correct = 0;
     for (size_t k = 0; k < r.logits.size(); ++k) {
-      Eigen::Index a;
+      Eigen::Index a, b;
       r.logits[k].maxCoeff(&a);
       correct += a == data.test.labels[k];
+      data.test.preprocess(static_cast<int>(k), model.pre, x.data());
+      run_image(model, x.data(), sw).maxCoeff(&b);
+      software_correct += b == data.test.labels[k];
     }
     j["accuracy"] = static_cast<double>(correct) / r.logits.size();
+    j["software_accuracy"] = static_cast<double>(software_correct) / r.logits.size();
   }
   return SimulationReport::from_json(j);
 }

@@ -8,6 +8,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/quantity_text.h"
 #include "sw/common/ranks.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
@@ -93,7 +94,7 @@ int cmd_eval(int argc, char** argv) {
   if (out)
     out->set_report("eval", base,
                     std::filesystem::path(model.path).lexically_normal().string() + " on " +
-                        std::to_string(data.test.count()) + " " + data.test.name + " images");
+                        count_text(data.test.count(), data.test.name + " image"));
   const std::vector<std::string> labels = sweep_labels(points);
   const Table table({{"run", fit_width("run", labels)},
                      {"images", 7},

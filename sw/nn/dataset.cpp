@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <filesystem>
 #include <fstream>
 #include <sys/stat.h>
 
@@ -231,15 +232,29 @@ std::string resolve_models_dir(const ConfigTree& cfg) {
   return resolve_data_dir(cfg) + "/../models";
 }
 
+namespace {
+/// `p` without "." and "dir/.." steps ("data/../models/m.onnx" -> "models/m.onnx") where that
+/// names the same file; through a symbolic link it may not ("link/.." is where the link points,
+/// not its folder): then the absolute path with every link resolved.
+std::string normal_path(const std::string& p) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path lexical = fs::path(p).lexically_normal();
+  if (fs::equivalent(lexical, p, ec) && !ec) return lexical.string();
+  const fs::path canonical = fs::weakly_canonical(p, ec);
+  return ec ? p : canonical.string();
+}
+}  // namespace
+
 std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
-  if (exists(given)) return given;
+  if (exists(given)) return normal_path(given);
   std::vector<std::string> tried{given};
   // A list (sweep) in these keys is an error of its own, not a model that was not found.
   for (const char* key : {"data.dir", "data.models_dir"}) cfg.get_string(key);
   try {
     const std::string dir = resolve_models_dir(cfg);
     for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
-      if (exists(c)) return c;
+      if (exists(c)) return normal_path(c);
       tried.push_back(c);
     }
   } catch (const InputError&) {

@@ -60,7 +60,8 @@ std::string preprocessing_text(const Preprocessing& p);
 std::string resolve_models_dir(const ConfigTree& cfg);
 
 /// Path of a model given as a path, or as a name in the models directory (with or without
-/// .onnx); throws InputError listing every place it looked.
+/// .onnx), normalised ("data/../models/m.onnx" is "models/m.onnx"); throws InputError listing
+/// every place it looked.
 std::string find_model_file(const std::string& given, const ConfigTree& cfg);
 
 /// Images of a named dataset ("cifar10" or "mnist") in `data_dir`; `split` is "test" or

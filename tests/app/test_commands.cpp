@@ -290,6 +290,89 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   EXPECT_NE(out.find("resnet99"), std::string::npos);
 }
 
+// Simulate's accuracy line says on how many images and what software scores on them (the same
+// as eval's on the same images); both JSONs name the model by its normalised path; each
+// average power is named for the time it divides by (issue 39, items 5 and 7).
+TEST(SimulateCommand, AccuracyWithImagesAndSoftwareAndEachPowerNamedForItsTime) {
+  std::string out;
+  ASSERT_EQ(run("simulate --preset lenet --timing-only --images 1", &out), 0) << out;
+  EXPECT_NE(out.find("sequential schedule, 1 image: "), std::string::npos) << out;
+  if (!xbarsim_test::have_data()) GTEST_SKIP() << "shared data directory not found; rest skipped";
+  const std::string sj = ::testing::TempDir() + "xbarsim_simulate_accuracy.json",
+                    ej = ::testing::TempDir() + "xbarsim_eval_accuracy.json";
+  ASSERT_EQ(run("simulate --model lenet_mnist --dataset mnist --images 8 --json " + sj, &out), 0) << out;
+  const auto s = read_json(sj);
+  const std::string summary = out;
+  ASSERT_EQ(run("eval --model lenet_mnist --dataset mnist --images 8 --json " + ej, &out), 0) << out;
+  const auto e = read_json(ej);
+  char line[128];
+  std::snprintf(line, sizeof line, "accuracy on 8 images: crossbars %.4f, software %.4f (fractions",
+                s["accuracy"].get<double>(), e["software_accuracy"].get<double>());
+  EXPECT_NE(summary.find(line), std::string::npos) << summary;
+  EXPECT_EQ(s["software_accuracy"], e["software_accuracy"]);
+  // data.dir/../models/lenet_mnist.onnx, without the detour.
+  for (const auto* j : {&s, &e}) {
+    const std::string model = (*j)["model"];
+    EXPECT_EQ(model.find("/../"), std::string::npos) << model;
+    EXPECT_EQ(model.find("/./"), std::string::npos) << model;
+    EXPECT_NE(model.find("models/lenet_mnist.onnx"), std::string::npos) << model;
+  }
+  // simulate: energy over the simulated time per image; eval: over the ideal time, the
+  // crossbars' reads back to back (a clock each), named apart.
+  EXPECT_NEAR(s["avg_power_mw"].get<double>(),
+              s["energy_uj_per_image"].get<double>() / (s["makespan_us"].get<double>() / 8) * 1e3, 1e-9);
+  EXPECT_FALSE(e.contains("avg_power_mw"));
+  EXPECT_FALSE(e.contains("time_ns_per_image"));
+  EXPECT_NEAR(e["ideal_avg_power_mw"].get<double>(),
+              e["energy_uj_per_image"].get<double>() / e["ideal_time_ns_per_image"].get<double>() * 1e6, 1e-9);
+  long long reads = 0;
+  for (const auto& l : s["layers"]) reads += l["iterations"].get<long long>();
+  EXPECT_DOUBLE_EQ(e["ideal_time_ns_per_image"].get<double>(), reads * 1e3 / s["clock_mhz"].get<double>());
+  EXPECT_GT(e["ideal_avg_power_mw"].get<double>(), s["avg_power_mw"].get<double>());
+  EXPECT_NE(summary.find("(energy / simulated time per image)"), std::string::npos) << summary;
+}
+
+// Simulate's report plots every stage of the run, the digital ones and the bottleneck among them.
+TEST(SimulateCommand, TheReportPlotsEveryStageAndTheBottleneck) {
+  const std::string html = ::testing::TempDir() + "xbarsim_simulate_stages.html",
+                    json = ::testing::TempDir() + "xbarsim_simulate_stages.json";
+  std::string out;
+  ASSERT_EQ(run("simulate --preset resnet20 --timing-only --images 2 --config " + std::string(XBARSIM_SOURCE_DIR) +
+                    "/configs/isaac.yaml --set platform.grain_rows=2 --json " + json + " --report " + html,
+                &out),
+            0)
+      << out;
+  std::ifstream in(html);
+  const std::string h((std::istreambuf_iterator<char>(in)), {});
+  const size_t a = h.find("id=\"plot-timing\"");
+  ASSERT_NE(a, std::string::npos);
+  const std::string svg = h.substr(a, h.find("</svg>", a) - a);
+  const auto j = read_json(json);
+  for (const char* list : {"layers", "digital_stages"})
+    for (const auto& st : j[list])
+      EXPECT_NE(svg.find("<title>" + st["name"].get<std::string>()), std::string::npos) << st["name"];
+  EXPECT_NE(svg.find("<title>layer1.0/add (the bottleneck)"), std::string::npos);
+  // The layer-sized platform: its interconnect is a stage too.
+  ASSERT_EQ(run("simulate --preset lenet --timing-only --images 2 --json " + json + " --report " + html, &out), 0)
+      << out;
+  std::ifstream in2(html);
+  const std::string h2((std::istreambuf_iterator<char>(in2)), {});
+  EXPECT_NE(h2.find("<title>interconnect (platform.bus_lanes)"), std::string::npos);
+  EXPECT_GT(read_json(json)["interconnect_busy_us_per_image"].get<double>(), 0);
+}
+
+// A sweep of the cells on a machine is refused before anything runs, and the message says how to
+// sweep them: on the layer-sized platform (issue 39, item 7).
+TEST(SimulateCommand, ASweepOfTheCellsOnAMachineSaysHowToVaryThem) {
+  std::string out;
+  EXPECT_EQ(run("simulate --preset resnet20 --timing-only --images 1 --config " + std::string(XBARSIM_SOURCE_DIR) +
+                    "/configs/isaac.yaml --set 'crossbar.cell_bits=[1,2]'",
+                &out),
+            2);
+  EXPECT_NE(out.find("crossbar.cell_bits 1"), std::string::npos) << out;
+  EXPECT_NE(out.find("--set architecture.machine=layer-sized"), std::string::npos) << out;
+}
+
 // The bottleneck simulate names is the stage the simulation measured busiest per image, a
 // digital one included, and the mapper (simulate's placement, overhead) predicts the same.
 // ResNet-20 on ISAAC-CE with two output rows per transaction: every convolution's rows are
