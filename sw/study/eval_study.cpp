@@ -427,8 +427,6 @@ std::pair<double, double> PairedAccuracy::drop_ci95() const {
 
 std::vector<std::string> EvalResult::warnings() const {
   std::vector<std::string> w;
-  for (const auto& l : layers)
-    if (l.mean_relative_error > kLayerErrorWarning) w.push_back(layer_error_warning(l.name, l.mean_relative_error));
   for (const auto& l : layers) {
     if (l.cells == 0 || l.out_of_range_cells <= kClippedCellsWarning * l.cells) continue;
     char pct[32];
@@ -438,6 +436,9 @@ std::vector<std::string> EvalResult::warnings() const {
                 " %), which were clipped and are not compensated; fewer mapping.max_rows, more mapping.g_headroom "
                 "or mapping.negative: differential keeps them in range");
   }
+  // After the clipped cells, which are one of their causes.
+  for (const auto& l : layers)
+    if (l.mean_relative_error > kLayerErrorWarning) w.push_back(layer_error_warning(l.name, l.mean_relative_error));
   return w;
 }
 

@@ -84,8 +84,8 @@ struct EvalResult {
   CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing
   const AnalogConfig* ac = nullptr;
   nlohmann::json to_json() const;
-  /// One sentence per layer whose mean error passes kLayerErrorWarning (sw/analog/error_metrics.h),
-  /// and one per layer with more than kClippedCellsWarning of its cells clipped.
+  /// One sentence per layer with more than kClippedCellsWarning of its cells clipped, then one
+  /// per layer whose mean error passes kLayerErrorWarning (sw/analog/error_metrics.h).
   std::vector<std::string> warnings() const;
 };
 
