@@ -141,23 +141,6 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     add_platform_cost(cost, hw, platform);
   }
   cost.time_ns = r.makespan_ns() / images;  // leakage runs for the whole run, shared by its images
-  nlohmann::json j;
-  j["iterations_total"] = iterations;
-  j["cycles_total"] = std::llround(r.latency_ns() / clk);
-  j["latency_us"] = r.latency_ns() * 1e-3;
-  j["makespan_us"] = r.makespan_ns() * 1e-3;
-  j["throughput_images_per_s"] = r.throughput_per_s();
-  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
-  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
-  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
-  j.update(cost.to_json());
-  // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
-  // on the network at the simulated throughput.
-  const double throughput = r.throughput_per_s(), energy_uj = cost.energy_uj().total();
-  j["macs_per_image"] = macs;
-  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
-  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
-  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
   // The bottleneck: the stage busy longest per image (with its stall, the time it held up).
   const StageStats* slow = nullptr;
   for (const StageStats& st : r.stages)
@@ -165,8 +148,40 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   // The shared bus is the bottleneck when its lanes carry longer per image than that stage
   // computes (a machine's mesh: see noc.link_utilization).
   const double bus_ns = machine ? 0.0 : r.bus_busy_ns / std::max(pc.bus_lanes, 1);
+  const bool bus_bound = slow && bus_ns > slow->busy_ns;
+  const double bottleneck_ns = bus_bound ? bus_ns / images : slow ? slow->busy_ns / images : 0.0;
+  // One image never fills a pipeline: the spacing of outputs (the measured steady state) needs
+  // two, and 1 / latency would be the empty pipeline's rate (ResNet-20 on ISAAC-CE: 13 570
+  // images/s for a steady 37 879). Then the steady state is the bottleneck stage's rate.
+  const bool unfilled = pc.pipelined && r.image_out_ns.size() < 2 && bottleneck_ns > 0;
+  const double throughput = unfilled ? 1e9 / bottleneck_ns : r.throughput_per_s();
+  nlohmann::json j;
+  j["warnings"] = nlohmann::json::array();
+  if (unfilled)
+    j["warnings"].push_back(
+        "one image never fills a pipelined schedule: the throughput is the bottleneck stage's rate (1 / its busy "
+        "time per image), not the spacing of simulated outputs (1 / latency would say " +
+        std::to_string(std::llround(1e9 / std::max(r.latency_ns(), 1e-9))) +
+        " images/s); simulate 2 or more images (--images) to measure it");
+  j["iterations_total"] = iterations;
+  j["cycles_total"] = std::llround(r.latency_ns() / clk);
+  j["latency_us"] = r.latency_ns() * 1e-3;
+  j["makespan_us"] = r.makespan_ns() * 1e-3;
+  j["throughput_images_per_s"] = throughput;
+  j["throughput_from"] = unfilled ? "bottleneck stage (one image)" : "simulated outputs";
+  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
+  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
+  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
   if (!machine) j["interconnect_busy_us_per_image"] = bus_ns / images * 1e-3;
-  if (slow && bus_ns > slow->busy_ns)
+  j.update(cost.to_json());
+  // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
+  // on the network at the simulated throughput.
+  const double energy_uj = cost.energy_uj().total();
+  j["macs_per_image"] = macs;
+  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
+  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
+  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
+  if (bus_bound)
     j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
   else if (slow)
     j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
@@ -200,6 +215,8 @@ SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg
     spec.offset = 0;
     EvalData e = load_eval_data(model, dataset, resolve_data_dir(cfg), spec);
     if (!e.note.empty()) std::fprintf(stderr, "xbarsim simulate: %s\n", e.note.c_str());
+    if (const std::string w = dataset_range_warning(e.test, model.pre, "the images"); !w.empty())
+      std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
     d.test = std::move(e.test);
     d.calib = std::move(e.calib);
     d.labelled = true;
@@ -328,6 +345,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   j["component_library"] = hw.lib.source;
   j["simulation_wall_time_s"] = wall_s;
   j["simulated_images_per_wall_s"] = pc.images / std::max(wall_s, 1e-9);
+  for (const auto& w : j["warnings"]) std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.get<std::string>().c_str());
   if (data.labelled && !pc.timing_only) {
     // The crossbars' accuracy, and the software network's on the same images beside it.
     const SoftwareBackend sw(model);

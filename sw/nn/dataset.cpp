@@ -180,6 +180,29 @@ std::string preprocessing_warning(const Model& m, const ConfigTree& cfg) {
          preprocessing_text(m.pre) + ", x = (pixel * scale - mean) / std (set preprocessing.* to change them)";
 }
 
+std::string dataset_range_warning(const Dataset& d, const Preprocessing& p, const std::string& what) {
+  if (d.values.empty()) return "";
+  const auto [lo, hi] = std::minmax_element(d.values.begin(), d.values.end());
+  const double largest = std::max(std::fabs(*lo), std::fabs(*hi));
+  char text[512];
+  if (largest <= 1.0 && p.scale < 1.0 / 16) {
+    std::snprintf(text, sizeof text,
+                  "%s are float values within [%.3g, %.3g] but preprocessing.scale is %.6g, which expects 0..255 "
+                  "pixels: images already in [0, 1] reach the network 255 times too small (set "
+                  "preprocessing.scale=1)",
+                  what.c_str(), static_cast<double>(*lo), static_cast<double>(*hi), p.scale);
+    return text;
+  }
+  if (largest > 255.0 && p.scale < 1.0) {
+    std::snprintf(text, sizeof text,
+                  "%s hold float values up to %.6g, beyond the 0..255 pixels preprocessing.scale %.6g expects: check "
+                  "the images and preprocessing.scale",
+                  what.c_str(), largest, p.scale);
+    return text;
+  }
+  return "";
+}
+
 void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels) {
   const std::string origin = "configuration";
   const std::string scale = cfg.get_string("preprocessing.scale"), mean = cfg.get_string("preprocessing.mean"),
