@@ -23,10 +23,12 @@ class Dac : public sc_core::sc_module {
   }
   long long conversions() const { return conversions_; }
 
-  /// The values of a pass: job.xq quantized to DAC levels in place and, with bit-serial
-  /// inputs, sliced into the reads' codes (no timing, no counters: safe on any thread).
+  /// The values of a pass: job.xq quantized to DAC levels in place, in the crossbars' row
+  /// order (a grouped layer's groups) and, with bit-serial inputs, sliced into the reads'
+  /// codes (no timing, no counters: safe on any thread).
   static void convert(LayerJob& job) {
     if (!job.input_quantized) job.analog->dac_inplace<float>(job.xq);
+    job.analog->arrange_inputs<float>(job.xq);
     if (job.serial()) job.analog->slice_inputs<float>(job.xq, job.codes);
   }
 

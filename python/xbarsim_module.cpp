@@ -15,6 +15,7 @@
 
 #include "sw/analog/analog_layer.h"
 #include "sw/analog/calibration.h"
+#include "sw/analog/error_metrics.h"
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
@@ -231,6 +232,9 @@ PYBIND11_MODULE(_core, m) {
   m.def("_assignment", &assignment, py::arg("key"), py::arg("value"),
         "The override key=value as --set takes it (the package's one conversion; ValueError naming the key)");
   static py::exception<SolverError> solver_error(m, "SolverError", PyExc_RuntimeError);
+  solver_error.attr("__doc__") =
+      "A crossbar circuit solve that did not converge (the CLI's exit code 3): the message names the "
+      "solver, its iterations and residual. A RuntimeError; bad input raises ValueError instead.";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -287,7 +291,7 @@ PYBIND11_MODULE(_core, m) {
                           "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
                           "mitigation, programming noise, converters (config's sections).")
       .def(py::init([](const Eigen::MatrixXd& w, const ConfigTree& cfg, double x_max, bool signed_inputs,
-                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt) {
+                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt, int groups, int channels) {
              const AnalogConfig ac = parse_analog_config(cfg);
              if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
              if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
@@ -296,24 +300,33 @@ PYBIND11_MODULE(_core, m) {
                throw InputError("the calibration vectors have " + std::to_string(calib->cols()) +
                                 " values each, but the weight matrix has " + std::to_string(w.rows()) + " rows");
              if (calib && !calib->allFinite()) throw InputError("the calibration vectors hold a non-finite value");
-             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt);
+             if (groups < 1) throw InputError("groups must be >= 1");
+             if (groups > 1 && channels < 1)
+               throw InputError("a grouped layer (groups > 1) needs channels: its input channels");
+             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt, RowGroups{groups, channels});
              interruptible([&] { layer->program(calib ? *calib : Eigen::MatrixXd()); });
              return layer;
            }),
            py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
-           py::arg("calibration") = std::nullopt, py::arg("salt") = 0,
-           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0): W is inputs x outputs; "
-           "inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration "
-           "images (random vectors when None). Releases the GIL while programming.")
+           py::arg("calibration") = std::nullopt, py::arg("salt") = 0, py::arg("groups") = 1, py::arg("channels") = 0,
+           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0): W is "
+           "inputs x outputs; inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as "
+           "eval's calibration images (random vectors when None). A grouped convolution (groups > 1) gives its "
+           "block-diagonal W in im2col order (input channel innermost, `channels` of them) and is programmed "
+           "group by group, as eval programs it. Releases the GIL while programming.")
       .def("matvec", &matvec<double>, py::arg("X"),
            "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery. float64 "
            "arrays compute in double precision; float32 arrays in single, as eval computes a network.")
       .def("matvec", &matvec<float>, py::arg("X"))
-      .def_property_readonly("inputs", &AnalogLayer::inputs)
-      .def_property_readonly("outputs", &AnalogLayer::outputs)
-      .def_property_readonly("crossbars", &AnalogLayer::crossbars)
-      .def_property_readonly("x_max", &AnalogLayer::x_max, "the inputs' full scale")
-      .def_property_readonly("signed_inputs", &AnalogLayer::signed_inputs, "inputs span [-x_max, x_max]")
+      .def_property_readonly("inputs", &AnalogLayer::inputs, "Rows of W: the values of one input vector")
+      .def_property_readonly("outputs", &AnalogLayer::outputs, "Columns of W: the values of one output vector")
+      .def_property_readonly("crossbars", &AnalogLayer::crossbars,
+                             "How many physical crossbars hold W (mapping.max_rows x max_cols blocks, with the "
+                             "mapping's extra columns)")
+      .def_property_readonly("x_max", &AnalogLayer::x_max,
+                             "The inputs' full scale: the DACs span [0, x_max] ([-x_max, x_max] when signed)")
+      .def_property_readonly("signed_inputs", &AnalogLayer::signed_inputs,
+                             "True when inputs span [-x_max, x_max] (else [0, x_max])")
       .def("reports", [](const AnalogLayer& layer) {
         py::list out;
         for (const CrossbarReport& r : layer.reports()) {
@@ -328,7 +341,32 @@ PYBIND11_MODULE(_core, m) {
           out.append(d);
         }
         return out;
-      });
+      }, "Per crossbar, a dict: its block of W (row0, rows, col0, cols), physical_cols, out_of_range_cells "
+         "(cells the conversion wanted outside [g_min, g_max], clipped) and min_column_gain");
+
+  m.def(
+      "output_errors",
+      [](py::array_t<double, py::array::c_style | py::array::forcecast> actual,
+         py::array_t<double, py::array::c_style | py::array::forcecast> ideal, double output_range) {
+        if (actual.size() != ideal.size() || actual.ndim() != ideal.ndim())
+          throw InputError("output_errors: actual and ideal differ in shape");
+        for (py::ssize_t d = 0; d < actual.ndim(); ++d)
+          if (actual.shape(d) != ideal.shape(d)) throw InputError("output_errors: actual and ideal differ in shape");
+        if (!(output_range > 0) || !std::isfinite(output_range))
+          throw InputError("output_errors: output_range must be a finite number > 0");
+        const Eigen::Map<const Eigen::VectorXd> a(actual.data(), actual.size()), i(ideal.data(), ideal.size());
+        const ErrorTally t = layer_error(a, i, output_range);
+        return py::make_tuple(t.mean(), t.worst, t.count);
+      },
+      py::arg("actual"), py::arg("ideal"), py::arg("output_range"),
+      "(mean, worst, count) of |actual - ideal| / output_range over every element: eval's per-layer error "
+      "(docs/physics.md), with output_range from layer_output_range");
+  m.def("layer_output_range", &layer_output_range, py::arg("lo"), py::arg("hi"),
+        "A layer's output range for its errors: max(hi) - min(lo), where lo and hi are per output channel the "
+        "smallest and largest software outputs over the calibration data (1 when they never varied)");
+  m.attr("layer_error_warning") = kLayerErrorWarning;
+  m.def("layer_error_warning_text", &layer_error_warning, py::arg("name"), py::arg("mean"),
+        "The warning eval gives for a layer whose mean error passes layer_error_warning");
 
   m.def("calibration_rows_per_image", &calibration_rows_per_image, py::arg("samples"), py::arg("images"),
         "How many calibration vectors eval draws from each calibration image when it keeps `samples` "

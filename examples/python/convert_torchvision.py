@@ -1,7 +1,7 @@
 """Run torchvision's ResNet-18 (random weights, 32 x 32 inputs) with its Conv2d and Linear
 layers on xbarsim's crossbars, and compare with torch.
 
-    PYTHONPATH=build/python python3 examples/python/convert_torchvision.py
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/convert_torchvision.py
 """
 import time
 

@@ -1,6 +1,6 @@
 """Solve one crossbar's exact circuit from Python and compare it with the ideal product G^T V.
 
-    PYTHONPATH=build/python python3 examples/python/solve_crossbar.py
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/solve_crossbar.py
 """
 import numpy as np
 

@@ -1,7 +1,7 @@
 """Sweep the ADC resolution of the built-in ResNet-20 on the platform and plot energy per image
 (matplotlib if present, else a table).
 
-    PYTHONPATH=build/python python3 examples/python/sweep_adc_bits.py
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/sweep_adc_bits.py
 """
 import xbarsim
 

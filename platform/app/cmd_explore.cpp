@@ -13,6 +13,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/quantity_text.h"
 #include "sw/common/errors.h"
 #include "sw/common/ranks.h"
 #include "sw/common/seed.h"
@@ -64,6 +65,8 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
   row["mean_relative_error"] = mean;
   row["worst_relative_error"] = worst;
   for (const char* k : kPlatformFields) row[k] = pf[k];
+  row["stages"] = platform_stages(pf);
+  if (pf.contains("bottleneck")) row["bottleneck"] = pf["bottleneck"];
   for (const char* k : {"adc_bits", "dac_bits", "input_bits", "cell_bits", "weight_bits", "adc_range", "method",
                         "max_rows", "max_cols", "out_of_range_cells"})
     row[k] = ev[k];
@@ -88,6 +91,8 @@ nlohmann::json timing_row(const SimulationReport& pf) {
     layers.push_back(L);
   }
   for (const char* k : kPlatformFields) row[k] = pf.json[k];
+  row["stages"] = platform_stages(pf.json);
+  if (pf.json.contains("bottleneck")) row["bottleneck"] = pf.json["bottleneck"];
   row["warnings"] = nlohmann::json::array();
   row["layers"] = layers;
   row["simulation_wall_time_s"] = pf.wall_time_s;
@@ -382,9 +387,9 @@ int cmd_explore(int argc, char** argv) {
     ReportInput rep;
     rep.command = "explore";
     rep.title = "xbarsim explore: " + std::filesystem::path(model.path).lexically_normal().string() +
-                (spec.accuracy ? " on " + std::to_string(data.test.count()) + " " + data.test.name + " images, "
+                (spec.accuracy ? " on " + count_text(data.test.count(), data.test.name + " image") + ", "
                                : " (timing only, no accuracy), ") +
-                std::to_string(rows.size()) + " design points";
+                count_text(static_cast<long long>(rows.size()), "design point");
     rep.config_yaml = base.dump();
     rep.swept_keys = base.sweep_keys();
     rep.color_key = color;

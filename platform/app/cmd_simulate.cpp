@@ -8,6 +8,7 @@
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
 #include "sw/common/input_file.h"
+#include "sw/common/quantity_text.h"
 #include "sw/study/hardware.h"
 #include "sw/study/sweep.h"
 
@@ -43,17 +44,22 @@ void register_point_inputs(const CliArgs& args, const ConfigTree& cfg) {
 
 void print_summary(const SimulationReport& r) {
   std::printf(
-      "\n%s on %s, %s timing, %s schedule, %d images: %lld iterations/image, latency %.3f us, makespan %.3f us, "
-      "%.0f images/s\nenergy %.3f uJ/image, average power %s, peak power %s, area %.4f mm2, "
-      "%.3f TOPS/W achieved\n",
-      r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(), r.images, r.iterations_total,
-      r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
+      "\n%s on %s, %s timing, %s schedule, %s: %lld iterations/image, latency %.3f us, makespan %.3f us, "
+      "%s images/s\nenergy %.3f uJ/image, average power %s (energy / simulated time per image), peak power %s, "
+      "area %.4f mm2, %.3f TOPS/W achieved\n",
+      r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(),
+      count_text(r.images, "image").c_str(), r.iterations_total, r.latency_us, r.makespan_us,
+      compact_number(r.throughput_images_per_s).c_str(), r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
       power_text(r.peak_power_mw).c_str(), r.area_mm2, r.achieved_tops_per_w);
   if (!r.bottleneck.empty())
     std::printf("bottleneck: %s, busy %.3f us per image\n", r.bottleneck.c_str(), r.bottleneck_busy_us);
   std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,
               r.images_per_wall_s);
-  if (r.accuracy) std::printf("accuracy %.4f (a fraction, as in the JSON)\n", *r.accuracy);
+  if (r.accuracy) {
+    std::printf("accuracy on %s: crossbars %.4f", count_text(r.images, "image").c_str(), *r.accuracy);
+    if (r.software_accuracy) std::printf(", software %.4f", *r.software_accuracy);
+    std::printf(" (fractions, as in the JSON)\n");
+  }
 }
 
 /// The CSV columns after the point's: the figures of the header below.

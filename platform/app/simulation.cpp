@@ -19,6 +19,7 @@
 #include "sw/app/table.h"
 #include "sw/common/errors.h"
 #include "sw/common/seed.h"
+#include "sw/nn/network.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/hardware.h"
 
@@ -69,9 +70,11 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   PlatformActions platform;  // counted by the simulation
   MachineActions on_machine;  // on a machine: its tile buses, mesh, digital units and off-chip links
   nlohmann::json digital = nlohmann::json::array();
-  for (const StageStats& st : r.stages) {
+  for (size_t stage = 0; stage < r.stages.size(); ++stage) {
+    const StageStats& st = r.stages[stage];
     if (st.linear < 0) {
       digital.push_back({{"name", st.name},
+                         {"stage", stage},
                          {"operation", *digital_op_name(st.kind) ? digital_op_name(st.kind) : "data movement"},
                          {"tile", st.tile},
                          {"operations", st.digital_ops / images},
@@ -103,6 +106,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
     layers.push_back({{"name", L.name},
+                      {"stage", stage},
                       {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
                       {"rows", L.rows()},
                       {"cols", L.c_out},
@@ -137,23 +141,6 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     add_platform_cost(cost, hw, platform);
   }
   cost.time_ns = r.makespan_ns() / images;  // leakage runs for the whole run, shared by its images
-  nlohmann::json j;
-  j["iterations_total"] = iterations;
-  j["cycles_total"] = std::llround(r.latency_ns() / clk);
-  j["latency_us"] = r.latency_ns() * 1e-3;
-  j["makespan_us"] = r.makespan_ns() * 1e-3;
-  j["throughput_images_per_s"] = r.throughput_per_s();
-  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
-  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
-  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
-  j.update(cost.to_json());
-  // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
-  // on the network at the simulated throughput.
-  const double throughput = r.throughput_per_s(), energy_uj = cost.energy_uj().total();
-  j["macs_per_image"] = macs;
-  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
-  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
-  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
   // The bottleneck: the stage busy longest per image (with its stall, the time it held up).
   const StageStats* slow = nullptr;
   for (const StageStats& st : r.stages)
@@ -161,7 +148,40 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   // The shared bus is the bottleneck when its lanes carry longer per image than that stage
   // computes (a machine's mesh: see noc.link_utilization).
   const double bus_ns = machine ? 0.0 : r.bus_busy_ns / std::max(pc.bus_lanes, 1);
-  if (slow && bus_ns > slow->busy_ns)
+  const bool bus_bound = slow && bus_ns > slow->busy_ns;
+  const double bottleneck_ns = bus_bound ? bus_ns / images : slow ? slow->busy_ns / images : 0.0;
+  // One image never fills a pipeline: the spacing of outputs (the measured steady state) needs
+  // two, and 1 / latency would be the empty pipeline's rate (ResNet-20 on ISAAC-CE: 13 570
+  // images/s for a steady 37 879). Then the steady state is the bottleneck stage's rate.
+  const bool unfilled = pc.pipelined && r.image_out_ns.size() < 2 && bottleneck_ns > 0;
+  const double throughput = unfilled ? 1e9 / bottleneck_ns : r.throughput_per_s();
+  nlohmann::json j;
+  j["warnings"] = nlohmann::json::array();
+  if (unfilled)
+    j["warnings"].push_back(
+        "one image never fills a pipelined schedule: the throughput is the bottleneck stage's rate (1 / its busy "
+        "time per image), not the spacing of simulated outputs (1 / latency would say " +
+        std::to_string(std::llround(1e9 / std::max(r.latency_ns(), 1e-9))) +
+        " images/s); simulate 2 or more images (--images) to measure it");
+  j["iterations_total"] = iterations;
+  j["cycles_total"] = std::llround(r.latency_ns() / clk);
+  j["latency_us"] = r.latency_ns() * 1e-3;
+  j["makespan_us"] = r.makespan_ns() * 1e-3;
+  j["throughput_images_per_s"] = throughput;
+  j["throughput_from"] = unfilled ? "bottleneck stage (one image)" : "simulated outputs";
+  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
+  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
+  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
+  if (!machine) j["interconnect_busy_us_per_image"] = bus_ns / images * 1e-3;
+  j.update(cost.to_json());
+  // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
+  // on the network at the simulated throughput.
+  const double energy_uj = cost.energy_uj().total();
+  j["macs_per_image"] = macs;
+  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
+  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
+  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
+  if (bus_bound)
     j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
   else if (slow)
     j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
@@ -195,6 +215,8 @@ SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg
     spec.offset = 0;
     EvalData e = load_eval_data(model, dataset, resolve_data_dir(cfg), spec);
     if (!e.note.empty()) std::fprintf(stderr, "xbarsim simulate: %s\n", e.note.c_str());
+    if (const std::string w = dataset_range_warning(e.test, model.pre, "the images"); !w.empty())
+      std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
     d.test = std::move(e.test);
     d.calib = std::move(e.calib);
     d.labelled = true;
@@ -230,6 +252,7 @@ SimulationReport SimulationReport::from_json(const nlohmann::json& j) {
   r.wall_time_s = j.at("simulation_wall_time_s").get<double>();
   r.images_per_wall_s = j.at("simulated_images_per_wall_s").get<double>();
   if (j.contains("accuracy")) r.accuracy = j["accuracy"].get<double>();
+  if (j.contains("software_accuracy")) r.software_accuracy = j["software_accuracy"].get<double>();
   r.json = j;
   return r;
 }
@@ -322,14 +345,22 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   j["component_library"] = hw.lib.source;
   j["simulation_wall_time_s"] = wall_s;
   j["simulated_images_per_wall_s"] = pc.images / std::max(wall_s, 1e-9);
+  for (const auto& w : j["warnings"]) std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.get<std::string>().c_str());
   if (data.labelled && !pc.timing_only) {
-    int correct = 0;
+    // The crossbars' accuracy, and the software network's on the same images beside it.
+    const SoftwareBackend sw(model);
+    std::vector<float> x(model.input.size());
+    int correct = 0, software_correct = 0;
     for (size_t k = 0; k < r.logits.size(); ++k) {
-      Eigen::Index a;
+      Eigen::Index a, b;
       r.logits[k].maxCoeff(&a);
       correct += a == data.test.labels[k];
+      data.test.preprocess(static_cast<int>(k), model.pre, x.data());
+      run_image(model, x.data(), sw).maxCoeff(&b);
+      software_correct += b == data.test.labels[k];
     }
     j["accuracy"] = static_cast<double>(correct) / r.logits.size();
+    j["software_accuracy"] = static_cast<double>(software_correct) / r.logits.size();
   }
   return SimulationReport::from_json(j);
 }

@@ -39,6 +39,7 @@ struct SimulationReport {
   double bottleneck_busy_us = 0;
   double wall_time_s = 0, images_per_wall_s = 0;
   std::optional<double> accuracy;  ///< labelled images with values computed
+  std::optional<double> software_accuracy;  ///< the software network's on the same images
   nlohmann::json json;             ///< the whole report
   /// The typed figures of a whole report (a child process's, sweeps and explore).
   static SimulationReport from_json(const nlohmann::json& j);

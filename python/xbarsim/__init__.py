@@ -7,18 +7,36 @@
 
 Errors in the input raise ValueError with the CLI's message; a solver that does not converge
 raises xbarsim.SolverError. `solve` releases the GIL, so Python threads solve in parallel.
+The command wrappers are called qualified (`xbarsim.eval(...)`): `from xbarsim import *` leaves
+out `eval`, which would shadow the builtin.
 """
 import json
 import os
 import subprocess
+import sys
 import tempfile
 
-from ._core import (Config, Crossbar, SolverError, __version__, calibration_row_picks,  # noqa: F401
-                    calibration_rows_per_image, netlist, solve)
-from . import _core
+try:
+    from ._core import (Config, Crossbar, SolverError, __version__, calibration_row_picks,  # noqa: F401
+                        calibration_rows_per_image, layer_output_range, netlist, output_errors, solve)
+    from . import _core
+except ImportError as e:
+    # The extension is built for one interpreter (its ABI tag is in the file name): another one
+    # (a pyenv or venv python3 first on PATH) does not find it. Say which one it needs.
+    try:
+        from ._built_for import PYTHON as _PYTHON, VERSION as _VERSION
+    except ImportError:
+        raise e from None
+    if (f"{sys.version_info[0]}.{sys.version_info[1]}" == _VERSION and
+            os.path.realpath(sys.executable) == os.path.realpath(_PYTHON)):
+        raise  # the right interpreter: the extension itself fails to load
+    raise ImportError(
+        f"xbarsim's extension (xbarsim._core) is built for {_PYTHON} (Python {_VERSION}), but this is "
+        f"{sys.executable} (Python {sys.version_info[0]}.{sys.version_info[1]}): run {_PYTHON} instead "
+        f"(or rebuild with -DPython3_EXECUTABLE={sys.executable}); the import said: {e}") from e
 
-__all__ = ["Config", "Crossbar", "SolverError", "solve", "netlist", "eval", "simulate", "explore", "overhead", "run",
-           "__version__"]
+__all__ = ["Config", "Crossbar", "SolverError", "solve", "netlist", "output_errors", "layer_output_range",
+           "simulate", "explore", "overhead", "run", "__version__"]
 
 
 def _binary():
@@ -50,15 +68,42 @@ def _config_args(config, overrides, tmp):
     return args
 
 
-def run(command, *args, config=None, overrides=None, progress=None):
-    """Runs `xbarsim COMMAND ARGS... --json F` and returns F's JSON as a dict.
+# The options of each command beyond --config, --set and --json, as keyword arguments (the
+# parameters a wrapper names are not repeated): a keyword not among them is a TypeError naming it.
+_OPTIONS = {
+    "eval": ("offset", "journal", "csv", "report"),
+    "simulate": ("timing", "vcd", "vcd_images", "report", "csv"),
+    "overhead": ("input_size", "csv"),
+    "explore": ("report", "csv"),
+}
 
-    `progress`, if given, is called with each line the command prints on stderr (its progress
-    and warnings) as it comes. An input error raises ValueError with the command's message;
-    a solver failure raises SolverError.
+
+def _option_args(command, options):
+    """`options` (keyword arguments) as the command's flags: `vcd_images=2` is `--vcd-images 2`."""
+    allowed = _OPTIONS.get(command, ())
+    args = []
+    for key, value in options.items():
+        if key not in allowed:
+            raise TypeError(f"{command}() got an unexpected keyword argument '{key}' (its options: " +
+                            ", ".join(allowed) + ", and json)")
+        args += ["--" + key.replace("_", "-"), os.fspath(value) if hasattr(value, "__fspath__") else str(value)]
+    return args
+
+
+def run(command, *args, config=None, overrides=None, progress=None, json_path=None):
+    """Runs `xbarsim COMMAND ARGS... --json F` and returns F's JSON.
+
+    The result is a dict, or for a sweep (a list value in `config` or `overrides`) a list of
+    dicts, one per point, each with the point's values under "sweep". `json_path`, if given,
+    is where the JSON is written (and kept); else a temporary file. `progress`, if given, is
+    called with each line the command prints on stderr (its progress and warnings) as it comes.
+    An input error raises ValueError with the command's message; a solver failure raises
+    SolverError.
     """
+    if "--json" in map(str, args):
+        raise ValueError("give the JSON file as json= (the wrappers) or json_path= (run), not as --json")
     with tempfile.TemporaryDirectory(prefix="xbarsim_") as tmp:
-        out = os.path.join(tmp, "result.json")
+        out = os.fspath(json_path) if json_path is not None else os.path.join(tmp, "result.json")
         argv = [_binary(), command, *map(str, args), *_config_args(config, overrides, tmp), "--json", out]
         proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         lines = []
@@ -88,21 +133,40 @@ def _model_args(model, preset):
     raise ValueError("give model= (an ONNX file or a shared model's name) or preset=")
 
 
-def eval(model, dataset=None, images=None, config=None, overrides=None, progress=None, **options):
-    """`xbarsim eval`: accuracy on crossbars vs software and per-layer errors, as a dict."""
+def eval(model, dataset=None, images=None, config=None, overrides=None, progress=None, json=None, **options):
+    """`xbarsim eval`: a whole ONNX network on crossbars against software on the same images.
+
+    `model`: an ONNX file or a shared model's name; `dataset`: cifar10, mnist or a .npz file
+    (default: the model's); `images`: how many test images (default all). `config` (a Config or
+    a YAML path) and `overrides` ({"dotted.key": value}) as for Config; `progress(line)` gets
+    each line the command prints on stderr; `json`: a file to keep the JSON in. Further options
+    as keywords: offset, journal, csv, report (`--offset` ...; another keyword is a TypeError).
+
+    Returns the CLI's JSON: a dict (accuracies, the drop and its interval, per-layer errors
+    under "layers", cost, "warnings"), or for a sweep a list of such dicts, one per point.
+    """
     args = _model_args(model, None)
     if dataset is not None:
         args += ["--dataset", os.fspath(dataset)]
     if images is not None:
         args += ["--images", str(images)]
-    for key, value in options.items():
-        args += ["--" + key.replace("_", "-"), str(value)]
-    return run("eval", *args, config=config, overrides=overrides, progress=progress)
+    args += _option_args("eval", options)
+    return run("eval", *args, config=config, overrides=overrides, progress=progress, json_path=json)
 
 
 def simulate(model=None, preset=None, dataset=None, images=None, timing_only=False, config=None, overrides=None,
-             progress=None):
-    """`xbarsim simulate`: the SystemC/TLM-2.0 platform's timing, energy, area (and accuracy), as a dict."""
+             progress=None, json=None, **options):
+    """`xbarsim simulate`: the SystemC/TLM-2.0 accelerator's timing, energy, area (and accuracy).
+
+    `model` (an ONNX file or a shared model's name) or `preset` (a built-in topology);
+    `dataset` and `images` as for eval (`images`: how many images to simulate);
+    `timing_only`: skip the values (no dataset needed). `config`, `overrides`, `progress` and
+    `json` as for eval. Further options as keywords: timing ("ideal" or "detailed"), vcd,
+    vcd_images, report, csv.
+
+    Returns the CLI's JSON: a dict (latency, throughput, energy and area with their breakdowns,
+    per-layer figures), or for a sweep a list of such dicts, one per point.
+    """
     args = _model_args(model, preset)
     if dataset is not None:
         args += ["--dataset", os.fspath(dataset)]
@@ -110,17 +174,32 @@ def simulate(model=None, preset=None, dataset=None, images=None, timing_only=Fal
         args += ["--images", str(images)]
     if timing_only:
         args.append("--timing-only")
-    return run("simulate", *args, config=config, overrides=overrides, progress=progress)
+    args += _option_args("simulate", options)
+    return run("simulate", *args, config=config, overrides=overrides, progress=progress, json_path=json)
 
 
-def overhead(model=None, preset=None, config=None, overrides=None):
-    """`xbarsim overhead`: dense vs sparse mapping cost per layer, as a dict."""
-    return run("overhead", *_model_args(model, preset), config=config, overrides=overrides)
+def overhead(model=None, preset=None, config=None, overrides=None, json=None, **options):
+    """`xbarsim overhead`: dense vs sparse (Toeplitz) mapping cost per layer.
+
+    `model` or `preset` as for simulate; `config`, `overrides` and `json` as for eval. Further
+    options as keywords: input_size ("H,W"), csv.
+
+    Returns the CLI's JSON: a dict (per layer: crossbars, converters, utilization, power and
+    area of each mapping), or for a sweep a list of such dicts, one per point.
+    """
+    args = _model_args(model, preset) + _option_args("overhead", options)
+    return run("overhead", *args, config=config, overrides=overrides, json_path=json)
 
 
-def explore(space, out, model=None, dataset=None, images=None, overrides=None, progress=None):
-    """`xbarsim explore`: every point and the Pareto front, as a dict. `space` is the YAML file of
-    the space; `out` the resumable JSON-lines journal."""
+def explore(space, out, model=None, dataset=None, images=None, overrides=None, progress=None, json=None, **options):
+    """`xbarsim explore`: accuracy and cost of every point of a design space, and the Pareto front.
+
+    `space`: the YAML file of the space; `out`: the resumable JSON-lines journal; `model`,
+    `dataset`, `images`, `overrides`, `progress` and `json` as for eval. Further options as
+    keywords: report, csv.
+
+    Returns the CLI's JSON as a dict (every point, the front).
+    """
     args = ["--config", os.fspath(space), "--out", os.fspath(out)]
     if model is not None:
         args += ["--model", os.fspath(model)]
@@ -128,4 +207,5 @@ def explore(space, out, model=None, dataset=None, images=None, overrides=None, p
         args += ["--dataset", os.fspath(dataset)]
     if images is not None:
         args += ["--images", str(images)]
-    return run("explore", *args, overrides=overrides, progress=progress)
+    args += _option_args("explore", options)
+    return run("explore", *args, overrides=overrides, progress=progress, json_path=json)

@@ -5,6 +5,9 @@
     logits = analog(images)           # Conv2d/Linear on crossbars, the rest in torch
     result = xbarsim.torch.evaluate(analog, loader, reference=model)
 
+`calibration` is required: the crossbars' input ranges come from it (a model fed normalised
+inputs, mean 0 and std 1, would otherwise be programmed for [0, 1] and clip the rest).
+
 Each Conv2d (any stride, padding -- 'same' and 'valid' too -- padding_mode, dilation and
 groups) and Linear becomes an xbarsim.Crossbar
 programmed as eval programs the same layer of the model's ONNX export: the same matrix rows on
@@ -21,7 +24,9 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from . import Config, Crossbar, calibration_row_picks, calibration_rows_per_image
+from . import (Config, Crossbar, calibration_row_picks, calibration_rows_per_image, layer_output_range,
+               output_errors)
+from . import _core
 
 __all__ = ["convert", "evaluate", "AnalogConv2d", "AnalogLinear"]
 
@@ -95,11 +100,15 @@ def _columns(module, x):
 
 
 class _Analog(torch.nn.Module):
-    def __init__(self, module, crossbar):
+    def __init__(self, module, crossbar, output_range):
         super().__init__()
         self.software = module  # the original layer: its bias, shape arguments and reference output
         self.crossbar = crossbar
-        self.errors = []  # per forward: mean |analog - software| / the software output's range
+        # The range of the layer's outputs over the calibration data (all channels: eval's
+        # layer_output_range), which its errors are relative to; None: calibration never reached it.
+        self.output_range = output_range
+        self._software_mode = False  # evaluate(): the layer computes in torch, as the reference network
+        self._keep = None  # evaluate(): a list the layer appends its output to
 
     def _matmul(self, cols):
         # float32 vectors compute in single precision, as eval's network inference; others in double.
@@ -107,10 +116,17 @@ class _Analog(torch.nn.Module):
         y = self.crossbar.matvec((cols if cols.dtype == torch.float32 else cols.double()).numpy())
         return torch.from_numpy(y)
 
+    def _out(self, y):
+        if self._keep is not None:
+            self._keep.append(y.detach())
+        return y
+
 
 class AnalogConv2d(_Analog):
     def forward(self, x):
         m = self.software
+        if self._software_mode:
+            return self._out(m(x))
         n, _, h, w = x.shape
         left, right, top, bottom = _pads(m)
         oh = (h + top + bottom - m.dilation[0] * (m.kernel_size[0] - 1) - 1) // m.stride[0] + 1
@@ -118,22 +134,18 @@ class AnalogConv2d(_Analog):
         y = self._matmul(_columns(m, x)).to(x.dtype).reshape(n, oh * ow, -1).transpose(1, 2).reshape(n, -1, oh, ow)
         if m.bias is not None:
             y = y + m.bias.detach().reshape(1, -1, 1, 1)
-        self._record(y, m(x))
-        return y
-
-    def _record(self, y, ref):
-        rng = (ref.amax() - ref.amin()).item()
-        self.errors.append(float((y - ref).abs().mean().item() / rng) if rng > 0 else 0.0)
+        return self._out(y)
 
 
-class AnalogLinear(AnalogConv2d):
+class AnalogLinear(_Analog):
     def forward(self, x):
         m = self.software
+        if self._software_mode:
+            return self._out(m(x))
         y = self._matmul(_columns(m, x)).to(x.dtype).reshape(*x.shape[:-1], -1)
         if m.bias is not None:
             y = y + m.bias.detach()
-        self._record(y, m(x))
-        return y
+        return self._out(y)
 
 
 def _calibration_statistics(modules, inputs, seed, samples):
@@ -168,7 +180,7 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
             signed_layers=(), progress=None):
     """A copy of `model` whose Conv2d and Linear layers run on crossbars.
 
-    `calibration`: a batch of inputs (a tensor), or an iterable of batches (a DataLoader of
+    `calibration` (required): a batch of inputs (a tensor), or an iterable of batches (a DataLoader of
     tensors or of (inputs, labels)), at most `max_calibration_batches` of them, run through
     the model (in its dtype; float32 computes as eval) to find each layer's input range and
     calibration vectors exactly as eval does from its calibration images: the same ranges and,
@@ -180,49 +192,65 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
     every layer whose inputs the graph can make negative (not after a ReLU, say), which a torch
     model does not say; a layer whose inputs are never negative in the data (after a sigmoid)
     matches eval only when named here. The calibration images are counted by the layer's calls
-    (one per image batch), as a network that calls each layer once per forward does. Without
-    `calibration` the ranges are [0, 1] and calibration uses random vectors.
+    (one per image batch), as a network that calls each layer once per forward does.
+    `calibration` is required (ValueError without it): a model whose inputs are normalised
+    (mean 0, std 1) programmed for [0, 1] would clip every negative input. The calibration
+    outputs also give each layer's output range, which evaluate()'s errors are relative to.
     `progress(name, done, total)` is called after each layer is programmed.
     """
+    if calibration is None:
+        raise ValueError(
+            "convert needs calibration=: a batch of inputs (a tensor) or a loader of batches, preprocessed as "
+            "the model's inputs will be; each layer's input range and calibration vectors come from it "
+            "(without it every layer would be programmed for inputs in [0, 1] and clip the rest)")
     config = config if config is not None else Config()
     samples = int(config.get("eval.calibration_samples") if calibration_samples is None else calibration_samples)
     if samples < 1:
         raise ValueError("calibration_samples must be >= 1")
     model = copy.deepcopy(model).eval()
     layers = [(name, m) for name, m in model.named_modules() if isinstance(m, (torch.nn.Conv2d, torch.nn.Linear))]
-    stats = [(1.0, False, None)] * len(layers)
-    if calibration is not None:
-        seen = [[] for _ in layers]
+    seen = [[] for _ in layers]
+    lo = [None] * len(layers)  # per layer and output channel: the calibration outputs' extremes
+    hi = [None] * len(layers)
 
-        def keep(l):
-            def hook(module, inputs, output):  # returns None: the output stays the layer's
-                seen[l].append(inputs[0].detach())
-            return hook
+    def keep(l):
+        def hook(module, inputs, output):  # returns None: the output stays the layer's
+            seen[l].append(inputs[0].detach())
+            per_channel = output.detach().double().transpose(0, 1).reshape(output.shape[1], -1)
+            a, b = per_channel.amin(dim=1), per_channel.amax(dim=1)
+            lo[l] = a if lo[l] is None else torch.minimum(lo[l], a)
+            hi[l] = b if hi[l] is None else torch.maximum(hi[l], b)
+        return hook
 
-        hooks = [m.register_forward_hook(keep(l)) for l, (_, m) in enumerate(layers)]
-        batches = [calibration] if torch.is_tensor(calibration) else calibration
-        try:
-            with torch.no_grad():
-                for k, batch in enumerate(batches):
-                    if max_calibration_batches is not None and k >= max_calibration_batches:
-                        break
-                    model(batch[0] if isinstance(batch, (tuple, list)) else batch)
-        finally:
-            for h in hooks:
-                h.remove()
-        stats = _calibration_statistics([m for _, m in layers], seen, int(config.get("calibration.seed")), samples)
-        unused = [name for (name, _), s in zip(layers, seen) if not s]
-        if unused:  # an auxiliary head, say: programmed for inputs in [0, 1], random calibration
-            warnings.warn("the calibration batches never reached layer(s) " + ", ".join(unused) +
-                          ": they are programmed for inputs in [0, 1]")
+    hooks = [m.register_forward_hook(keep(l)) for l, (_, m) in enumerate(layers)]
+    batches = [calibration] if torch.is_tensor(calibration) else calibration
+    try:
+        with torch.no_grad():
+            for k, batch in enumerate(batches):
+                if max_calibration_batches is not None and k >= max_calibration_batches:
+                    break
+                model(batch[0] if isinstance(batch, (tuple, list)) else batch)
+    finally:
+        for h in hooks:
+            h.remove()
+    if not any(seen):
+        raise ValueError("convert: the calibration data holds no batch")
+    stats = _calibration_statistics([m for _, m in layers], seen, int(config.get("calibration.seed")), samples)
+    unused = [name for (name, _), s in zip(layers, seen) if not s]
+    if unused:  # an auxiliary head, say: programmed for inputs in [0, 1], random calibration
+        warnings.warn("the calibration batches never reached layer(s) " + ", ".join(unused) +
+                      ": they are programmed for inputs in [0, 1]")
     unknown = set(signed_layers) - {name for name, _ in layers}
     if unknown:
         raise ValueError("signed_layers names no Conv2d or Linear of the model: " + ", ".join(sorted(unknown)))
     for l, (name, m) in enumerate(layers):
         x_max, signed, calib = stats[l]
         signed = signed or name in signed_layers
-        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1)
-        analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb)
+        grouping = {} if isinstance(m, torch.nn.Linear) else {"groups": m.groups, "channels": m.in_channels}
+        xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1,
+                      **grouping)
+        out_range = None if lo[l] is None else layer_output_range(lo[l].numpy(), hi[l].numpy())
+        analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb, out_range)
         parent = model
         *path, last = name.split(".")
         for part in path:
@@ -235,11 +263,42 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
 
 def evaluate(model, loader, reference=None):
     """Accuracy of `model` (a converted one) over (inputs, labels) batches of `loader`; with
-    `reference` (the original), its accuracy too and how many predictions agree."""
+    `reference` (the original), its accuracy too and how many predictions agree.
+
+    Per-layer errors as eval reports them: each analog layer's output in the converted network
+    against the same layer's output when the whole network computes in torch (the analog layers'
+    `software` modules) on the same inputs, so errors propagate from layer to layer; each
+    |difference| relative to the layer's output range over the calibration data
+    (xbarsim.output_errors, docs/physics.md). A layer whose mean error passes
+    xbarsim._core.layer_error_warning is named in "warnings" (and warned about).
+    """
+    analog = [(name, m) for name, m in model.named_modules() if isinstance(m, _Analog)]
+    tally = {name: [0.0, 0.0, 0] for name, m in analog if m.output_range is not None}  # sum, worst, count
     correct = ref_correct = agree = total = 0
     with torch.no_grad():
         for x, labels in loader:
-            pred = model(x).argmax(dim=1)
+            outputs = []
+            for software in (False, True):
+                for _, m in analog:
+                    m._software_mode, m._keep = software, []
+                try:
+                    logits = model(x)
+                finally:
+                    kept = {name: m._keep for name, m in analog}
+                    for _, m in analog:
+                        m._software_mode, m._keep = False, None
+                outputs.append((logits, kept))
+            (logits, crossbar), (_, software) = outputs
+            for name, m in analog:
+                if name not in tally:
+                    continue
+                for y, ref in zip(crossbar[name], software[name]):
+                    mean, worst, count = output_errors(y.double().numpy(), ref.double().numpy(), m.output_range)
+                    t = tally[name]
+                    t[0] += mean * count
+                    t[1] = max(t[1], worst)
+                    t[2] += count
+            pred = logits.argmax(dim=1)
             correct += int((pred == labels).sum())
             if reference is not None:
                 ref = reference(x).argmax(dim=1)
@@ -249,6 +308,11 @@ def evaluate(model, loader, reference=None):
     out = {"images": total, "accuracy": correct / max(total, 1)}
     if reference is not None:
         out.update(software_accuracy=ref_correct / max(total, 1), agreeing_predictions=agree)
-    errors = {name: float(np.mean(m.errors)) for name, m in model.named_modules() if isinstance(m, _Analog) and m.errors}
-    out["layer_mean_relative_error"] = errors
+    out["layer_mean_relative_error"] = {name: t[0] / t[2] for name, t in tally.items() if t[2]}
+    out["layer_worst_relative_error"] = {name: t[1] for name, t in tally.items() if t[2]}
+    out["warnings"] = [_core.layer_error_warning_text(name, mean)
+                       for name, mean in out["layer_mean_relative_error"].items()
+                       if mean > _core.layer_error_warning]
+    for w in out["warnings"]:
+        warnings.warn(w)
     return out

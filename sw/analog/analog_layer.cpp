@@ -47,7 +47,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
 }
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
-                         uint64_t salt)
+                         uint64_t salt, const RowGroups& groups)
     : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt) {
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
@@ -59,7 +59,28 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
   const int bits = cfg.converters.activation_bits();
   dac_q_ = Quantizer{signed_inputs ? std::max(bits - 1, bits > 0 ? 1 : 0) : bits, 0.0, x_max};
   slicing_ = make_input_slicing(bits, cfg.converters.dac_bits, signed_inputs, x_max);
-  blocks_ = crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), cfg.mapping);
+  const int rows = static_cast<int>(w.rows()), cols = static_cast<int>(w.cols());
+  if (groups.count == 1) {
+    blocks_ = crossbar_blocks(rows, cols, cfg.mapping);
+    return;
+  }
+  const int g = groups.count, c = groups.channels;
+  if (g < 1 || c < 1 || c % g != 0 || rows % c != 0 || cols % g != 0)
+    throw InputError("analog layer: " + std::to_string(g) + " groups do not divide its " + std::to_string(c) +
+                     " input channels, " + std::to_string(rows) + " rows and " + std::to_string(cols) + " outputs");
+  // Group-major rows: every window position of group 0's channels, then group 1's, ...
+  const int per_group = c / g, positions = rows / c, group_rows = rows / g, group_cols = cols / g;
+  order_.resize(rows);
+  for (int k = 0, q = 0; k < g; ++k)
+    for (int p = 0; p < positions; ++p)
+      for (int ch = 0; ch < per_group; ++ch) order_(q++) = p * c + k * per_group + ch;
+  w_ = w(order_, Eigen::all);
+  for (int k = 0; k < g; ++k)
+    for (Block b : crossbar_blocks(group_rows, group_cols, cfg.mapping)) {
+      b.row0 += k * group_rows;
+      b.col0 += k * group_cols;
+      blocks_.push_back(b);
+    }
 }
 
 AnalogLayer::~AnalogLayer() = default;
@@ -109,9 +130,11 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib, const SolverOptions& sol
   program(calib);
 }
 
-void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
-  if (calib_in.size() > 0 && calib_in.cols() != w_.rows())
+void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
+  if (calib_given.size() > 0 && calib_given.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
+  const Eigen::MatrixXd calib_in =
+      order_.size() && calib_given.size() ? Eigen::MatrixXd(calib_given(Eigen::all, order_)) : calib_given;
   const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
   const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
   const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
@@ -128,17 +151,21 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_in) {
           map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
       xb->beta = Eigen::VectorXd::Ones(xb->pcols);
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
+      // Programming reads the crossbar's own rows of every input (in0 = 0), then the crossbar
+      // reads the whole layer's inputs at its rows.
       const ProgrammingInputs in{
           cal.middleCols(blk.row0, blk.rows),
-          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(), cal,
+          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(),
+          range_x.middleCols(blk.row0, blk.rows),
           cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
       add_programming_noise(*xb, static_cast<int>(b));
-      set_adc_ranges(*xb, range_x);
+      set_adc_ranges(*xb, in.range_b);
       calibrate(*xb, in);
+      xb->in0 = blk.row0;
       xbars.push_back(std::move(xb));
       reports.push_back(rep);
     } catch (const std::exception&) {
@@ -197,6 +224,14 @@ void AnalogLayer::dac_inplace(RowMat<S>& x) const {
 }
 
 template <typename S>
+void AnalogLayer::arrange_inputs(RowMat<S>& x) const {
+  if (!order_.size()) return;
+  thread_local RowMat<S> arranged;
+  arranged = x(Eigen::all, order_);
+  x.swap(arranged);
+}
+
+template <typename S>
 void AnalogLayer::analog(int b, const RowMat<S>& xq, Mat<S>& currents) const {
   analog_of<S>(*xbars_.at(b), xq, currents);
 }
@@ -206,12 +241,12 @@ void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& curr
   if (cfg_.xbar.is_linear()) {
     // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
     if constexpr (std::is_same_v<S, float>)
-      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_f;
+      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_f;
     else
-      currents.noalias() = xq.middleCols(x.blk.row0, x.blk.rows) * x.geff_d;
+      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_d;
     return;
   }
-  const Eigen::MatrixXd v = volts(xq.middleCols(x.blk.row0, x.blk.rows).template cast<double>());
+  const Eigen::MatrixXd v = volts(xq.middleCols(x.in0, x.blk.rows).template cast<double>());
   currents = x.solver->column_currents(v).template cast<S>();
 }
 
@@ -224,7 +259,7 @@ template <typename S, typename XQ>
 void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const {
   if (cfg_.converters.adc_bits <= 0) return;
   using Col = Eigen::Array<S, Eigen::Dynamic, 1>;
-  const Col sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows).array();
+  const Col sum_x = input_sums<S>(xq, x.in0, x.blk.rows).array();
   Col offset(currents.rows());
   Eigen::ArrayXd v(currents.rows());
   const Eigen::Index ranges = x.adc_lo.cols(), per_range = currents.rows() / ranges;
@@ -260,7 +295,7 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
     const int c = x.pcols - 1;
     sum_x = iq.col(c) * static_cast<S>(1.0 / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s(c) * x.a_sum)));
   } else {
-    sum_x = input_sums<S>(xq, x.blk.row0, x.blk.rows);
+    sum_x = input_sums<S>(xq, x.in0, x.blk.rows);
   }
   // Per physical column: sign / (beta s), so (I / alpha - g_min sum(X)) times it is the
   // column's signed share of its weight column's product (its slice's place included).
@@ -317,9 +352,10 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   if (xbars_.empty()) throw InputError("analog layer used before program()");
   RowMat<S> xq_buf;
   const RowMat<S>* xq = &x;
-  if (dac_q_.enabled() && !quantized) {
+  if ((dac_q_.enabled() && !quantized) || order_.size()) {
     xq_buf = x;
-    dac_inplace<S>(xq_buf);
+    if (!quantized) dac_inplace<S>(xq_buf);
+    arrange_inputs<S>(xq_buf);
     xq = &xq_buf;
   }
   y.setZero(x.rows(), w_.cols());
@@ -348,7 +384,9 @@ Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
 }
 
 Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
-  return partial_of(*xbars_.at(b), dac(x), /*adc=*/true, /*calibrated=*/true);
+  const Eigen::MatrixXd xq = dac(x);
+  if (order_.size()) return partial_of(*xbars_.at(b), xq(Eigen::all, order_), /*adc=*/true, /*calibrated=*/true);
+  return partial_of(*xbars_.at(b), xq, /*adc=*/true, /*calibrated=*/true);
 }
 
 Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const {
@@ -372,6 +410,7 @@ Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd
   template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
   template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
+  template void AnalogLayer::arrange_inputs<S>(RowMat<S>&) const;                  \
   template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;

@@ -55,6 +55,16 @@ struct CrossbarReport {
   double conversion_residual = 0;   ///< matrix conversion max |G_eff - T| / max T
 };
 
+/// A grouped convolution's rows (Conv `group`): rows r = p * channels + c (window position p,
+/// input channel c innermost, eval's im2col order), input channel c in group c / (channels /
+/// count), and the outputs split evenly into `count` groups. Each group is programmed onto
+/// crossbars of its own (its K / count rows by its N / count columns): no crossbar holds the
+/// zeros between groups.
+struct RowGroups {
+  int count = 1;
+  int channels = 0;  ///< input channels (rows per window position); unused when count is 1
+};
+
 class AnalogLayer {
  public:
   /// Vectors used to estimate ADC ranges: nonlinear devices need a Newton solve per vector.
@@ -65,7 +75,10 @@ class AnalogLayer {
   /// `w` is K x N (inputs x outputs). Inputs span [0, x_max] (or [-x_max, x_max] when
   /// `signed_inputs`) and map to [0, v_in_max] volts. `salt` decorrelates the random
   /// choices (noise, calibration picks) of different layers.
-  AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs, uint64_t salt = 0);
+  /// `groups`: a grouped layer's block-diagonal `w` is programmed group by group (RowGroups);
+  /// the crossbars then read the inputs in group order (arrange_inputs).
+  AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs, uint64_t salt = 0,
+              const RowGroups& groups = {});
   ~AnalogLayer();
   AnalogLayer(AnalogLayer&&) noexcept;
 
@@ -97,6 +110,7 @@ class AnalogLayer {
   //    apply), then the same three stages on the reads of a range of vectors (ReadCurrents).
   //    forward() runs them on a few vectors at a time; every read's result is independent of
   //    the range it is computed in.
+  //  A grouped layer's stages read the inputs in group order: arrange_inputs after the DAC.
   /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
   template <typename S>
   void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
@@ -109,6 +123,10 @@ class AnalogLayer {
   void dac_values(S* data, Eigen::Index n) const;
   template <typename S>
   void dac_inplace(RowMat<S>& x) const;  ///< DAC quantization (input units)
+  /// Reorders the inputs' columns into the crossbars' row order (a grouped layer: group by
+  /// group; otherwise nothing to do).
+  template <typename S>
+  void arrange_inputs(RowMat<S>& x) const;
   template <typename S>
   void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
   template <typename S>
@@ -243,6 +261,8 @@ class AnalogLayer {
   Quantizer dac_q_;
   InputSlicing slicing_;
   std::vector<Block> blocks_;
+  /// A grouped layer: the input column each crossbar row reads (w_'s rows are in this order).
+  Eigen::VectorXi order_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;
   std::vector<CrossbarReport> reports_;
 };

@@ -11,6 +11,10 @@ namespace xbarsim {
 /// A crossbar after programming: the mapped weights, the conductances written (after
 /// conversion and noise), the solver over them and what the forward stages use.
 struct AnalogLayer::Crossbar : MappedWeights {
+  /// The column of the crossbar's first row in the input matrices it reads: blk.row0 once
+  /// programmed (inputs of the whole layer), 0 while programming (inputs of its own rows only,
+  /// so that programming a layer costs no more than its crossbars' share of every input).
+  int in0 = 0;
   Eigen::VectorXd beta;    ///< per physical column gain of matrix conversion (1 otherwise)
   Eigen::MatrixXd g_prog;  ///< S, programmed conductances
   std::unique_ptr<CrossbarSolver> solver;
@@ -50,7 +54,7 @@ struct AnalogLayer::Crossbar : MappedWeights {
 struct AnalogLayer::ProgrammingInputs {
   Eigen::MatrixXd cal_b;          ///< calibration vectors (DAC values), this crossbar's rows
   Eigen::MatrixXd calib_b;        ///< real inputs (DAC values), this crossbar's rows; may be empty
-  Eigen::MatrixXd cal;            ///< calibration vectors (DAC values), all rows of the layer
+  Eigen::MatrixXd range_b;        ///< the ADC range-estimation reads (DAC values), this crossbar's rows
   Eigen::MatrixXd ideal_partial;  ///< cal_b * W_block: the partial output calibration aims at
 };
 

@@ -70,7 +70,7 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
     const ConversionResult r = convert_signal(p, x.g_target, volts(xs), alpha_ * xs);
     if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
       install(x, r.g_prime);
-      const double e = relative_error(partial_of(x, in.cal, /*adc=*/false, /*calibrated=*/false), in.ideal_partial)
+      const double e = relative_error(partial_of(x, in.cal_b, /*adc=*/false, /*calibrated=*/false), in.ideal_partial)
                            .mean_relative_error;
       if (!(e < best)) continue;
       best = e;
@@ -97,7 +97,7 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
       mo.tolerance = cfg_.conversion.tolerance;
       // The mean applied voltage of each row over the calibration reads.
       const Eigen::VectorXd v_op =
-          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * mean_read_values(x, in.cal))
+          in.cal_b.rows() ? Eigen::VectorXd(alpha_ * mean_read_values(x, in.cal_b))
                           : Eigen::VectorXd::Constant(
                                 x.blk.rows, ConversionController::kDefaultOperatingPoint * cfg_.xbar.v_in_max_v);
       const ConversionResult r = convert_matrix(cfg_.xbar, cfg_.solver, x.g_target, v_op, mo);
@@ -204,7 +204,7 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;
-  x.fit = fit_columns(partial_of(x, in.cal, /*adc=*/true, /*calibrated=*/false), in.ideal_partial);
+  x.fit = fit_columns(partial_of(x, in.cal_b, /*adc=*/true, /*calibrated=*/false), in.ideal_partial);
 }
 
 }  // namespace xbarsim

@@ -301,7 +301,7 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
   cur.sum_x.resize(static_cast<size_t>(vectors * slices));
   if (cfg_.xbar.is_linear()) {  // I = V G_eff, alpha folded into the stored rows
     for (Eigen::Index v = 0; v < vectors; ++v) {
-      const int32_t* code = codes.row(first + v) + x.blk.row0;
+      const int32_t* code = codes.row(first + v) + x.in0;
 #if defined(__AVX512F__)
       if constexpr (std::is_same_v<S, float>) {
         static_assert(kMaxSlices > 25, "input_bits <= 24 and a sign slice");
@@ -325,9 +325,9 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
   }
   // Nonlinear devices: every read solved, all of them in one batch.
   RowMat<double> values;
-  read_values<double>(codes, first, vectors, x.blk.row0, x.blk.rows, values);
+  read_values<double>(codes, first, vectors, x.in0, x.blk.rows, values);
   for (Eigen::Index v = 0; v < vectors; ++v) {
-    const int32_t* code = codes.row(first + v) + x.blk.row0;
+    const int32_t* code = codes.row(first + v) + x.in0;
     for (int s = 0; s < slices; ++s) {
       long total = 0;
       for (int k = 0; k < x.blk.rows; ++k) total += slicing_.digit(code[k], s);
@@ -488,7 +488,7 @@ Eigen::MatrixXd AnalogLayer::offset_currents(const Crossbar& x, const Eigen::Mat
     });
   } else {
     cur = currents_of(x, xq);
-    sx = xq.middleCols(x.blk.row0, x.blk.rows).rowwise().sum();
+    sx = xq.middleCols(x.in0, x.blk.rows).rowwise().sum();
     range = Eigen::VectorXi::Zero(cur.rows());
   }
   for (int c = 0; c < x.pcols; ++c) cur.col(c) -= x.adc_offset(c) * sx;
@@ -496,11 +496,11 @@ Eigen::MatrixXd AnalogLayer::offset_currents(const Crossbar& x, const Eigen::Mat
 }
 
 Eigen::VectorXd AnalogLayer::mean_read_values(const Crossbar& x, const Eigen::MatrixXd& xq) const {
-  if (!slicing_.serial()) return xq.middleCols(x.blk.row0, x.blk.rows).cwiseAbs().colwise().mean().transpose();
+  if (!slicing_.serial()) return xq.middleCols(x.in0, x.blk.rows).cwiseAbs().colwise().mean().transpose();
   Codes codes;
   slice_inputs<double>(xq, codes);
   RowMat<double> values;
-  read_values<double>(codes, 0, xq.rows(), x.blk.row0, x.blk.rows, values);
+  read_values<double>(codes, 0, xq.rows(), x.in0, x.blk.rows, values);
   return values.cwiseAbs().colwise().mean().transpose();
 }
 

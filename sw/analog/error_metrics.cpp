@@ -1,6 +1,7 @@
 #include "sw/analog/error_metrics.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace xbarsim {
@@ -39,6 +40,21 @@ ErrorStats relative_error(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& 
   }
   s.mean_relative_error = total / (static_cast<double>(k) * n);
   return s;
+}
+
+double layer_output_range(const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+  if (lo.size() == 0 || hi.size() == 0) return 1.0;
+  const double r = hi.maxCoeff() - lo.minCoeff();
+  return r > 0 && std::isfinite(r) ? r : 1.0;
+}
+
+std::string layer_error_warning(const std::string& name, double mean) {
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "layer %s: mean error %.3g of its output range (over %.2g): its outputs differ from software's far "
+                "more than converters and parasitics usually make them (docs/physics.md, per-layer errors)",
+                name.c_str(), mean, kLayerErrorWarning);
+  return text;
 }
 
 }  // namespace xbarsim

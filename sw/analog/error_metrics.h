@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace xbarsim {
@@ -45,5 +46,30 @@ ErrorTally column_error(const A& actual, const B& ideal, double range) {
 }
 
 double bit_accuracy(double relative_error);
+
+/// A network layer's errors (eval, xbarsim.torch.evaluate; docs/physics.md, "Per-layer errors"):
+/// each output's |actual - ideal| relative to the layer's output range R, the range of all its
+/// ideal outputs (every channel) over the calibration images. One scale for the whole layer:
+/// a channel that barely varies (a ReLU that silenced it, a folded batch norm) has a near-zero
+/// range of its own, and errors relative to that range grow without bound (1e9 and more) while
+/// the layer is fine. R is the largest of `hi` minus the smallest of `lo` (per channel: the
+/// calibration outputs' extremes); 1 when the layer's outputs never varied (errors absolute).
+double layer_output_range(const Eigen::VectorXd& lo, const Eigen::VectorXd& hi);
+
+/// The tally of |actual - ideal| / `range` over every element of two equally sized arrays
+/// (a layer's outputs: any layout, the same in both); `range` > 0 (layer_output_range).
+template <typename A, typename B>
+ErrorTally layer_error(const A& actual, const B& ideal, double range) {
+  ErrorTally t;
+  for (Eigen::Index c = 0; c < ideal.cols(); ++c) t += column_error(actual.col(c), ideal.col(c), range);
+  return t;
+}
+
+/// A layer whose mean error (layer_error) passes this fraction of its output range is warned
+/// about: one output in ten off by a tenth of everything the layer can output is no longer a
+/// small perturbation (the default design's layers stay under 1.5 %, docs/results.md).
+constexpr double kLayerErrorWarning = 0.10;
+/// The warning's sentence for layer `name` with mean error `mean`.
+std::string layer_error_warning(const std::string& name, double mean);
 
 }  // namespace xbarsim

@@ -146,14 +146,39 @@ void WarningSummary::print(std::FILE* out) const {
   for (const Kind& k : kinds_) std::fprintf(out, "  %d x %s\n    first: %s\n", k.count, k.kind.c_str(), k.first.c_str());
 }
 
+nlohmann::json platform_stages(const nlohmann::json& j) {
+  std::vector<std::pair<long long, nlohmann::json>> order;  // (place in the pipeline, stage)
+  for (const char* list : {"layers", "digital_stages"}) {
+    if (!j.contains(list) || !j[list].is_array()) continue;
+    for (const auto& s : j[list]) {
+      if (!s.is_object() || !s.contains("stage") || !s["stage"].is_number_integer() || !s.contains("busy_us")) continue;
+      nlohmann::json S = {{"name", s.value("name", std::string())},
+                          {"kind", std::string(list) == "layers" ? "linear" : "digital"}};
+      for (const char* k : {"busy_us", "stall_us"})
+        if (s.contains(k)) S[k] = s[k];
+      order.emplace_back(s["stage"].get<long long>(), std::move(S));
+    }
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  nlohmann::json stages = nlohmann::json::array();
+  for (auto& s : order) stages.push_back(std::move(s.second));
+  // The shared bus carries every stage's outputs: a stage of its own, which may bound the run.
+  if (!stages.empty() && j.contains("interconnect_busy_us_per_image"))
+    stages.push_back({{"name", "interconnect (platform.bus_lanes)"},
+                      {"kind", "interconnect"},
+                      {"busy_us", j["interconnect_busy_us_per_image"]},
+                      {"stall_us", 0.0}});
+  return stages;
+}
+
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point) {
   nlohmann::json row;
   row["label"] = sweep_label(point);
   row["point"] = point_json(point);
   if (j.contains("crossbar_accuracy")) row["accuracy"] = j["crossbar_accuracy"];
-  for (const char* k : {"accuracy", "software_accuracy", "mean_relative_error", "worst_relative_error",
-                        "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "peak_power_mw",
-                        "throughput_images_per_s", "bottleneck", "time_ns_per_image",
+  for (const char* k : {"accuracy", "software_accuracy", "images", "mean_relative_error", "worst_relative_error",
+                        "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "ideal_avg_power_mw",
+                        "peak_power_mw", "throughput_images_per_s", "bottleneck", "time_ns_per_image",
                         "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits", "accuracy_drop",
                         "accuracy_drop_ci95", "warnings"})
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];
@@ -171,6 +196,8 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
       row["worst_relative_error"] = worst;
     }
   }
+  const nlohmann::json stages = platform_stages(j);
+  if (!stages.empty()) row["stages"] = stages;
   return row;
 }
 
@@ -201,12 +228,13 @@ std::string duration_text(double s) {
 void ProgressBar::update(int done) {
   if (finished_ || !Ranks::root()) return;  // under MPI, rank 0 speaks for the job
   const double t = now_s();
+  rate_.observe(t, done);
   // A terminal gets a bar redrawn 5 times a second; a log file a line every 30 s.
   if (done < total_ && t - last_ < (tty_ ? 0.2 : 30.0)) return;
   if (!tty_ && (last_ < 0 && t - start_ < 30.0)) return;
   last_ = t;
-  const double rate = done / std::max(t - start_, 1e-9);
-  const std::string eta = done > 0 && done < total_ ? "  ETA " + duration_text((total_ - done) / rate) : "";
+  const double rate = rate_.rate(), left_s = rate_.eta_s(total_);
+  const std::string eta = done < total_ && left_s >= 0 ? "  ETA " + duration_text(left_s) : "";
   if (!tty_) {
     std::fprintf(stderr, "%s: %d/%d  %.3g/s%s\n", label_.c_str(), done, total_, rate, eta.c_str());
     return;

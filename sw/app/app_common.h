@@ -11,6 +11,7 @@
 #include "sw/common/cli_args.h"
 #include "sw/common/config.h"
 #include "sw/common/output_file.h"
+#include "sw/common/progress_rate.h"
 #include "sw/report/html_report.h"
 #include "sw/study/sweep.h"
 
@@ -80,6 +81,12 @@ class WarningSummary {
 /// The line under a command's tables that says in which units its ratios are.
 extern const char* const kFractionsNote;
 
+/// Every stage of simulate's JSON `j` in pipeline order, as the HTML report plots them: the
+/// linear layers and the digital stages ({name, kind linear|digital, busy_us, stall_us}, by
+/// their "stage") and, on the layer-sized platform, the shared bus ("interconnect", busy
+/// interconnect_busy_us_per_image). Empty when `j` has no stages (eval's JSON).
+nlohmann::json platform_stages(const nlohmann::json& j);
+
 /// A command's JSON result as a row of the HTML report (sw/report/html_report.h): its sweep
 /// point, accuracy, errors (the layers' mean and worst when not given), cost and per-layer data.
 nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<std::string, std::string>>& point);
@@ -105,7 +112,9 @@ class SweepOutputs {
   nlohmann::json all_ = nlohmann::json::array();
 };
 
-/// A progress bar on stderr, drawn only when stderr is a terminal; rate-limited.
+/// A progress bar on stderr, drawn only when stderr is a terminal (a log gets a line every
+/// 30 s); rate-limited. Its rate and ETA count from the first update, not from construction
+/// (RateMeter): the setup before the first item is not spent on the items.
 class ProgressBar {
  public:
   ProgressBar(int total, std::string label);
@@ -123,6 +132,7 @@ class ProgressBar {
   std::string label_;
   bool tty_;
   double start_, last_ = -1;
+  RateMeter rate_;
   bool finished_ = false;
 };
 

@@ -8,6 +8,7 @@
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/quantity_text.h"
 #include "sw/common/ranks.h"
 #include "sw/study/eval_study.h"
 #include "sw/study/explore.h"
@@ -51,6 +52,12 @@ int cmd_eval(int argc, char** argv) {
     std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
   const EvalData data = load_eval_data(model, args.get("--dataset"), resolve_data_dir(base), spec);
   if (!data.note.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim eval: %s\n", data.note.c_str());
+  for (const Dataset* d : {&data.test, &data.calib}) {
+    const bool calib = d == &data.calib;
+    if (calib && !d->from_calib_array) continue;  // the test images again
+    const std::string w = dataset_range_warning(*d, model.pre, calib ? "the calibration images" : "the images");
+    if (!w.empty() && Ranks::root()) std::fprintf(stderr, "xbarsim eval: warning: %s\n", w.c_str());
+  }
   check_outputs(args, {"--json", "--csv", "--report", "--journal"});  // every file it reads is known now
 
   // --journal: finished images are recorded as they finish; those already there are reused.
@@ -93,7 +100,7 @@ int cmd_eval(int argc, char** argv) {
   if (out)
     out->set_report("eval", base,
                     std::filesystem::path(model.path).lexically_normal().string() + " on " +
-                        std::to_string(data.test.count()) + " " + data.test.name + " images");
+                        count_text(data.test.count(), data.test.name + " image"));
   const std::vector<std::string> labels = sweep_labels(points);
   const Table table({{"run", fit_width("run", labels)},
                      {"images", 7},

@@ -179,7 +179,10 @@ void check_crossbar_geometry(const Architecture& arch, const MappingSpec& mappin
                    std::to_string(x.cols) + " cells of " + std::to_string(x.cell_bits) +
                    " bits; the configuration maps onto " + std::to_string(mapping.max_rows) + " x " +
                    std::to_string(mapping.max_cols) + " (mapping.max_rows, mapping.max_cols) with crossbar.cell_bits " +
-                   bits(mapping.cell_bits) + ": set them to the machine's (configs/isaac.yaml does for isaac-ce)");
+                   bits(mapping.cell_bits) +
+                   ": set them to the machine's (configs/isaac.yaml does for isaac-ce), or to vary them (a sweep "
+                   "over them) leave the machine: --set architecture.machine=layer-sized (a tile per layer, sized to "
+                   "it)");
 }
 
 double MachineBill::area(const std::vector<BillLine>& lines) {

@@ -97,7 +97,8 @@ const char* builtin_architecture_yaml(const char* name);
 Architecture load_architecture(const ConfigTree& cfg);
 
 /// A machine fixes the crossbar: the mapping and the cells must be its (InputError naming the
-/// keys to set otherwise). Nothing to check for layer-sized.
+/// keys to set otherwise, and architecture.machine=layer-sized to vary them). Nothing to check
+/// for layer-sized.
 void check_crossbar_geometry(const Architecture& arch, const MappingSpec& mapping);
 
 /// One line of a bill of materials: `count` units of one kind and their area and peak power

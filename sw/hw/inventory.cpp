@@ -83,11 +83,18 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
                                int columns_per_adc) {
   LayerInventory v;
   if (scheme == MappingScheme::Dense) {
-    v = matrix_inventory(L.rows(), L.c_out, L.iterations(), mapping, columns_per_adc);
+    // A grouped convolution: each group on crossbars of its own (its K / group rows by its
+    // c_out / group columns, as AnalogLayer programs it); the groups' counts add up, and a
+    // column's crossbars are still one group's row blocks.
+    const long long g = L.group;
+    v = matrix_inventory(L.rows() / g, L.c_out / g, L.iterations(), mapping, columns_per_adc);
+    if (g > 1)
+      for (auto f : {&LayerInventory::rows, &LayerInventory::cols, &LayerInventory::col_blocks,
+                     &LayerInventory::physical_cols, &LayerInventory::crossbars, &LayerInventory::dacs,
+                     &LayerInventory::adcs, &LayerInventory::accumulators, &LayerInventory::cells_present,
+                     &LayerInventory::cells_used, &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
+        v.*f = mul(v.*f, g);
     v.shift_register_entries = L.rows();
-    // A grouped convolution's block-diagonal matrix: a column's weights are the rows of its
-    // group only.
-    if (L.group > 1) v.cells_used = mul(L.rows() / L.group, v.physical_cols);
   } else {
     // Toeplitz of the valid convolution on the layer's input: every output (pixel, channel)
     // is one column holding the K weights of its window. An input smaller than the kernel

@@ -36,8 +36,9 @@ void CrossbarBackend::make_layers() {
   layers_.reserve(L);
   for (int l = 0; l < L; ++l) {
     try {
-      layers_.emplace_back(cfg_, model_.linear[l].weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
-                           static_cast<uint64_t>(l + 1));
+      const LinearLayer& L = model_.linear[l];
+      layers_.emplace_back(cfg_, L.weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
+                           static_cast<uint64_t>(l + 1), RowGroups{L.group, L.c_in});
     } catch (const std::exception&) {
       rethrow_with_context("layer " + model_.linear[l].name);
     }

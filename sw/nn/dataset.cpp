@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <filesystem>
 #include <fstream>
 #include <sys/stat.h>
 
@@ -179,6 +180,29 @@ std::string preprocessing_warning(const Model& m, const ConfigTree& cfg) {
          preprocessing_text(m.pre) + ", x = (pixel * scale - mean) / std (set preprocessing.* to change them)";
 }
 
+std::string dataset_range_warning(const Dataset& d, const Preprocessing& p, const std::string& what) {
+  if (d.values.empty()) return "";
+  const auto [lo, hi] = std::minmax_element(d.values.begin(), d.values.end());
+  const double largest = std::max(std::fabs(*lo), std::fabs(*hi));
+  char text[512];
+  if (largest <= 1.0 && p.scale < 1.0 / 16) {
+    std::snprintf(text, sizeof text,
+                  "%s are float values within [%.3g, %.3g] but preprocessing.scale is %.6g, which expects 0..255 "
+                  "pixels: images already in [0, 1] reach the network 255 times too small (set "
+                  "preprocessing.scale=1)",
+                  what.c_str(), static_cast<double>(*lo), static_cast<double>(*hi), p.scale);
+    return text;
+  }
+  if (largest > 255.0 && p.scale < 1.0) {
+    std::snprintf(text, sizeof text,
+                  "%s hold float values up to %.6g, beyond the 0..255 pixels preprocessing.scale %.6g expects: check "
+                  "the images and preprocessing.scale",
+                  what.c_str(), largest, p.scale);
+    return text;
+  }
+  return "";
+}
+
 void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, int channels) {
   const std::string origin = "configuration";
   const std::string scale = cfg.get_string("preprocessing.scale"), mean = cfg.get_string("preprocessing.mean"),
@@ -231,15 +255,29 @@ std::string resolve_models_dir(const ConfigTree& cfg) {
   return resolve_data_dir(cfg) + "/../models";
 }
 
+namespace {
+/// `p` without "." and "dir/.." steps ("data/../models/m.onnx" -> "models/m.onnx") where that
+/// names the same file; through a symbolic link it may not ("link/.." is where the link points,
+/// not its folder): then the absolute path with every link resolved.
+std::string normal_path(const std::string& p) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path lexical = fs::path(p).lexically_normal();
+  if (fs::equivalent(lexical, p, ec) && !ec) return lexical.string();
+  const fs::path canonical = fs::weakly_canonical(p, ec);
+  return ec ? p : canonical.string();
+}
+}  // namespace
+
 std::string find_model_file(const std::string& given, const ConfigTree& cfg) {
-  if (exists(given)) return given;
+  if (exists(given)) return normal_path(given);
   std::vector<std::string> tried{given};
   // A list (sweep) in these keys is an error of its own, not a model that was not found.
   for (const char* key : {"data.dir", "data.models_dir"}) cfg.get_string(key);
   try {
     const std::string dir = resolve_models_dir(cfg);
     for (const std::string& c : {dir + "/" + given, dir + "/" + given + ".onnx"}) {
-      if (exists(c)) return c;
+      if (exists(c)) return normal_path(c);
       tried.push_back(c);
     }
   } catch (const InputError&) {

@@ -53,6 +53,12 @@ void apply_preprocessing_overrides(const ConfigTree& cfg, Preprocessing& pre, in
 /// A warning when the images are preprocessed with defaults nobody chose: the model has no
 /// preprocessing metadata and the configuration sets none of preprocessing.* ("" otherwise).
 std::string preprocessing_warning(const Model& m, const ConfigTree& cfg);
+/// A warning when float images (a .npz of float32/float64 values) contradict the preprocessing,
+/// which multiplies every value by `scale` as it would a 0..255 pixel ("" otherwise): values all
+/// within [-1, 1] with a scale below 1/16 (the default 1/255: the images are already scaled, and
+/// would reach the network 255 times too small), or values above 255 with a scale below 1 (more
+/// than a pixel holds). `what` names the images in the sentence.
+std::string dataset_range_warning(const Dataset& d, const Preprocessing& p, const std::string& what);
 /// The preprocessing as the JSON reports record it.
 std::string preprocessing_text(const Preprocessing& p);
 
@@ -60,7 +66,8 @@ std::string preprocessing_text(const Preprocessing& p);
 std::string resolve_models_dir(const ConfigTree& cfg);
 
 /// Path of a model given as a path, or as a name in the models directory (with or without
-/// .onnx); throws InputError listing every place it looked.
+/// .onnx), normalised ("data/../models/m.onnx" is "models/m.onnx"); throws InputError listing
+/// every place it looked.
 std::string find_model_file(const std::string& given, const ConfigTree& cfg);
 
 /// Images of a named dataset ("cifar10" or "mnist") in `data_dir`; `split` is "test" or

@@ -28,8 +28,7 @@ struct LinearLayer {
   int pad_t = 0, pad_l = 0, pad_b = 0, pad_r = 0;
   /// Grouped (depthwise when group = c_in) convolution: output channel o reads only the input
   /// channels of its group. `weight` holds the whole K x c_out matrix, block-diagonal (zeros
-  /// outside each group's block): it is mapped onto crossbars as one matrix, so a group's
-  /// cells are a 1/group share of its columns (the inventory counts the used ones).
+  /// outside each group's block); each group is mapped onto crossbars of its own (RowGroups).
   int group = 1;
   Shape in, out;
   Eigen::MatrixXf weight;  ///< K x c_out

@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "sw/common/output_file.h"
+#include "sw/common/quantity_text.h"
 #include "sw/report/svg_plot.h"
 
 namespace xbarsim {
@@ -41,18 +42,52 @@ std::string text(const json& row, const char* key) {
   return it->is_string() ? it->get<std::string>() : it->dump();
 }
 std::string short_label(const std::string& s, size_t n = 34) { return s.size() <= n ? s : s.substr(0, n - 1) + "~"; }
-/// "/layer1/layer1.0/conv1/Conv" -> "layer1.0/conv1".
-std::string short_layer(std::string s) {
-  for (const char* suffix : {"/Conv", "/Gemm", "/MatMul"})
-    if (s.size() > std::strlen(suffix) && s.compare(s.size() - std::strlen(suffix), std::string::npos, suffix) == 0)
-      s.erase(s.size() - std::strlen(suffix));
-  const size_t a = s.rfind('/');
-  if (a != std::string::npos && a > 0) {
-    const size_t b = s.rfind('/', a - 1);
-    s = s.substr(b == std::string::npos ? 0 : b + 1);
+/// The parts of a layer's name between '/', without a linear layer's trailing op type
+/// ("/layer1/layer1.0/conv1/Conv" -> layer1, layer1.0, conv1).
+std::vector<std::string> name_parts(const std::string& name) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(name);
+  while (std::getline(in, part, '/'))
+    if (!part.empty()) parts.push_back(part);
+  if (parts.size() > 1 && (parts.back() == "Conv" || parts.back() == "Gemm" || parts.back() == "MatMul"))
+    parts.pop_back();
+  return parts;
+}
+
+/// Layer names as an axis shows them: the last two parts ("layer1.0/conv1"), more of them
+/// where two layers would read alike ("inception3a/branch2/branch2.1/conv" beside
+/// "inception3b/branch2/branch2.1/conv"), the whole name where even that is not enough; every
+/// label distinct (a number is added to names that are equal).
+std::vector<std::string> layer_labels(const std::vector<std::string>& names) {
+  const size_t n = names.size();
+  std::vector<std::vector<std::string>> parts;
+  for (const auto& s : names) parts.push_back(name_parts(s));
+  std::vector<size_t> k(n);
+  for (size_t i = 0; i < n; ++i) k[i] = std::min<size_t>(2, parts[i].size());
+  auto label = [&](size_t i) {
+    if (k[i] > parts[i].size()) return names[i];  // every part was not enough
+    std::string s;
+    for (size_t p = parts[i].size() - k[i]; p < parts[i].size(); ++p) s += (s.empty() ? "" : "/") + parts[i][p];
+    return s.empty() ? names[i] : s;
+  };
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::map<std::string, std::vector<size_t>> by_label;
+    for (size_t i = 0; i < n; ++i) by_label[label(i)].push_back(i);
+    for (const auto& g : by_label)
+      if (g.second.size() > 1)
+        for (size_t i : g.second)
+          if (k[i] <= parts[i].size()) ++k[i], changed = true;
   }
-  if (!s.empty() && s[0] == '/') s.erase(0, 1);
-  return s;
+  std::vector<std::string> out(n);
+  std::map<std::string, int> seen;
+  for (size_t i = 0; i < n; ++i) {
+    out[i] = label(i);
+    const int m = seen[out[i]]++;
+    if (m) out[i] += " (" + std::to_string(m + 1) + ")";
+  }
+  return out;
 }
 
 /// The y metric of the bits plots: accuracy (%) when any row has it, else the mean relative
@@ -67,6 +102,11 @@ Metric y_metric(const json& rows) {
   return {"mean_relative_error", "mean relative error (%)"};
 }
 
+/// The two average powers, named apart: simulate's (energy over the simulated time per image)
+/// and eval's (energy over the ideal time: the crossbar reads back to back), which is higher.
+constexpr const char* kSimulatedPower = "average power (simulated time)";
+constexpr const char* kIdealPower = "average power (ideal time, eval)";
+
 std::string tooltip(const json& r) {
   std::string t = text(r, "label");
   for (const auto& f : {std::make_pair("accuracy", "accuracy %"), std::make_pair("mean_relative_error", "mean error %")})
@@ -75,7 +115,10 @@ std::string tooltip(const json& r) {
                         std::make_pair("latency_us", "latency us"),
                         std::make_pair("throughput_images_per_s", "throughput images/s")})
     if (!std::isnan(num(r, f.first))) t += "\n" + std::string(f.second) + " " + fmt_num(num(r, f.first));
-  if (!std::isnan(num(r, "avg_power_mw"))) t += "\naverage power " + power_text(num(r, "avg_power_mw"));
+  if (!std::isnan(num(r, "avg_power_mw")))
+    t += "\n" + std::string(kSimulatedPower) + " " + power_text(num(r, "avg_power_mw"));
+  if (!std::isnan(num(r, "ideal_avg_power_mw")))
+    t += "\n" + std::string(kIdealPower) + " " + power_text(num(r, "ideal_avg_power_mw"));
   if (on_front(r)) t += "\non the Pareto front";
   return t;
 }
@@ -192,20 +235,60 @@ std::vector<std::string> names(const std::vector<const json*>& rows) {
   return out;
 }
 
-/// A legend under a plot, in HTML (full labels, wrapped): a coloured square and a name each.
-std::string html_legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& note) {
-  std::string h = "<div class=\"legend\">";
+/// A legend under one or more plots (`plots`: their ids, space-separated), in HTML (full
+/// labels, wrapped): a coloured square and a name each.
+std::string html_legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& note,
+                        const std::string& plots) {
+  std::string h = "<div class=\"legend\" data-for=\"" + html_escape(plots) + "\">";
   if (!note.empty()) h += "<span>" + html_escape(note) + "</span>";
   for (const auto& it : items)
     h += "<span><i style=\"background:" + it.second + "\"></i>" + html_escape(it.first) + "</span>";
   return h + "</div>\n";
 }
 
-/// One scatter of objective `xo` against `yo`: every ok row, the front large and numbered (the
-/// key's numbers), points below the accuracy floor grey. `line`: join the front (2 objectives).
-std::string scatter(const json& rows, const std::vector<const json*>& front, const ObjectiveField& xo,
-                    const ObjectiveField& yo, const ReportInput& in, const std::string& id, int w, int h, bool big,
-                    bool line) {
+const std::string kFloorColour = "#777", kFrontLineColour = "#555";
+
+/// The accuracy floor on a plot whose y axis is accuracy (%) over the points' [ylo, yhi]: a
+/// labelled dashed line when it lies near them (the axis then reaches it), else not drawn, and
+/// a note at the foot of the plot says it lies below (an axis stretched to a far floor would
+/// squeeze every point into its top).
+struct FloorMark {
+  bool line = false, below = false;
+};
+FloorMark floor_mark(double floor, double& ylo, double yhi) {
+  FloorMark f;
+  if (!(floor > 0)) return f;
+  const double y = 100 * floor;
+  if (y >= ylo - 0.25 * std::max(yhi - ylo, 2.0)) {
+    f.line = true;
+    ylo = std::min(ylo, y);
+  } else {
+    f.below = true;
+  }
+  return f;
+}
+void draw_floor(SvgPlot& p, const FloorMark& f, double floor, const PlotAxis& xa, const PlotAxis& ya) {
+  const std::string what = "accuracy floor " + fmt_num(100 * floor) + " % (explore.min_accuracy)";
+  if (f.line) {
+    p.line({{xa.lo, 100 * floor}, {xa.hi, 100 * floor}}, kFloorColour, true, 1.2,
+           what + ": below it, never on the front");
+    p.label(xa.lo, 100 * floor, what, 4, -4);
+  } else if (f.below) {
+    p.label(xa.lo, ya.lo, "\u2193 " + what + ": below this axis", 4, -6);
+  }
+}
+
+/// One scatter of objective `xo` against `yo`: every ok row coloured by the colour key, the
+/// front large and numbered (the key's numbers), points below the accuracy floor grey.
+/// `line`: join the front (2 objectives). `legend`: the plot's own legend at its right; else
+/// its entries are added to `shared` (a legend under several plots).
+struct Scatter {
+  std::string svg;
+  std::vector<std::pair<std::string, std::string>> legend;
+};
+Scatter scatter(const json& rows, const std::vector<const json*>& front, const ObjectiveField& xo,
+                const ObjectiveField& yo, const ReportInput& in, const std::string& id, int w, int h, bool big,
+                bool line) {
   std::vector<const json*> pts;
   double xlo = INFINITY, xhi = -INFINITY, ylo = INFINITY, yhi = -INFINITY;
   for (const auto& r : rows) {
@@ -214,18 +297,21 @@ std::string scatter(const json& rows, const std::vector<const json*>& front, con
     pts.push_back(&r);
     xlo = std::min(xlo, x), xhi = std::max(xhi, x), ylo = std::min(ylo, y), yhi = std::max(yhi, y);
   }
-  if (pts.empty()) return "";
+  if (pts.empty()) return {};
   // Accuracy, where it is one of the two, is always on the y axis (front_part puts it there).
-  const bool floor_line = std::string(yo.key) == "accuracy" && in.min_accuracy > 0;
   const double floor = in.min_accuracy;
-  if (floor_line) ylo = std::min(ylo, 100 * floor), yhi = std::max(yhi, 100 * floor);
-  const Colouring col = colouring(rows, big ? in.color_key : "");
-  const bool legend = big && !col.legend.empty();
-  const PlotAxis xa = value_axis(xo.axis, xlo, xhi);
-  SvgPlot p(id, w, h, xa, value_axis(yo.axis, ylo, yhi), big ? 70 : 62, big ? 50 : 44, legend ? 150 : 0);
-  if (floor_line)
-    p.line({{xa.lo, 100 * floor}, {xa.hi, 100 * floor}}, "#999", true, 1.2,
-           "accuracy floor " + fmt_num(100 * floor) + " % (explore.min_accuracy): below it, never on the front");
+  const FloorMark fm = std::string(yo.key) == "accuracy" ? floor_mark(floor, ylo, yhi) : FloorMark{};
+  const Colouring col = colouring(rows, in.color_key);
+  Scatter out;
+  out.legend = col.legend;
+  const bool greyed = std::any_of(pts.begin(), pts.end(), [&](const json* r) { return below_floor(*r, floor); });
+  if (greyed) out.legend.emplace_back("below the accuracy floor", kGrey);
+  if (fm.line) out.legend.emplace_back("accuracy floor (dashed)", kFloorColour);
+  const bool joined_front = line && front.size() > 1;
+  if (joined_front) out.legend.emplace_back("Pareto front (dashed)", kFrontLineColour);
+  const PlotAxis xa = value_axis(xo.axis, xlo, xhi), ya = value_axis(yo.axis, ylo, yhi);
+  SvgPlot p(id, w, h, xa, ya, big ? 70 : 62, big ? 50 : 44, big ? 170 : 0);
+  draw_floor(p, fm, floor, xa, ya);
   const double r_small = big ? 5.5 : 4, r_front = big ? 8 : 5.5;
   for (const json* r : pts)  // the rest first, so that the front is drawn on top
     if (!on_front(*r))
@@ -241,15 +327,16 @@ std::string scatter(const json& rows, const std::vector<const json*>& front, con
   std::vector<std::pair<double, double>> joined;
   for (const auto& xy : at)
     if (!std::isnan(xy.first)) joined.push_back(xy);
-  if (line && joined.size() > 1) {
+  if (joined_front && joined.size() > 1) {
     std::sort(joined.begin(), joined.end());
-    p.line(joined, "#555", true, 1.5, "Pareto front");
+    p.line(joined, kFrontLineColour, true, 1.5, "Pareto front");
   }
   // The tags after every mark, so that each knows all the marks it should not cover.
   for (size_t i = 0; i < front.size(); ++i)
     if (!std::isnan(at[i].first)) p.tag(at[i].first, at[i].second, r_front, std::to_string(i + 1));
-  if (legend) p.legend(col.legend, short_label(in.color_key, 20));
-  return p.str();
+  if (big) p.legend(out.legend, in.color_key.empty() ? "" : short_label(in.color_key, 22));
+  out.svg = p.str();
+  return out;
 }
 
 std::string cell(double v, double scale = 1) { return "<td>" + (std::isnan(v) ? std::string() : fmt_num(v * scale)) + "</td>"; }
@@ -267,7 +354,7 @@ Part front_part(const json& rows, const ReportInput& in) {
   ObjectiveField xo = find("energy") != obj.end() ? *find("energy") : obj[0];
   if (xo.name == yo.name) xo = obj[0].name == yo.name ? obj[1] : obj[0];  // never one objective on both axes
   const bool pairwise = obj.size() > 2;
-  const std::string main = scatter(rows, front, xo, yo, in, "plot-pareto", 780, 470, true, !pairwise);
+  const std::string main = scatter(rows, front, xo, yo, in, "plot-pareto", 780, 470, true, !pairwise).svg;
   if (main.empty()) return absent("the Pareto scatter: no point has both " + xo.name + " and " + yo.name);
   std::string h;
   const int n_ok = static_cast<int>(std::count_if(rows.begin(), rows.end(), [](const json& r) { return ok(r); }));
@@ -293,16 +380,26 @@ Part front_part(const json& rows, const ReportInput& in) {
   }
   h += "</table></div></div>\n";
   if (pairwise) {
+    // The pairs coloured as the main plot, their front points numbered alike, one legend under them.
     h += "<div class=\"grid\">";
     int k = 0;
+    std::string ids;
+    std::vector<std::pair<std::string, std::string>> legend;
     for (size_t a = 0; a < obj.size(); ++a)
       for (size_t b = a + 1; b < obj.size(); ++b) {
         // Accuracy on the y axis where it is one of the pair.
         const bool swap = obj[a].name == "accuracy";
-        h += scatter(rows, front, swap ? obj[b] : obj[a], swap ? obj[a] : obj[b], in, "plot-pair-" + std::to_string(k++),
-                     440, 300, false, false);
+        const std::string id = "plot-pair-" + std::to_string(k++);
+        const Scatter sc =
+            scatter(rows, front, swap ? obj[b] : obj[a], swap ? obj[a] : obj[b], in, id, 440, 300, false, false);
+        if (sc.svg.empty()) continue;
+        h += sc.svg;
+        ids += (ids.empty() ? "" : " ") + id;
+        for (const auto& it : sc.legend)
+          if (std::find(legend.begin(), legend.end(), it) == legend.end()) legend.push_back(it);
       }
-    h += "</div>\n";
+    h += "</div>\n" + html_legend(legend, (in.color_key.empty() ? std::string() : in.color_key + ":"), ids) +
+         "<p>Every pair: the points coloured as above, the front drawn large and numbered as in the key.</p>\n";
   }
   return {h, ""};
 }
@@ -318,7 +415,11 @@ std::vector<std::string> distinct(const json& rows, const char* key) {
   return v;
 }
 
-Part bits_plot(const json& rows, const char* key, const std::string& id, const std::string& name, double floor) {
+/// A metric (accuracy, else the mean error) against converter bits: every ok row as a point
+/// coloured by the colour key (grey below the accuracy floor), the best per bit width joined.
+Part bits_plot(const json& rows, const char* key, const std::string& id, const std::string& name,
+               const ReportInput& in) {
+  const double floor = in.min_accuracy;
   const std::vector<std::string> values = distinct(rows, key);
   if (values.size() < 2)
     return absent(name + " plot (" + (values.empty() ? std::string("no row has them") : "not swept: all " + values[0]) + ")");
@@ -348,11 +449,17 @@ Part bits_plot(const json& rows, const char* key, const std::string& id, const s
   PlotAxis xa{name, xlo - 0.7, xhi + 0.7};
   for (double b = std::floor(xlo); b <= maxbits; ++b) xa.ticks.emplace_back(b, fmt_num(b));
   if (none) xa.ticks.emplace_back(none_x, "none");
-  SvgPlot p(id, 640, 330, xa, value_axis(m.name, ylo, yhi));
+  const bool acc = std::string(m.key) == "accuracy";
+  const FloorMark fm = acc ? floor_mark(floor, ylo, yhi) : FloorMark{};
+  const PlotAxis ya = value_axis(m.name, ylo, yhi);
+  const Colouring col = colouring(rows, in.color_key);
+  SvgPlot p(id, 820, 330, xa, ya, 70, 50, 170);
+  draw_floor(p, fm, floor, xa, ya);
   std::map<double, double> best;
-  const bool lower_better = std::string(m.key) != "accuracy";
+  const bool lower_better = !acc;
   for (size_t i = 0; i < pts.size(); ++i) {
-    p.circle(pts[i].first, pts[i].second, 5, below_floor(*src[i], floor) ? kGrey : palette(0), tooltip(*src[i]));
+    p.circle(pts[i].first, pts[i].second, 5, below_floor(*src[i], floor) ? kGrey : col.of(*src[i], in.color_key),
+             tooltip(*src[i]));
     auto it = best.find(pts[i].first);
     if (it == best.end())
       best[pts[i].first] = pts[i].second;
@@ -360,7 +467,15 @@ Part bits_plot(const json& rows, const char* key, const std::string& id, const s
       it->second = lower_better ? std::min(it->second, pts[i].second) : std::max(it->second, pts[i].second);
   }
   std::vector<std::pair<double, double>> line(best.begin(), best.end());
-  p.line(line, palette(1), false, 2, "best per bit width");
+  const std::string kBest = "#222";
+  p.line(line, kBest, false, 2, "best per bit width");
+  std::vector<std::pair<std::string, std::string>> legend = col.legend;
+  if (legend.empty()) legend.emplace_back("a design point", palette(0));
+  if (std::any_of(src.begin(), src.end(), [&](const json* r) { return below_floor(*r, floor); }))
+    legend.emplace_back("below the accuracy floor", kGrey);
+  if (fm.line) legend.emplace_back("accuracy floor (dashed)", kFloorColour);
+  legend.emplace_back(lower_better ? "least error per bit width (line)" : "best per bit width (line)", kBest);
+  p.legend(legend, in.color_key.empty() ? "" : short_label(in.color_key, 22));
   return {p.str(), ""};
 }
 
@@ -404,14 +519,56 @@ bool has_layers_with(const json& r, const char* key) {
          r["layers"][0].contains(key);
 }
 
+/// Beyond this many layers or stages a per-layer plot lists them down its left side, one line
+/// each, instead of along its foot: every name whole and readable, however many.
+constexpr size_t kMostAcross = 24;
+
+/// The layers (or stages) of a per-layer plot in network order on a categorical axis: across
+/// the foot (first at the left), or down the left side (first on top) when there are many.
+/// `at(k, v)` places layer k's value v; `value_axis` is the other axis.
+struct LayerAxis {
+  bool across = true;
+  size_t n = 0;
+  PlotAxis axis;
+  std::pair<double, double> at(size_t k, double v) const {
+    const double c = across ? static_cast<double>(k) : static_cast<double>(n - 1 - k);
+    return across ? std::make_pair(c, v) : std::make_pair(v, c);
+  }
+  /// A plot of the layers against `values`: `width` wide; `height` when across, else a line per layer.
+  SvgPlot plot(const std::string& id, int width, int height, const PlotAxis& values, int legend_width = 0) const {
+    if (across) return SvgPlot(id, width, height, axis, values, 70, 60, legend_width);
+    return SvgPlot(id, width, 90 + 16 * static_cast<int>(n), values, axis, 70, 50, legend_width);
+  }
+  /// A bar of layer k from value v0 to v1.
+  void bar(SvgPlot& p, size_t k, double v0, double v1, const std::string& fill, const std::string& title) const {
+    const auto a = at(k, v0), b = at(k, v1);
+    if (across)
+      p.rect(a.first - 0.38, a.second, b.first + 0.38, b.second, fill, title);
+    else
+      p.rect(a.first, a.second - 0.38, b.first, b.second + 0.38, fill, title);
+  }
+};
+LayerAxis layer_axis(const std::vector<std::string>& names, const std::string& label) {
+  LayerAxis a;
+  a.n = names.size();
+  a.across = names.size() <= kMostAcross;
+  a.axis = PlotAxis{label, 0, 1};
+  a.axis.categories = layer_labels(names);
+  if (a.across)
+    a.axis.rotate_labels = -40;
+  else
+    std::reverse(a.axis.categories.begin(), a.axis.categories.end());  // the first on top
+  return a;
+}
+
 Part layers_plot(const std::vector<const json*>& sel, size_t of) {
   std::vector<const json*> rows;
   for (const json* r : sel)
     if (has_layers_with(*r, "mean_relative_error")) rows.push_back(r);
   if (rows.empty()) return absent("per-layer error propagation (the rows carry no per-layer errors: eval and explore do)");
-  std::vector<std::string> layer_names;
+  std::vector<std::string> full;
   double ylo = INFINITY, yhi = 0;
-  for (const auto& l : (*rows[0])["layers"]) layer_names.push_back(short_layer(text(l, "name")));
+  for (const auto& l : (*rows[0])["layers"]) full.push_back(text(l, "name"));
   for (const json* r : rows)
     for (const auto& l : (*r)["layers"])
       for (const char* k : {"mean_relative_error", "worst_relative_error"}) {
@@ -419,34 +576,34 @@ Part layers_plot(const std::vector<const json*>& sel, size_t of) {
         if (v > 0) ylo = std::min(ylo, v), yhi = std::max(yhi, v);
       }
   if (!(yhi > 0)) ylo = yhi = 0;  // every error zero: a linear axis at 0
-  PlotAxis xa{"layer (in network order)", 0, 1};
-  xa.categories = layer_names;
-  xa.rotate_labels = -40;
+  const LayerAxis la = layer_axis(full, "layer (in network order)");
   const PlotAxis ya = value_axis("relative error (%)", ylo, yhi, true);
-  SvgPlot p("plot-layers", 1300, 430, xa, ya, 70, 120);
+  SvgPlot p = la.plot("plot-layers", 1300, 430, ya);
   const std::vector<std::string> shown = names(rows);
   std::vector<std::pair<std::string, std::string>> legend;
   for (size_t i = 0; i < rows.size(); ++i) {
     std::vector<std::pair<double, double>> mean, worst;
     const json& L = (*rows[i])["layers"];
-    for (size_t k = 0; k < L.size() && k < layer_names.size(); ++k) {
+    for (size_t k = 0; k < L.size() && k < full.size(); ++k) {
       // A zero error has no place on a log axis: it sits on the axis' floor.
       const double a = num(L[k], "mean_relative_error"), b = num(L[k], "worst_relative_error");
-      auto at = [&](double v) { return ya.log ? std::max(100 * v, ya.lo) : 100 * v; };
-      if (!std::isnan(a)) mean.emplace_back(static_cast<double>(k), at(a));
-      if (!std::isnan(b)) worst.emplace_back(static_cast<double>(k), at(b));
+      auto v_of = [&](double v) { return ya.log ? std::max(100 * v, ya.lo) : 100 * v; };
+      if (!std::isnan(a)) mean.push_back(la.at(k, v_of(a)));
+      if (!std::isnan(b)) worst.push_back(la.at(k, v_of(b)));
       if (!std::isnan(a))  // the value itself, not where a log axis had to put a zero
-        p.circle(static_cast<double>(k), at(a), 3, palette(i),
-                 shown[i] + "\n" + layer_names[k] + " mean " + fmt_num(100 * a) + " %" +
+        p.circle(mean.back().first, mean.back().second, 3, series_colour(i),
+                 shown[i] + "\n" + full[k] + " mean " + fmt_num(100 * a) + " %" +
                      (std::isnan(b) ? "" : ", worst " + fmt_num(100 * b) + " %"));
     }
     const std::string label = shown[i];
-    p.line(mean, palette(i), false, 2.5, label + ": mean");
-    p.line(worst, palette(i), true, 1.5, label + ": worst");
-    legend.emplace_back(label, palette(i));
+    p.line(mean, series_colour(i), false, 2.5, label + ": mean");
+    p.line(worst, series_colour(i), true, 1.5, label + ": worst");
+    legend.emplace_back(label, series_colour(i));
   }
-  return {p.str() + html_legend(legend, "each layer's mean error over its outputs: solid; worst: dashed." +
-                                            shown_of(rows.size(), of)),
+  return {p.str() +
+              html_legend(legend,
+                          "each layer's mean error over its outputs: solid; worst: dashed." + shown_of(rows.size(), of),
+                          "plot-layers"),
           ""};
 }
 
@@ -512,62 +669,96 @@ Part breakdown_plot(const std::vector<const json*>& sel, bool energy) {
     }
     p.label(x, at, fmt_num(totals[i]) + " " + unit, 6, 4);
   }
-  return {p.str() + html_legend(legend, "component:"), ""};
+  return {p.str() + html_legend(legend, "component:", energy ? "plot-energy" : "plot-area"), ""};
 }
 
-/// Per-layer time of the platform: one row's busy and stall as stacked bars, or several rows'
-/// per-layer latency (busy + stall) as lines.
+/// A row's stages for the timing plot: its "stages" (every stage of the platform in pipeline
+/// order, the interconnect included: simulate and explore), else its layers' busy and stall.
+bool has_stages(const json& r) {
+  return r.contains("stages") && r["stages"].is_array() && !r["stages"].empty() && r["stages"][0].is_object() &&
+         r["stages"][0].contains("busy_us");
+}
+const json* timed_stages(const json& r) {
+  if (has_stages(r)) return &r["stages"];
+  if (has_layers_with(r, "busy_us")) return &r["layers"];
+  return nullptr;
+}
+
+/// Time per stage on the platform: one row's busy and stall as stacked bars (its bottleneck's
+/// busy time in its own colour), or several rows' busy + stall as lines. Every stage is there:
+/// the linear layers, the digital stages (pooling, concatenation, additions) and the shared
+/// interconnect, so that the stage that bounds the run is always on the plot.
 Part timing_plot(const std::vector<const json*>& sel) {
   std::vector<const json*> rows;
   for (const json* r : sel)
-    if (has_layers_with(*r, "busy_us")) rows.push_back(r);
-  if (rows.empty()) return absent("per-layer busy and stall time (the platform's: simulate and explore)");
-  const json& L0 = (*rows[0])["layers"];
-  std::vector<std::string> layer_names;
-  for (const auto& l : L0) layer_names.push_back(short_layer(text(l, "name")));
+    if (timed_stages(*r)) rows.push_back(r);
+  if (rows.empty()) return absent("per-stage busy and stall time (the platform's: simulate and explore)");
+  const json& L0 = *timed_stages(*rows[0]);
+  std::vector<std::string> full;
+  for (const auto& l : L0) full.push_back(text(l, "name"));
   auto t_of = [](const json& l, const char* k) { return std::max(0.0, std::isnan(num(l, k)) ? 0.0 : num(l, k)); };
-  PlotAxis xa{"layer (in network order)", 0, 1};
-  xa.categories = layer_names;
-  xa.rotate_labels = -40;
+  const bool stages = has_stages(*rows[0]);
+  const std::string what = stages ? "stage (in pipeline order)" : "layer (in network order)";
+  // Each row's bottleneck, as simulate named it.
+  auto bottleneck_of = [](const json& r) {
+    return r.contains("bottleneck") && r["bottleneck"].is_object() ? text(r["bottleneck"], "stage") : std::string();
+  };
+  std::string note;
+  for (const json* r : rows)
+    if (!bottleneck_of(*r).empty())
+      note += (note.empty() ? "" : "; ") + (rows.size() > 1 ? text(*r, "label") + ": " : std::string()) +
+              "bottleneck " + bottleneck_of(*r) + ", busy " + fmt_num(num((*r)["bottleneck"], "busy_us_per_image")) +
+              " us per image";
+  const std::string kBusy = "#4e79a7", kStall = "#f28e2b", kBottleneck = "#b30000";
   if (rows.size() == 1) {
     double yhi = 0;
     for (const auto& l : L0) yhi = std::max(yhi, t_of(l, "busy_us") + t_of(l, "stall_us"));
-    xa.label = "layer (in network order) of " + text(*rows[0], "label");
-    SvgPlot p("plot-timing", 1100, 430, xa, {"time per image (us)", 0, yhi * 1.05 + 1e-12}, 70, 120, 150);
+    const LayerAxis la = layer_axis(full, what + " of " + text(*rows[0], "label"));
+    SvgPlot p = la.plot("plot-timing", 1100, 430, {"time per image (us)", 0, yhi * 1.05 + 1e-12}, 190);
+    const std::string slow = bottleneck_of(*rows[0]);
+    bool marked = false;
     for (size_t k = 0; k < L0.size(); ++k) {
       const double b = t_of(L0[k], "busy_us"), s = t_of(L0[k], "stall_us");
-      const std::string t = layer_names[k] + "\nbusy " + fmt_num(b) + " us, stall " + fmt_num(s) + " us";
-      p.rect(k - 0.38, 0, k + 0.38, b, palette(0), t);
-      if (s > 0) p.rect(k - 0.38, b, k + 0.38, b + s, palette(1), t);
+      const bool bottleneck = !slow.empty() && full[k] == slow;
+      marked = marked || bottleneck;
+      const std::string t = full[k] + (bottleneck ? " (the bottleneck)" : "") + "\nbusy " + fmt_num(b) + " us, stall " +
+                            fmt_num(s) + " us";
+      la.bar(p, k, 0, b, bottleneck ? kBottleneck : kBusy, t);
+      if (s > 0) la.bar(p, k, b, b + s, kStall, t);
     }
-    p.legend({{"busy", palette(0)}, {"stall", palette(1)}}, "time = busy + stall");
-    return {p.str(), ""};
+    std::vector<std::pair<std::string, std::string>> legend{{"busy", kBusy}, {"stall", kStall}};
+    if (marked) legend.emplace_back("busy: the bottleneck", kBottleneck);
+    p.legend(legend, "time = busy + stall");
+    return {p.str() + (note.empty() ? "" : "<p>" + html_escape(note) + ".</p>\n"), ""};
   }
   double lo = INFINITY, hi = 0;
   for (const json* r : rows)
-    for (const auto& l : (*r)["layers"]) {
+    for (const auto& l : *timed_stages(*r)) {
       const double t = t_of(l, "busy_us") + t_of(l, "stall_us");
       if (t > 0) lo = std::min(lo, t), hi = std::max(hi, t);
     }
   if (!(hi > 0)) lo = 1, hi = 2;
   const PlotAxis ya = value_axis("busy + stall per image (us)", lo, hi, true);
-  SvgPlot p("plot-timing", 1300, 430, xa, ya, 70, 120);
+  const LayerAxis la = layer_axis(full, what);
+  SvgPlot p = la.plot("plot-timing", 1300, 430, ya);
   const std::vector<std::string> shown = names(rows);
   std::vector<std::pair<std::string, std::string>> legend;
   for (size_t i = 0; i < rows.size(); ++i) {
     std::vector<std::pair<double, double>> pts;
-    const json& L = (*rows[i])["layers"];
-    for (size_t k = 0; k < L.size() && k < layer_names.size(); ++k) {
+    const json& L = *timed_stages(*rows[i]);
+    for (size_t k = 0; k < L.size() && k < full.size(); ++k) {
       const double t = t_of(L[k], "busy_us") + t_of(L[k], "stall_us");
-      pts.emplace_back(static_cast<double>(k), ya.log ? std::max(t, ya.lo) : t);
-      p.circle(static_cast<double>(k), pts.back().second, 3, palette(i),
-               shown[i] + "\n" + layer_names[k] + ": busy " + fmt_num(t_of(L[k], "busy_us")) + " us, stall " +
-                   fmt_num(t_of(L[k], "stall_us")) + " us");
+      pts.push_back(la.at(k, ya.log ? std::max(t, ya.lo) : t));
+      p.circle(pts.back().first, pts.back().second, 3, series_colour(i),
+               shown[i] + "\n" + full[k] + (full[k] == bottleneck_of(*rows[i]) ? " (the bottleneck)" : "") + ": busy " +
+                   fmt_num(t_of(L[k], "busy_us")) + " us, stall " + fmt_num(t_of(L[k], "stall_us")) + " us");
     }
-    p.line(pts, palette(i), false, 2, shown[i]);
-    legend.emplace_back(shown[i], palette(i));
+    p.line(pts, series_colour(i), false, 2, shown[i]);
+    legend.emplace_back(shown[i], series_colour(i));
   }
-  return {p.str() + html_legend(legend, "one line per point:"), ""};
+  return {p.str() + html_legend(legend, "one line per point:", "plot-timing") +
+              (note.empty() ? "" : "<p>" + html_escape(note) + ".</p>\n"),
+          ""};
 }
 
 /// Horizontal bars of one value per row, the value printed at each bar's end.
@@ -579,6 +770,7 @@ std::string value_bars(const std::vector<const json*>& rows, const char* key, co
     if (v > 0) lo = std::min(lo, v), hi = std::max(hi, v);
   }
   if (!(hi > 0)) return "";
+  const std::string kBar = "#4e79a7";
   PlotAxis xa = value_axis(name, lo, hi, true);
   xa.hi *= xa.log ? 3 : 1.12;  // room for the printed values
   PlotAxis ya{"", 0, 1};
@@ -589,10 +781,10 @@ std::string value_bars(const std::vector<const json*>& rows, const char* key, co
     const double v = num(*rows[i], key), at = static_cast<double>(rows.size() - 1 - i);
     if (!(v > 0)) continue;
     const double x0 = xa.log ? xa.lo : 0;
-    p.rect(x0, at - 0.32, v, at + 0.32, palette(0), text(*rows[i], "label") + "\n" + name + ": " + fmt_num(v));
+    p.rect(x0, at - 0.32, v, at + 0.32, kBar, text(*rows[i], "label") + "\n" + name + ": " + fmt_num(v));
     p.label(v, at, fmt_num(v), 5, 4);
   }
-  return p.str();
+  return "<div>" + p.str() + html_legend({{name + ", one bar per point", kBar}}, "", id) + "</div>";
 }
 
 Part performance_part(const json& rows) {
@@ -602,7 +794,9 @@ Part performance_part(const json& rows) {
   if (r.empty()) return absent("throughput and latency (the platform's: simulate and explore)");
   std::string h =
       "<table><tr><th>point</th><th>throughput images/s</th><th>latency us</th><th>energy uJ/image</th>"
-      "<th>average power</th><th>peak power</th><th>area mm2</th><th>bottleneck (busy us/image)</th></tr>\n";
+      "<th>" +
+      std::string(kSimulatedPower) +
+      "</th><th>peak power</th><th>area mm2</th><th>bottleneck (busy us/image)</th></tr>\n";
   for (const json* x : r) {
     std::string bottleneck;
     if (x->contains("bottleneck") && (*x)["bottleneck"].is_object())
@@ -616,6 +810,13 @@ Part performance_part(const json& rows) {
   h += "</table>\n<div class=\"row\">" + value_bars(r, "throughput_images_per_s", "plot-throughput", "throughput (images/s)") +
        value_bars(r, "latency_us", "plot-latency", "latency of an image (us)") + "</div>\n";
   return {h, ""};
+}
+
+/// A fraction as a percentage with two decimals, as every accuracy is printed: "87.89 %", "88.10 %".
+std::string percent_text(double fraction) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f %%", 100 * fraction);
+  return b;
 }
 
 /// "1.7 [-0.6, 3.9]": the accuracy drop and its 95 % interval in points ("" without a drop).
@@ -637,9 +838,11 @@ Part accuracy_part(const json& rows) {
   std::string h;
   for (const auto& r : rows) {
     if (!ok(r) || std::isnan(num(r, "accuracy"))) continue;
+    const double images = num(r, "images");
     h += "<p class=\"big\">" + (rows.size() > 1 ? html_escape(text(r, "label")) + ": " : std::string()) +
-         "crossbars <b>" + fmt_num(100 * num(r, "accuracy")) + " %</b>";
-    if (!std::isnan(num(r, "software_accuracy"))) h += " against software " + fmt_num(100 * num(r, "software_accuracy")) + " %";
+         "crossbars <b>" + percent_text(num(r, "accuracy")) + "</b>";
+    if (!std::isnan(num(r, "software_accuracy"))) h += " against software " + percent_text(num(r, "software_accuracy"));
+    if (images > 0) h += " on " + count_text(std::llround(images), "image");
     const std::string d = drop_text(r);
     if (!d.empty()) h += ": a drop of " + d + " points (95 % interval)";
     if (!std::isnan(num(r, "mean_relative_error")))
@@ -686,9 +889,10 @@ std::string rows_table(const json& rows) {
   };
   std::vector<Col> cols;
   for (const Col& c : {Col{"accuracy", "accuracy %", 100}, Col{"mean_relative_error", "mean error %", 100},
-                       Col{"worst_relative_error", "worst error %", 100}, Col{"energy_uj_per_image", "energy uJ/image", 1},
-                       Col{"area_mm2", "area mm2", 1}, Col{"latency_us", "latency us", 1},
-                       Col{"throughput_images_per_s", "throughput images/s", 1}, Col{"avg_power_mw", "average power", 1}})
+                       Col{"worst_relative_error", "worst error %", 100},
+                       Col{"energy_uj_per_image", "energy uJ/image", 1}, Col{"area_mm2", "area mm2", 1},
+                       Col{"latency_us", "latency us", 1}, Col{"throughput_images_per_s", "throughput images/s", 1},
+                       Col{"avg_power_mw", kSimulatedPower, 1}, Col{"ideal_avg_power_mw", kIdealPower, 1}})
     if (any(c.key)) cols.push_back(c);
   const bool drops = any("accuracy_drop"), fronts = std::any_of(rows.begin(), rows.end(), on_front);
   std::string s = "<table><tr><th>point</th><th>status</th>";
@@ -701,7 +905,7 @@ std::string rows_table(const json& rows) {
     s += "<tr><td class=\"name\">" + html_escape(text(r, "label")) + "</td><td>" +
          html_escape(ok(r) ? std::string("ok") : "failed: " + text(r, "reason")) + "</td>";
     for (const Col& c : cols) {
-      if (std::string(c.key) == "avg_power_mw")
+      if (std::string(c.key) == "avg_power_mw" || std::string(c.key) == "ideal_avg_power_mw")
         s += "<td>" + (std::isnan(num(r, c.key)) ? std::string() : power_text(num(r, c.key))) + "</td>";
       else
         s += cell(num(r, c.key), c.scale);
@@ -752,20 +956,24 @@ std::string render_html_report(const ReportInput& in) {
   const auto table = [&] { return Part{rows_table(rows), ""}; };
   const auto accuracy = [&] { return accuracy_part(rows); };
   const auto layers = [&] { return layers_plot(sel, candidates(rows)); };
-  const auto adc = [&] { return bits_plot(rows, "adc_bits", "plot-bits", "ADC bits", in.min_accuracy); };
-  const auto dac = [&] { return bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits", in.min_accuracy); };
+  const auto adc = [&] { return bits_plot(rows, "adc_bits", "plot-bits", "ADC bits", input); };
+  const auto dac = [&] { return bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits", input); };
   const auto performance = [&] { return performance_part(rows); };
   const auto timing = [&] { return timing_plot(sel); };
   const auto energy = [&] { return breakdown_plot(sel, true); };
   const auto area = [&] { return breakdown_plot(sel, false); };
   if (in.command == "explore") {
-    sections = {{"Pareto front", front},           {"All points", table},
-                {"Per-layer error of the front", layers}, {"Accuracy vs ADC bits", adc},
-                {"Accuracy vs DAC bits", dac},     {"Energy by component", energy},
-                {"Area by component", area},       {"Per-layer time on the platform", timing}};
+    sections = {{"Pareto front", front},
+                {"All points", table},
+                {"Per-layer error of the front", layers},
+                {"Accuracy vs ADC bits", adc},
+                {"Accuracy vs DAC bits", dac},
+                {"Energy by component", energy},
+                {"Area by component", area},
+                {"Per-stage time on the platform", timing}};
   } else if (in.command == "simulate") {
     sections = {{"Throughput, latency and the bottleneck", performance},
-                {"Per-layer time on the platform", timing},
+                {"Per-stage time on the platform", timing},
                 {"Energy by component", energy},
                 {"Area by component", area},
                 {"Accuracy", accuracy},
@@ -799,12 +1007,14 @@ std::string render_html_report(const ReportInput& in) {
     for (const auto& n : not_shown) list += (list.empty() ? "" : "; ") + n;
     h += "<p class=\"missing\" id=\"not-shown\">Not in this report: " + html_escape(list) + ".</p>\n";
   }
-  // Where each plot and each point tag lies on the page (read by the browser test).
+  // Where each plot, each point tag and each tick label lies on the page (read by the browser test).
   h += "<pre id=\"layout\" hidden></pre>\n<script>window.addEventListener('load',function(){var o='';"
        "function box(k,r){o+=k+' '+Math.round(r.left+window.scrollX)+' '+Math.round(r.top+window.scrollY)+' '+"
        "Math.round(r.width)+' '+Math.round(r.height)+'\\n';}"
        "document.querySelectorAll('svg.plot').forEach(function(s){box(s.id,s.getBoundingClientRect());"
-       "s.querySelectorAll('g.tag text').forEach(function(t,i){box('tag:'+s.id+':'+i,t.getBoundingClientRect());});});"
+       "s.querySelectorAll('g.tag text').forEach(function(t,i){box('tag:'+s.id+':'+i,t.getBoundingClientRect());});"
+       "['xtick','ytick'].forEach(function(a){s.querySelectorAll('g.'+a+'s text').forEach(function(t,i){"
+       "box(a+':'+s.id+':'+i,t.getBoundingClientRect());});});});"
        "document.getElementById('layout').textContent=o;});</script>\n";
   return h + "</body></html>\n";
 }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "sw/common/quantity_text.h"
+
 namespace xbarsim {
 
 std::string html_escape(const std::string& s) {
@@ -20,11 +22,25 @@ std::string html_escape(const std::string& s) {
   return o;
 }
 
-std::string fmt_num(double v) {
-  if (std::isnan(v)) return "n/a";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
+std::string fmt_num(double v) { return compact_number(v, 4); }
+
+std::vector<std::string> tick_texts(const std::vector<double>& values) {
+  std::vector<std::string> t;
+  for (int digits = 4; digits <= 15; ++digits) {
+    t.clear();
+    for (double v : values) t.push_back(compact_number(v, digits));
+    std::vector<std::string> sorted = t;
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end()) break;
+  }
+  return t;
+}
+
+const std::string& series_colour(size_t i) {
+  // Darker tones than palette()'s, none of them one of its colours.
+  static const std::vector<std::string> p{"#393b79", "#8c6d31", "#843c39", "#637939",
+                                          "#7b4173", "#d6616b", "#6b6ecf", "#bd9e39"};
+  return p[i % p.size()];
 }
 
 const std::string& palette(size_t i) {
@@ -58,6 +74,25 @@ SvgPlot::SvgPlot(std::string id, int width, int height, PlotAxis x, PlotAxis y, 
                  int legend_width)
     : id_(std::move(id)), w_(width), h_(height), ml_(margin_left), mb_(margin_bottom), lw_(legend_width),
       x_(std::move(x)), y_(std::move(y)) {
+  // A categorical axis makes room for its labels, whole: below the plot (turned upright when
+  // the categories are close), or at its left.
+  auto longest = [](const PlotAxis& a) {
+    size_t n = 0;
+    for (const auto& c : a.categories) n = std::max(n, c.size());
+    return static_cast<double>(n);
+  };
+  if (!x_.categories.empty()) {
+    const double room = (w_ - 20 - lw_ - ml_) / static_cast<double>(x_.categories.size());
+    if (x_.rotate_labels && room < 40) x_.rotate_labels = -90;
+    const double angle = x_.rotate_labels * 3.14159265358979 / 180;
+    const int need = static_cast<int>(
+        std::ceil(14 + kCharWidthPx * longest(x_) * std::abs(std::sin(angle)) + 11 * std::abs(std::cos(angle)) + 26));
+    if (need > mb_) {
+      h_ += need - mb_;
+      mb_ = need;
+    }
+  }
+  if (!y_.categories.empty()) ml_ = std::max(ml_, static_cast<int>(std::ceil(12 + kCharWidthPx * longest(y_))));
   for (PlotAxis* a : {&x_, &y_}) {
     if (!a->categories.empty()) {
       a->lo = -0.5;
@@ -173,6 +208,7 @@ void SvgPlot::tag(double x, double y, double r, const std::string& text) {
 void SvgPlot::legend(const std::vector<std::pair<std::string, std::string>>& items, const std::string& title) {
   const int x = w_ - lw_ + 4;
   int y = 30;
+  legend_ += "<g class=\"legend\">\n";
   if (!title.empty()) {
     legend_ += "<text x=\"" + std::to_string(x) + "\" y=\"" + std::to_string(y) +
                "\" font-size=\"12\" font-weight=\"bold\">" + html_escape(title) + "</text>\n";
@@ -184,6 +220,7 @@ void SvgPlot::legend(const std::vector<std::pair<std::string, std::string>>& ite
                "\" y=\"" + std::to_string(y) + "\" font-size=\"12\">" + html_escape(it.first) + "</text>\n";
     y += 18;
   }
+  legend_ += "</g>\n";
 }
 
 std::string SvgPlot::axis_svg() const {
@@ -191,7 +228,8 @@ std::string SvgPlot::axis_svg() const {
   const double l = ml_, r = w_ - 20 - lw_, t = 20, b = h_ - mb_;
   s += "<rect x=\"" + num_attr(l) + "\" y=\"" + num_attr(t) + "\" width=\"" + num_attr(r - l) + "\" height=\"" +
        num_attr(b - t) + "\" fill=\"none\" stroke=\"#444\"/>\n";
-  auto ticks = [](const PlotAxis& a) {
+  // `across`: the labels stand side by side (x), else one above the other (y); `length`: px.
+  auto ticks = [](const PlotAxis& a, bool across, double length) {
     std::vector<std::pair<double, std::string>> out = a.ticks;
     if (!out.empty()) return out;
     if (!a.categories.empty()) {
@@ -205,24 +243,37 @@ std::string SvgPlot::axis_svg() const {
           if (v >= a.lo * 0.999 && v <= a.hi * 1.001) out.emplace_back(v, fmt_num(v));
         }
     } else {
-      for (double v : nice_ticks(a.lo, a.hi, 6)) out.emplace_back(v, fmt_num(v));
+      // About 6 ticks; fewer where their labels would not stand apart.
+      for (int n = 6;; --n) {
+        const std::vector<double> v = nice_ticks(a.lo, a.hi, n);
+        const std::vector<std::string> t = tick_texts(v);
+        size_t longest = 0;
+        for (const auto& x : t) longest = std::max(longest, x.size());
+        const double gap = v.size() > 1 ? length * (v[1] - v[0]) / (a.hi - a.lo) : length;
+        if (n <= 2 || gap >= (across ? kCharWidthPx * static_cast<double>(longest) + 10 : 16)) {
+          for (size_t i = 0; i < v.size(); ++i) out.emplace_back(v[i], t[i]);
+          break;
+        }
+      }
     }
     return out;
   };
-  for (const auto& tk : ticks(x_)) {
+  s += "<g class=\"xticks\">\n";
+  for (const auto& tk : ticks(x_, true, r - l)) {
     const double x = px(tk.first);
     if (x < l - 0.5 || x > r + 0.5) continue;
     s += "<line x1=\"" + num_attr(x) + "\" y1=\"" + num_attr(t) + "\" x2=\"" + num_attr(x) + "\" y2=\"" + num_attr(b) +
          "\" stroke=\"#e4e4e4\"/>\n";
     if (x_.rotate_labels)
       s += "<text font-size=\"11\" text-anchor=\"end\" transform=\"translate(" + num_attr(x + 4) + "," +
-           num_attr(b + 12) + ") rotate(" + std::to_string(x_.rotate_labels) + ")\">" + html_escape(tk.second) +
+           num_attr(b + 8) + ") rotate(" + std::to_string(x_.rotate_labels) + ")\">" + html_escape(tk.second) +
            "</text>\n";
     else
       s += "<text x=\"" + num_attr(x) + "\" y=\"" + num_attr(b + 16) + "\" font-size=\"11\" text-anchor=\"middle\">" +
            html_escape(tk.second) + "</text>\n";
   }
-  for (const auto& tk : ticks(y_)) {
+  s += "</g>\n<g class=\"yticks\">\n";
+  for (const auto& tk : ticks(y_, false, b - t)) {
     const double y = py(tk.first);
     if (y < t - 0.5 || y > b + 0.5) continue;
     s += "<line x1=\"" + num_attr(l) + "\" y1=\"" + num_attr(y) + "\" x2=\"" + num_attr(r) + "\" y2=\"" + num_attr(y) +
@@ -230,6 +281,7 @@ std::string SvgPlot::axis_svg() const {
     s += "<text x=\"" + num_attr(l - 6) + "\" y=\"" + num_attr(y + 4) + "\" font-size=\"11\" text-anchor=\"end\">" +
          html_escape(tk.second) + "</text>\n";
   }
+  s += "</g>\n";
   s += "<text x=\"" + num_attr((l + r) / 2) + "\" y=\"" + std::to_string(h_ - 8) +
        "\" font-size=\"13\" text-anchor=\"middle\">" + html_escape(x_.label) + "</text>\n";
   s += "<text font-size=\"13\" text-anchor=\"middle\" transform=\"translate(16," + num_attr((t + b) / 2) +

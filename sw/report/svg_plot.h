@@ -1,6 +1,7 @@
 #pragma once
 /// Minimal SVG plotting for the HTML report: one plot = axes (linear, log or categorical)
-/// with nice ticks, data marks inside <g class="marks">, and a legend. Output is deterministic.
+/// with nice ticks (<g class="xticks">, <g class="yticks">), data marks inside
+/// <g class="marks">, and a legend (<g class="legend">). Output is deterministic.
 #include <string>
 #include <utility>
 #include <vector>
@@ -9,10 +10,18 @@ namespace xbarsim {
 
 /// Escapes &, <, >, " and ' for HTML text and attributes.
 std::string html_escape(const std::string& s);
-/// A compact number (%.4g).
+/// A compact number: 4 significant digits, k/M/G/T from 10^4 up ("32.55 k"; compact_number).
 std::string fmt_num(double v);
-/// Saturated categorical colours (cycled).
+/// The texts of an axis' tick values: fmt_num, with more digits where two would read alike
+/// (1993.6, 1993.8, 1994.0: "1993.6 1993.8 1994", never "1994 1994 1994").
+std::vector<std::string> tick_texts(const std::vector<double>& values);
+/// Saturated categorical colours (cycled): the values of the key that colours the points.
 const std::string& palette(size_t i);
+/// Colours of series that are rows (one line per front point), none of them a palette()
+/// colour: a colour that means a key's value in one plot never means a point in another.
+const std::string& series_colour(size_t i);
+/// The width the layout assumes for a character of 11 px sans-serif (a little above the mean).
+constexpr double kCharWidthPx = 6.6;
 
 struct PlotAxis {
   PlotAxis(std::string label_ = "", double lo_ = 0, double hi_ = 1, bool log_ = false)
@@ -23,7 +32,9 @@ struct PlotAxis {
   std::vector<std::string> categories;  ///< non-empty: categorical axis, value i at category i
   /// Extra ticks with text (e.g. "none" beside the numbers); replaces the automatic ticks when set.
   std::vector<std::pair<double, std::string>> ticks;
-  int rotate_labels = 0;  ///< degrees (e.g. -40 for long category names)
+  /// Degrees (e.g. -40 for long category names); turned to -90 when the categories are closer
+  /// than 40 px. The plot grows below to hold the longest whole.
+  int rotate_labels = 0;
 };
 
 class SvgPlot {

@@ -107,22 +107,9 @@ EvalPoint parse_eval_point(const ConfigTree& cfg) {
 namespace {
 
 /// The largest relative error a journal line may hold: far above any run's (errors are relative
-/// to a channel's calibration range), and small enough that a layer's sum over a test set stays
+/// to the layer's calibration range), and small enough that a layer's sum over a test set stays
 /// finite (1e308 per image would add up to inf).
 constexpr double kMaxJournalError = 1e100;
-
-/// Relative errors of one image's layer output (crossbar vs software), each normalised by
-/// the output channel's range over the calibration images. A channel that (nearly) never
-/// varied there (below 1e-6 of the layer's widest range: a channel the ReLUs silenced) is
-/// normalised by the widest range, as relative_error() does, instead of by its ~0.
-ErrorTally layer_error(const LayerStatistics& st, const Eigen::MatrixXf& s, const Eigen::MatrixXf& c) {
-  const Eigen::VectorXd range = st.out_hi - st.out_lo;
-  const double widest = range.size() && range.maxCoeff() > 0 ? range.maxCoeff() : 1.0;
-  ErrorTally t;
-  for (Eigen::Index col = 0; col < s.cols(); ++col)
-    t += column_error(c.col(col), s.col(col), range(col) > 1e-6 * widest ? range(col) : widest);
-  return t;
-}
 
 /// Per image and layer error tallies and correct counts, evaluated in parallel; reduced in
 /// image order by the caller, so the figures do not depend on the number of threads.
@@ -217,6 +204,9 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
                              const EvalJournal* journal, int& from_journal) {
   const int L = static_cast<int>(model.linear.size());
   ImageTallies t(images, L);
+  // Each layer's errors are relative to its output range over the calibration images.
+  std::vector<double> output_range(L);
+  for (int l = 0; l < L; ++l) output_range[l] = layer_output_range(xb.statistics(l).out_lo, xb.statistics(l).out_hi);
   const std::vector<char> have = journal ? read_journal(*journal, model, t, images) : std::vector<char>(images, 0);
   from_journal = static_cast<int>(std::count(have.begin(), have.end(), 1));
   std::mutex mu;
@@ -259,7 +249,7 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
         t.xb_class[k] = static_cast<int32_t>(b);
         for (int l = 0; l < L; ++l)
           t.layer[static_cast<size_t>(k) * L + l] =
-              layer_error(xb.statistics(l), sw_trace.outputs[l], xb_trace.outputs[l]);
+              layer_error(xb_trace.outputs[l], sw_trace.outputs[l], output_range[l]);
         std::lock_guard<std::mutex> lock(mu);
         if (file) {
           pending += journal_line(*journal, t, k, L);
@@ -337,8 +327,10 @@ JournalKind eval_journal_kind() {
 std::string eval_run_key(const ConfigTree& run_cfg, const std::string& model_id, const std::string& dataset) {
   // The image range, and the sections that cannot change an image's outcome: the platform's
   // timing, xbar-study's synthetic crossbar, explore's space.
+  // "errors layer-range": the per-layer error metric its lines hold (journals of the earlier
+  // per-channel metric are another run's, not reused).
   return point_key(run_cfg, {"eval.images", "eval.offset", "platform.", "study.", "explore."}) + " model " + model_id +
-         " " + dataset;
+         " " + dataset + " errors layer-range";
 }
 
 EvalResult run_eval(const Model& model, const EvalPoint& point, const EvalSpec& spec, const Dataset& test,
@@ -444,6 +436,9 @@ std::vector<std::string> EvalResult::warnings() const {
                 " %), which were clipped and are not compensated; fewer mapping.max_rows, more mapping.g_headroom "
                 "or mapping.negative: differential keeps them in range");
   }
+  // After the clipped cells, which are one of their causes.
+  for (const auto& l : layers)
+    if (l.mean_relative_error > kLayerErrorWarning) w.push_back(layer_error_warning(l.name, l.mean_relative_error));
   return w;
 }
 
@@ -503,7 +498,17 @@ nlohmann::json EvalResult::to_json() const {
   j["out_of_range_cells"] = oor;
   j["warnings"] = warnings();
   j.update(cost.to_json());
-  j["energy_note"] = "closed-form action counts per image; leakage over ideal timing (one clock per iteration)";
+  // Eval's time per image is not simulate's: the linear layers' crossbar reads back to back,
+  // one clock each, nothing else (no transfers, digital stages or waiting). Its average power
+  // is named for it, so that no command prints a different number for simulate's avg_power_mw.
+  j["ideal_time_ns_per_image"] = j["time_ns_per_image"];
+  j["ideal_avg_power_mw"] = j["avg_power_mw"];
+  j.erase("time_ns_per_image");
+  j.erase("avg_power_mw");
+  j["energy_note"] =
+      "closed-form action counts per image; leakage over the ideal time (ideal_time_ns_per_image: one clock per "
+      "crossbar read, the layers back to back, no transfers or digital stages); ideal_avg_power_mw = energy / that "
+      "time, higher than simulate's avg_power_mw (energy / the simulated time per image)";
   return j;
 }
 

@@ -44,6 +44,8 @@ struct EvalLayer {
   std::string name;
   const LinearLayer* layer = nullptr;
   LayerInventory inventory;
+  /// Over the evaluated images' outputs of the layer: |crossbar - software| / the layer's output
+  /// range over the calibration images (layer_error, sw/analog/error_metrics.h).
   double mean_relative_error = 0, worst_relative_error = 0;
   double input_full_scale = 0, min_column_gain = 1;
   bool signed_inputs = false;
@@ -82,7 +84,8 @@ struct EvalResult {
   CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing
   const AnalogConfig* ac = nullptr;
   nlohmann::json to_json() const;
-  /// One sentence per layer with more than kClippedCellsWarning of its cells clipped.
+  /// One sentence per layer with more than kClippedCellsWarning of its cells clipped, then one
+  /// per layer whose mean error passes kLayerErrorWarning (sw/analog/error_metrics.h).
   std::vector<std::string> warnings() const;
 };
 

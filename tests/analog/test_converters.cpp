@@ -100,3 +100,35 @@ TEST(Metrics, PaperDefinitions) {
   EXPECT_NEAR(s.worst_relative_error, 0.25, 1e-15);
   EXPECT_NEAR(s.bit_accuracy_worst(), std::log2(1 / 0.25 + 1), 1e-12);
 }
+
+// Issue 39, item 3: eval's per-layer error divided each output's error by its channel's
+// calibration range, which a nearly silent channel makes arbitrarily small (GoogLeNet reported
+// a mean of 5.96e9). Now one scale for the layer, its output range over every channel.
+TEST(LayerError, IsRelativeToTheLayersOutputRange) {
+  // Three outputs of two channels. Channel 0 spans [0, 10] on the calibration images; channel 1
+  // barely varies ([0, 2e-5]: a channel a ReLU nearly silenced).
+  Eigen::MatrixXd ideal(3, 2), actual(3, 2);
+  ideal << 0, 0, 5, 2e-5, 10, 0;
+  actual << 0.1, 0.05, 5, 0, 9.8, 0;
+  Eigen::VectorXd lo(2), hi(2);
+  lo << 0, 0;
+  hi << 10, 2e-5;
+  const double range = layer_output_range(lo, hi);
+  EXPECT_EQ(range, 10.0);  // max(hi) - min(lo)
+  const ErrorTally t = layer_error(actual, ideal, range);
+  // |errors| 0.1, 0, 0.2 | 0.05, 2e-5, 0, each / 10.
+  EXPECT_EQ(t.count, 6);
+  EXPECT_NEAR(t.mean(), (0.01 + 0 + 0.02 + 0.005 + 2e-6 + 0) / 6, 1e-15);
+  EXPECT_NEAR(t.worst, 0.02, 1e-15);
+  // Relative to each channel's own range (the old metric; the paper's for one crossbar), the
+  // quiet channel's 0.05 becomes 0.05 / 2e-5 = 2500 and swamps the layer.
+  const ErrorStats per_channel = relative_error(actual, ideal);
+  EXPECT_NEAR(per_channel.worst_relative_error, 2500, 1e-9);
+  // A layer whose outputs never varied: its errors are absolute (range 1).
+  EXPECT_EQ(layer_output_range(Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(2)), 1.0);
+}
+
+TEST(LayerError, WarningNamesTheLayerAndTheThreshold) {
+  const std::string w = layer_error_warning("/conv1/Conv", 0.25);
+  EXPECT_NE(w.find("layer /conv1/Conv: mean error 0.25 of its output range (over 0.1)"), std::string::npos) << w;
+}

@@ -513,3 +513,96 @@ TEST_F(Safety, HardwareQuantitiesAreBounded) {
   EXPECT_NE(r.out.find("area_mm2' must be a positive number at most 1e12, got '1e308'"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
 }
+
+namespace {
+
+nlohmann::json read_json_file(const std::string& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+}  // namespace
+
+// Issue 39, item 3: a layer whose outputs are far from software's was reported (a mean error of
+// 5.96e9 in one of GoogLeNet's) beside "drop 0.0000" with no warning. Now a layer whose mean
+// error passes 10 % of its output range is named, in the JSON's warnings and after the table;
+// the tiny network on the default design stays far below.
+TEST_F(Safety, LargeLayerErrorsAreWarnedAbout) {
+  Result r = run("eval --model tiny --images 2 --json " + path("ok.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  nlohmann::json j = read_json_file(path("ok.json"));
+  for (const auto& l : j["layers"]) EXPECT_LT(l["mean_relative_error"].get<double>(), 0.1) << l["name"];
+  for (const auto& w : j["warnings"]) EXPECT_EQ(w.get<std::string>().find("mean error"), std::string::npos) << w;
+  // Programming errors of 50 uS (sigma) on every cell: the first layer's mean error is 0.125,
+  // the second's 0.097 (named and not).
+  r = run("eval --model tiny --images 2 --set noise.sigma_us=50 --json " + path("bad.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  j = read_json_file(path("bad.json"));
+  int warned = 0;
+  for (const auto& l : j["layers"]) {
+    const double mean = l["mean_relative_error"].get<double>();
+    const std::string name = l["name"].get<std::string>();
+    bool named = false;
+    for (const auto& w : j["warnings"])
+      named = named || w.get<std::string>().find("layer " + name + ": mean error") != std::string::npos;
+    EXPECT_EQ(named, mean > 0.1) << name << " " << mean;
+    warned += named;
+  }
+  EXPECT_GT(warned, 0) << j["warnings"];
+  EXPECT_NE(r.out.find("of its output range (over 0.1)"), std::string::npos) << r.out;
+}
+
+// Issue 39, item 4: float32 images in [0, 1] with the default scale 1/255 reached the network
+// 255 times too small, silently (10 % software accuracy). Now eval and simulate warn; pixels
+// of 0..255 as floats, or the scale set to 1, do not.
+TEST_F(Safety, FloatImagesThatContradictTheScaleAreWarnedAbout) {
+  using namespace npz_writer;
+  const int n = 2, per = 3 * 32 * 32;
+  const std::vector<int64_t> labels = {0, 1};
+  auto write = [&](double top) {
+    std::vector<float> v(static_cast<size_t>(n) * per);
+    for (size_t k = 0; k < v.size(); ++k) v[k] = static_cast<float>(top * ((k * 37) % 256) / 255.0);
+    write_zip(path("f.npz"),
+              {{"images.npy", npy("<f4", "(2, 3, 32, 32)", bytes_of(v.data(), v.size() * 4))},
+               {"labels.npy", npy("<i8", "(2,)", bytes_of(labels.data(), 16))}},
+              false);
+  };
+  const std::string warning = "are float values within [0, 1] but preprocessing.scale is 0.00392157";
+  write(1.0);
+  for (const char* cmd : {"eval", "simulate"}) {
+    const Result r = run(std::string(cmd) + " --model tiny --images 2 --dataset " + path("f.npz"));
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find(warning), std::string::npos) << cmd << ": " << r.out;
+  }
+  Result r = run("eval --model tiny --images 2 --set preprocessing.scale=1 --dataset " + path("f.npz"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("preprocessing.scale is"), std::string::npos) << r.out;
+  write(255.0);
+  r = run("eval --model tiny --images 2 --dataset " + path("f.npz"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("preprocessing.scale"), std::string::npos) << r.out;
+}
+
+// Issue 39, item 4: simulate --timing-only of a pipelined machine defaulted to one image and
+// reported 1 / latency (ResNet-20 on ISAAC-CE: 13 570 images/s) where the steady state is
+// 37 879. One image now reports the bottleneck stage's rate, which the spacing of simulated
+// outputs confirms with more images, and says so.
+TEST_F(Safety, OneImageReportsTheSteadyStateThroughput) {
+  const std::string isaac = std::string(XBARSIM_SOURCE_DIR) + "/configs/isaac.yaml";
+  const std::string base = "simulate --preset resnet20 --timing-only --config " + isaac + " --json ";
+  Result r = xbarsim_test::run_xbarsim(base + path("one.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  Result many = xbarsim_test::run_xbarsim(base + path("many.json") + " --images 16");
+  ASSERT_EQ(many.code, 0) << many.out;
+  const nlohmann::json one = read_json_file(path("one.json")), sixteen = read_json_file(path("many.json"));
+  const double measured = sixteen["throughput_images_per_s"].get<double>();
+  const double busy_us = one["bottleneck"]["busy_us_per_image"].get<double>();
+  EXPECT_NEAR(one["throughput_images_per_s"].get<double>(), measured, 1e-3 * measured);
+  EXPECT_NEAR(one["throughput_images_per_s"].get<double>(), 1e6 / busy_us, 1e-9 * measured);
+  EXPECT_GT(measured, 1.5e6 / one["latency_us"].get<double>());  // far from 1 / latency
+  EXPECT_EQ(one["throughput_from"], "bottleneck stage (one image)");
+  EXPECT_EQ(sixteen["throughput_from"], "simulated outputs");
+  ASSERT_EQ(one["warnings"].size(), 1u);
+  EXPECT_NE(r.out.find("warning: one image never fills a pipelined schedule"), std::string::npos) << r.out;
+  EXPECT_TRUE(sixteen["warnings"].empty());
+}

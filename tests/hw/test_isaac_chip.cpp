@@ -151,7 +151,17 @@ TEST(Architecture, AMachineFixesTheCrossbarGeometry) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("mapping.max_rows"), std::string::npos) << e.what();
   }
+  // Cells of 1 bit (a sweep of crossbar.cell_bits on configs/isaac.yaml): the message says how
+  // to vary them, on the layer-sized platform (issue 39, item 7).
   m.max_rows = 128;
+  m.cell_bits = 1;
+  try {
+    check_crossbar_geometry(arch, m);
+    ADD_FAILURE() << "1-bit cells accepted on a machine of 2-bit cells";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("crossbar.cell_bits 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--set architecture.machine=layer-sized"), std::string::npos) << e.what();
+  }
   m.cell_bits = 2;
   EXPECT_NO_THROW(check_crossbar_geometry(arch, m));
   EXPECT_NO_THROW(check_crossbar_geometry(Architecture{}, MappingSpec{}));  // layer-sized

@@ -146,6 +146,37 @@ TEST(Overhead, PartitioningCountsPhysicalArrays) {
   EXPECT_EQ(c.adcs, 2 * 2);
 }
 
+// A grouped convolution's groups each have crossbars of their own (as AnalogLayer programs
+// them): the counts are the groups' sums, by hand.
+TEST(Overhead, GroupedLayersMapGroupByGroup) {
+  MappingSpec m;
+  m.max_rows = m.max_cols = 128;
+  LinearLayer L;
+  L.name = "dw";
+  L.k_h = L.k_w = 3;
+  L.c_in = L.c_out = L.group = 96;  // depthwise: 9 rows and one column per group
+  L.in = L.out = Shape{96, 8, 8};
+  LayerInventory v = layer_inventory(L, MappingScheme::Dense, m, 128);
+  EXPECT_EQ(v.crossbars, 96);
+  EXPECT_EQ(v.row_blocks, 1);
+  EXPECT_EQ(v.col_blocks, 96);
+  EXPECT_EQ(v.cells_used, 96 * 9);
+  EXPECT_EQ(v.cells_present, 96LL * 128 * 128);
+  EXPECT_EQ(v.dacs, 96 * 9);
+  EXPECT_EQ(v.adcs, 96);
+  EXPECT_EQ(v.physical_cols, 96);
+  L.c_in = L.c_out = 256;  // two groups of 1152 rows (9 row blocks) by 128 columns
+  L.group = 2;
+  L.in = L.out = Shape{256, 8, 8};
+  v = layer_inventory(L, MappingScheme::Dense, m, 128);
+  EXPECT_EQ(v.crossbars, 2 * 9);  // the block-diagonal matrix on shared crossbars: 18 x 2
+  EXPECT_EQ(v.row_blocks, 9);
+  EXPECT_EQ(v.cells_used, 2 * 1152 * 128);
+  EXPECT_EQ(v.dacs, 2304);
+  EXPECT_EQ(v.adcs, 18);
+  EXPECT_EQ(v.sample_holds, 9 * 256);
+}
+
 TEST(Overhead, SparseTableRowOn64x64Crossbars) {
   // 3x3x3x16 on 32x32 as Toeplitz (3072 x 14400) cut into 64 x 64 arrays:
   // 48 row blocks x 225 column blocks, every block full.

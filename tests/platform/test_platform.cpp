@@ -172,6 +172,42 @@ TEST(Tile, ModulesComputeTheAnalogLayerAndAnnotateDelays) {
   EXPECT_NEAR(driver.delay.to_seconds() * 1e9, fill + steady, 1e-6);
 }
 
+// A grouped layer through the modules: the DAC hands the crossbars their inputs group by group
+// (as AnalogLayer::forward arranges them), and the tile counts the inventory's groups.
+TEST(Tile, GroupedLayerReadsItsGroupsCrossbars) {
+  ONE_SIMULATION_PER_PROCESS();
+  LinearLayer L = conv_layer(8, 8, 3, 1, 1, 6, 6);  // 4 groups of 2 channels: 18 rows x 2 columns
+  L.group = 4;
+  for (int r = 0; r < L.rows(); ++r)
+    for (int o = 0; o < L.c_out; ++o)
+      if ((r % L.c_in) / 2 != o / 2) L.weight(r, o) = 0;  // block-diagonal, input channel innermost
+  AnalogConfig ac = quantized_partitioned();
+  ac.mapping.max_rows = 16;     // two row blocks per group
+  ac.converters.adc_bits = 0;  // (8-bit ranges from ten random calibration vectors would clip)
+  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1, RowGroups{L.group, L.c_in});
+  analog.program(Eigen::MatrixXd());
+  PlatformConfig pc;
+  const auto act = random_activation(L.in, 9);
+  TileRun run(L, analog, pc, act, true);
+  ASSERT_EQ(run.driver.status, tlm::TLM_OK_RESPONSE);
+  run.expect_forward_of(analog);
+  const int n = L.out.h * L.out.w;
+  EXPECT_EQ(analog.crossbars(), 4 * 2);
+  EXPECT_EQ(run.tile.crossbars().cell_reads(), static_cast<long long>(n) * 72 * 2);  // 18 rows x 2 columns a group
+  const LayerInventory inv = layer_inventory(L, MappingScheme::Dense, ac.mapping, pc.adc_columns_per_unit);
+  EXPECT_EQ(inv.crossbars, analog.crossbars());
+  const ActionCounts closed = layer_actions_per_image(inv, dense_shifted_entries(L)), counted = run.tile.actions();
+  EXPECT_EQ(counted.dac_conversions, closed.dac_conversions);
+  EXPECT_EQ(counted.adc_conversions, closed.adc_conversions);
+  EXPECT_EQ(counted.cell_reads, closed.cell_reads);
+  EXPECT_EQ(counted.accumulates, closed.accumulates);
+  // The values against the software product, up to the DAC's steps and the wires' residue.
+  RowMatrixXf cols;
+  im2col(L, act.data(), cols);
+  const Eigen::MatrixXf ideal = cols * L.weight;
+  EXPECT_LT((run.job.y - ideal).cwiseAbs().maxCoeff(), 0.01 * ideal.cwiseAbs().maxCoeff());
+}
+
 // Bit-serial inputs on bit-sliced weights: the modules stream every read and the tile counts
 // what the inventory's closed form says.
 TEST(Tile, BitSerialReadsOfSlicedWeights) {

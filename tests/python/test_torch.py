@@ -1,5 +1,7 @@
 """xbarsim.torch (issue 27): a torch model's Conv2d and Linear layers on crossbars. Skipped
 where Debian's python3-torch is absent."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -117,3 +119,47 @@ def test_padding_modes_and_same_give_torchs_outputs(conv):
         got = analog(x)
     assert got.shape == want.shape
     np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=0, atol=1e-5 * float(want.abs().max()))
+
+
+# Issue 39, items 3 and 4.
+def normalised_net():
+    torch.manual_seed(1)
+    return torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3, padding=1), torch.nn.ReLU(),
+                               torch.nn.Conv2d(8, 8, 3, padding=1), torch.nn.ReLU(), torch.nn.Flatten(),
+                               torch.nn.Linear(8 * 8 * 8, 10)).eval()
+
+
+def test_convert_refuses_without_calibration():
+    # Before: programmed for inputs in [0, 1] and clipped the rest (1 of 8 argmax agreed on
+    # normalised inputs).
+    with pytest.raises(ValueError, match="convert needs calibration="):
+        xtorch.convert(normalised_net(), xbarsim.Config())
+
+
+def test_normalised_inputs_agree_with_torch_when_calibrated():
+    net = normalised_net()
+    torch.manual_seed(2)
+    x = torch.randn(32, 3, 8, 8)  # mean 0, std 1
+    analog = xtorch.convert(net, xbarsim.Config(), calibration=x[:16])
+    r = xtorch.evaluate(analog, [(x[16:], torch.zeros(16, dtype=torch.long))], reference=net)
+    assert r["agreeing_predictions"] >= 14, r
+
+
+def test_evaluate_reports_eval_errors_and_warns_about_large_ones():
+    net = normalised_net()
+    torch.manual_seed(3)
+    x = torch.randn(8, 3, 8, 8)
+    labels = torch.zeros(8, dtype=torch.long)
+    r = xtorch.evaluate(xtorch.convert(net, xbarsim.Config(), calibration=x), [(x, labels)])
+    assert set(r["layer_mean_relative_error"]) == {"0", "2", "5"}
+    assert all(0 < e < 0.1 for e in r["layer_mean_relative_error"].values()), r
+    assert all(w >= r["layer_mean_relative_error"][n] for n, w in r["layer_worst_relative_error"].items())
+    assert r["warnings"] == []
+    # An ideal circuit with 1-bit ADCs: errors far above the threshold, each such layer named.
+    coarse = xbarsim.Config(overrides={"converters.adc_bits": 1})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = xtorch.evaluate(xtorch.convert(net, coarse, calibration=x), [(x, labels)])
+    big = [n for n, e in r["layer_mean_relative_error"].items() if e > 0.1]
+    assert big and len(r["warnings"]) == len(big)
+    assert any(f"layer {big[0]}: mean error" in str(w.message) for w in caught)

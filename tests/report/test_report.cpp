@@ -7,9 +7,12 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
+#include "sw/common/quantity_text.h"
 #include "sw/report/html_report.h"
+#include "sw/report/svg_plot.h"
 
 using namespace xbarsim;
 using nlohmann::json;
@@ -189,7 +192,9 @@ TEST(HtmlReport, EachCommandLeadsWithWhatItMeasures) {
   ev.rows[0]["accuracy_drop_ci95"] = {0.0012, 0.0483};
   const std::string e = render_html_report(ev);
   EXPECT_EQ(sections(e).at(0), "Accuracy");
-  EXPECT_NE(e.find("crossbars <b>89 %</b> against software 92 %: a drop of 2.50 [0.12, 4.83] points"), std::string::npos);
+  EXPECT_NE(e.find("crossbars <b>89.00 %</b> against software 92.00 %: a drop of 2.50 [0.12, 4.83] points"),
+            std::string::npos)
+      << e;
   EXPECT_NE(e.find("throughput and latency (the platform&#39;s", e.find("Not in this report")), std::string::npos);
 }
 
@@ -238,7 +243,8 @@ TEST(HtmlReport, FloorGreysAndManyObjectivesDrawMarksAndPairs) {
   ReportInput in = sample();
   in.min_accuracy = 0.85;  // the 80 % point is below it
   std::string h = render_html_report(in);
-  EXPECT_EQ(count(plot(h, "plot-pareto"), "fill=\"#c4c4c4\""), 1u);
+  EXPECT_EQ(count(plot(h, "plot-pareto"), "r=\"5.5\" fill=\"#c4c4c4\""), 1u);  // the point below the floor
+  EXPECT_NE(plot(h, "plot-pareto").find(">below the accuracy floor</text>"), std::string::npos);  // and its key
   EXPECT_NE(plot(h, "plot-pareto").find("accuracy floor 85 %"), std::string::npos);
   // Four objectives: the front as marks only, and the six pairs.
   EXPECT_EQ(plot(h, "plot-pareto").find("<title>Pareto front</title>"), std::string::npos);
@@ -252,6 +258,243 @@ TEST(HtmlReport, FloorGreysAndManyObjectivesDrawMarksAndPairs) {
   h = plot(render_html_report(in), "plot-pareto");
   EXPECT_NE(h.find(">energy per image (uJ)</text>"), std::string::npos) << h;
   EXPECT_NE(h.find(">area (mm2)</text>"), std::string::npos) << h;
+}
+
+// ---- the rules every plot keeps (issue 39, item 5) ---------------------------------------
+
+namespace {
+
+/// Every plot id of a page, in order.
+std::vector<std::string> plot_ids(const std::string& h) {
+  std::vector<std::string> ids;
+  const std::string open = "<svg class=\"plot\" id=\"";
+  for (size_t p = h.find(open); p != std::string::npos; p = h.find(open, p + 1)) {
+    const size_t a = p + open.size();
+    ids.push_back(h.substr(a, h.find('"', a) - a));
+  }
+  return ids;
+}
+
+/// The part of `s` inside the first <g class="CLASS"> ... </g> (no nesting in them).
+std::string group(const std::string& s, const std::string& cls) {
+  const size_t a = s.find("<g class=\"" + cls + "\">");
+  if (a == std::string::npos) return "";
+  return s.substr(a, s.find("</g>", a) - a);
+}
+
+/// The texts of the <text> elements of `s`.
+std::vector<std::string> texts(const std::string& s) {
+  std::vector<std::string> t;
+  for (size_t p = s.find("<text"); p != std::string::npos; p = s.find("<text", p + 1)) {
+    const size_t a = s.find('>', p) + 1;
+    t.push_back(s.substr(a, s.find("</text>", a) - a));
+  }
+  return t;
+}
+
+/// The values of attribute `attr` on the elements `tag` of `s`.
+std::set<std::string> attrs(const std::string& s, const std::string& tag, const std::string& attr) {
+  std::set<std::string> v;
+  for (size_t p = s.find("<" + tag + " "); p != std::string::npos; p = s.find("<" + tag + " ", p + 1)) {
+    const std::string el = s.substr(p, s.find('>', p) - p);
+    const size_t a = el.find(" " + attr + "=\"");
+    if (a != std::string::npos)
+      v.insert(el.substr(a + attr.size() + 3, el.find('"', a + attr.size() + 3) - a - attr.size() - 3));
+  }
+  return v;
+}
+
+/// The colours a plot draws its data in: its marks' fills and lines.
+std::set<std::string> mark_colours(const std::string& svg) {
+  const std::string m = group(svg, "marks");
+  std::set<std::string> c = attrs(m, "circle", "fill"), r = attrs(m, "rect", "fill"),
+                        l = attrs(m, "polyline", "stroke");
+  c.insert(r.begin(), r.end());
+  c.insert(l.begin(), l.end());
+  return c;
+}
+
+/// The colours of plot `id`'s legend: its own (in the SVG) and those of the HTML legends under it.
+std::set<std::string> legend_colours(const std::string& h, const std::string& id) {
+  std::set<std::string> c = attrs(group(plot(h, id), "legend"), "rect", "fill");
+  const std::string open = "<div class=\"legend\" data-for=\"";
+  for (size_t p = h.find(open); p != std::string::npos; p = h.find(open, p + 1)) {
+    const size_t a = p + open.size();
+    std::istringstream ids(h.substr(a, h.find('"', a) - a));
+    bool mine = false;
+    for (std::string x; ids >> x;) mine = mine || x == id;
+    if (!mine) continue;
+    const std::string div = h.substr(p, h.find("</div>", p) - p);
+    for (size_t q = div.find("background:"); q != std::string::npos; q = div.find("background:", q + 1))
+      c.insert(div.substr(q + 11, div.find('"', q) - q - 11));
+  }
+  return c;
+}
+
+/// The rules of every plot of page `h`: the tick labels of each axis distinct, and every
+/// colour a plot draws data in named by its legend.
+void expect_plot_rules(const std::string& h, const std::string& page) {
+  const std::vector<std::string> ids = plot_ids(h);
+  ASSERT_FALSE(ids.empty()) << page;
+  for (const std::string& id : ids) {
+    const std::string svg = plot(h, id);
+    for (const char* axis : {"xticks", "yticks"}) {
+      const std::vector<std::string> t = texts(group(svg, axis));
+      const std::set<std::string> distinct(t.begin(), t.end());
+      EXPECT_EQ(distinct.size(), t.size()) << page << " " << id << ": " << axis << " repeat a label";
+    }
+    const std::set<std::string> legend = legend_colours(h, id);
+    for (const std::string& c : mark_colours(svg))
+      EXPECT_TRUE(legend.count(c)) << page << " " << id << ": colour " << c << " drawn but not in its legend";
+  }
+}
+
+/// A stage of simulate's report row ({name, kind, busy_us, stall_us}).
+json stage(const std::string& name, const char* kind, double busy, double stall = 0) {
+  return {{"name", name}, {"kind", kind}, {"busy_us", busy}, {"stall_us", stall}};
+}
+
+/// GoogLeNet as simulate reports it (torchvision's ONNX node names): 58 linear layers, 23
+/// pooling and concatenation stages and the interconnect, 82 stages; every inception block
+/// has the same long layer names. `bus_bound`: the interconnect bounds the run (198 us per
+/// image), else /maxpool1/MaxPool (30.72 us).
+json googlenet_row(const std::string& label, bool bus_bound, double throughput) {
+  json stages = json::array();
+  auto conv = [&](const std::string& n) { stages.push_back(stage(n + "/conv/Conv", "linear", 6.4, 1.0)); };
+  auto pool = [&](const std::string& n, double busy) { stages.push_back(stage(n + "/MaxPool", "digital", busy)); };
+  conv("/conv1");
+  pool("/maxpool1", 30.72);
+  conv("/conv2");
+  conv("/conv3");
+  pool("/maxpool2", 7.68);
+  for (const char* b : {"3a", "3b", "4a", "4b", "4c", "4d", "4e", "5a", "5b"}) {
+    const std::string n = std::string("/inception") + b;
+    conv(n + "/branch1");
+    conv(n + "/branch2/branch2.0");
+    conv(n + "/branch2/branch2.1");
+    conv(n + "/branch3/branch3.0");
+    conv(n + "/branch3/branch3.1");
+    pool(n + "/branch4/branch4.0", 1.5);
+    conv(n + "/branch4/branch4.1");
+    stages.push_back(stage(n + "/Concat", "digital", 0.8));
+    if (std::string(b) == "3b") pool("/maxpool3", 3.84);
+    if (std::string(b) == "4e") pool("/maxpool4", 1.92);
+  }
+  stages.push_back(stage("/avgpool/GlobalAveragePool", "digital", 0.5));
+  stages.push_back(stage("/fc/Gemm", "linear", 0.9));
+  stages.push_back(stage("interconnect (platform.bus_lanes)", "interconnect", bus_bound ? 198.0 : 12.5));
+  json r = row_of(label, 0.8789, 160.0, 40.0, 260.0, throughput);
+  r["software_accuracy"] = 0.881;
+  r["images"] = 1;
+  r["stages"] = stages;
+  r["bottleneck"] = {{"stage", bus_bound ? "interconnect (platform.bus_lanes)" : "/maxpool1/MaxPool"},
+                     {"busy_us_per_image", bus_bound ? 198.0 : 30.72}};
+  json layers = json::array();
+  for (const auto& s : stages)
+    if (s["kind"] == "linear") layers.push_back({{"name", s["name"]}, {"busy_us", s["busy_us"]}, {"stall_us", 1.0}});
+  r["layers"] = layers;
+  return r;
+}
+
+ReportInput googlenet_simulate(int rows) {
+  ReportInput in;
+  in.command = "simulate";
+  in.title = "simulate: GoogLeNet";
+  in.rows = json::array({googlenet_row("bus_lanes=1", true, 32552.4)});
+  if (rows > 1) {
+    in.swept_keys = {"platform.bus_lanes"};
+    in.rows.push_back(googlenet_row("bus_lanes=8", false, 5051.0));
+  }
+  return in;
+}
+
+/// Whether plot `svg` has a mark whose tooltip starts with `name` (a stage drawn under its name).
+bool has_mark_named(const std::string& svg, const std::string& name) {
+  return svg.find("<title>" + name) != std::string::npos || svg.find("\n" + name) != std::string::npos;
+}
+
+/// The category labels of plot-timing (across its foot or down its side).
+std::vector<std::string> stage_labels(const std::string& svg) {
+  std::vector<std::string> x = texts(group(svg, "xticks")), y = texts(group(svg, "yticks"));
+  return x.size() > y.size() ? x : y;
+}
+
+}  // namespace
+
+// Simulate's per-stage plot holds every stage, the one that bounds the run among them (the
+// interconnect, a max-pooling), under labels that are all distinct and whole.
+TEST(HtmlReport, EveryStageThatBoundsTheRunIsPlottedUnderADistinctName) {
+  for (int rows : {1, 2}) {
+    const ReportInput in = googlenet_simulate(rows);
+    const std::string h = render_html_report(in), svg = plot(h, "plot-timing");
+    ASSERT_FALSE(svg.empty()) << rows;
+    for (const auto& r : in.rows) {
+      const std::string slow = r["bottleneck"]["stage"];
+      EXPECT_TRUE(has_mark_named(svg, slow)) << rows << " row(s): the bottleneck " << slow << " is not plotted";
+    }
+    const std::vector<std::string> labels = stage_labels(svg);
+    EXPECT_EQ(labels.size(), 82u) << rows;
+    EXPECT_EQ(std::set<std::string>(labels.begin(), labels.end()).size(), labels.size()) << rows;
+    for (const char* whole : {"inception3a/branch2/branch2.1/conv", "inception5b/branch2/branch2.1/conv",
+                              "maxpool1/MaxPool", "inception4e/Concat", "interconnect (platform.bus_lanes)"})
+      EXPECT_NE(std::find(labels.begin(), labels.end(), whole), labels.end()) << whole;
+    expect_plot_rules(h, "googlenet x" + std::to_string(rows));
+  }
+}
+
+// Throughput, accuracies and powers as a person reads them, and as each command means them.
+TEST(HtmlReport, NumbersReadAlikeAndEachPowerSaysWhatItIs) {
+  const std::string s = render_html_report(googlenet_simulate(1));
+  EXPECT_NE(s.find("<td>32.55 k</td>"), std::string::npos);  // not 3.255e+04
+  EXPECT_NE(plot(s, "plot-throughput").find(">32.55 k</text>"), std::string::npos);
+  EXPECT_EQ(s.substr(0, s.find("<h2>Configuration</h2>")).find("e+0"), std::string::npos);
+  EXPECT_NE(s.find("crossbars <b>87.89 %</b> against software 88.10 % on 1 image"), std::string::npos);
+  EXPECT_NE(s.find("<th>average power (simulated time)</th>"), std::string::npos);
+  ReportInput ev;
+  ev.command = "eval";
+  ev.rows = json::array({row_of("default", 0.8789, 17.4, 0.59, 1, 1)});
+  ev.rows[0]["software_accuracy"] = 0.881;
+  ev.rows[0]["images"] = 10000;
+  for (const char* k : {"latency_us", "throughput_images_per_s", "avg_power_mw"}) ev.rows[0].erase(k);
+  ev.rows[0]["ideal_avg_power_mw"] = 191.3;  // eval's: energy over the reads back to back
+  const std::string e = render_html_report(ev);
+  EXPECT_NE(e.find("crossbars <b>87.89 %</b> against software 88.10 % on 10000 images"), std::string::npos);
+  EXPECT_NE(e.find("<th>average power (ideal time, eval)</th>"), std::string::npos);
+  EXPECT_EQ(e.find("average power (simulated"), std::string::npos);
+  EXPECT_EQ(compact_number(32552.4), "32.55 k");
+  EXPECT_EQ(compact_number(999960), "1 M");
+  EXPECT_EQ(compact_number(4902), "4902");
+  EXPECT_EQ(tick_texts({1993.6, 1993.8, 1994.0, 1994.2}),
+            (std::vector<std::string>{"1993.6", "1993.8", "1994", "1994.2"}));
+}
+
+// Explore: the pairs coloured as the main scatter, the bits plot with a legend, the front's
+// series in colours that never mean a key's value, latencies that differ in the fifth digit
+// with ticks that say so, and an accuracy floor far below the points labelled, not stretched to.
+TEST(HtmlReport, ExploreColoursMeanOneThingAndTheFloorIsLabelled) {
+  ReportInput in = sample();
+  for (size_t i = 0; i < 5; ++i) in.rows[i]["latency_us"] = 1993.6 + 0.2 * i;
+  std::string h = render_html_report(in);
+  expect_plot_rules(h, "explore");
+  const std::set<std::string> key = legend_colours(h, "plot-pareto");
+  for (int k = 0; k < 6; ++k) {
+    const std::set<std::string> c = mark_colours(plot(h, "plot-pair-" + std::to_string(k)));
+    EXPECT_EQ(c, (std::set<std::string>{palette(0), palette(1)})) << k << ": coloured by max_rows 64 and 128";
+  }
+  for (const char* id : {"plot-layers", "plot-timing"})
+    for (const std::string& c : mark_colours(plot(h, id))) EXPECT_FALSE(key.count(c)) << id << " reuses " << c;
+  EXPECT_NE(plot(h, "plot-bits").find(">best per bit width (line)</text>"), std::string::npos);
+  // A floor of 45 % under points at 80..92 %: the axis stays on the points, the floor is said.
+  in.min_accuracy = 0.45;
+  h = render_html_report(in);
+  expect_plot_rules(h, "explore, floor 45 %");
+  const std::string p = plot(h, "plot-pareto");
+  EXPECT_NE(p.find("accuracy floor 45 % (explore.min_accuracy): below this axis"), std::string::npos);
+  for (const std::string& t : texts(group(p, "yticks"))) EXPECT_GT(std::stod(t), 70) << t;
+  in.min_accuracy = 0.85;  // near the points: a labelled line
+  h = render_html_report(in);
+  EXPECT_NE(plot(h, "plot-pareto").find(">accuracy floor 85 % (explore.min_accuracy)</text>"), std::string::npos);
+  expect_plot_rules(h, "explore, floor 85 %");
 }
 
 // ---- the browser ------------------------------------------------------------------------
@@ -457,5 +700,45 @@ TEST(HtmlReportBrowser, NoTwoPointTagsOverlapAndEveryCommandsReportIsKept) {
     const Rendered k = render_in_chromium(browser, in.first, in.second, 1400);
     ASSERT_TRUE(k.error.empty()) << in.first << ": " << k.error;
     EXPECT_GT(k.img.h, 500) << in.first;
+  }
+}
+
+// GoogLeNet's 82 stages as the browser draws them (one row: bars; two: lines), and the
+// exploration: every tick label whole inside its plot, none over another of its axis.
+TEST(HtmlReportBrowser, EveryTickLabelIsWholeAndApartOnAGoogLeNetSizedNetwork) {
+  const std::string browser = chromium();
+  if (browser.empty()) GTEST_SKIP() << "Chromium not found (Debian package chromium); browser test skipped";
+  ReportInput ex = sample();
+  for (size_t i = 0; i < 5; ++i) ex.rows[i]["latency_us"] = 1993.6 + 0.2 * i;
+  const std::vector<std::pair<std::string, ReportInput>> pages{{"report_googlenet_1", googlenet_simulate(1)},
+                                                               {"report_googlenet_2", googlenet_simulate(2)},
+                                                               {"report_explore_ticks", ex}};
+  for (const auto& page : pages) {
+    const Rendered r = render_in_chromium(browser, page.first, page.second, 1400);
+    ASSERT_TRUE(r.error.empty()) << page.first << ": " << r.error;
+    expect_plot_rules(render_html_report(page.second), page.first);
+    size_t ticks = 0;
+    for (const auto& plot : r.boxes) {
+      if (plot.first.find(':') != std::string::npos) continue;  // a plot's own box
+      const auto& P = plot.second;
+      for (const char* axis : {"xtick:", "ytick:"}) {
+        std::vector<std::pair<std::string, std::array<int, 4>>> t;
+        for (const auto& b : r.boxes)
+          if (b.first.rfind(axis + plot.first + ":", 0) == 0) t.push_back(b);
+        ticks += t.size();
+        for (size_t i = 0; i < t.size(); ++i) {
+          const auto& a = t[i].second;
+          EXPECT_TRUE(a[0] >= P[0] - 1 && a[1] >= P[1] - 1 && a[0] + a[2] <= P[0] + P[2] + 1 &&
+                      a[1] + a[3] <= P[1] + P[3] + 1)
+              << page.first << " " << t[i].first << " is cut off by its plot";
+          for (size_t k = 0; k < i; ++k) {
+            const auto& b = t[k].second;
+            const bool overlap = a[0] < b[0] + b[2] && b[0] < a[0] + a[2] && a[1] < b[1] + b[3] && b[1] < a[1] + a[3];
+            EXPECT_FALSE(overlap) << page.first << " " << t[i].first << " overlaps " << t[k].first;
+          }
+        }
+      }
+    }
+    EXPECT_GT(ticks, page.first == "report_explore_ticks" ? 50u : 82u) << page.first;
   }
 }
