@@ -59,8 +59,8 @@ void digital_op(const Op& op, const std::vector<Shape>& shapes, const std::vecto
 /// Per linear layer: its inputs may be negative. Static: the network input is non-negative
 /// when every preprocessing mean is <= 0; a ReLU's output is non-negative, and pooling,
 /// flatten, slice, pad (with a value >= 0), Add, Mul and Div keep non-negative inputs so;
-/// everything else (Sub among them) may be negative. The crossbars quantize and stream a layer's inputs by it (signed inputs
-/// take a sign), so every command counts the same reads.
+/// everything else (Sub among them) may be negative. The crossbars quantize and stream a
+/// layer's inputs by it (signed inputs take a sign), so every command counts the same reads.
 std::vector<bool> linear_inputs_signed(const Model& m);
 
 /// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.

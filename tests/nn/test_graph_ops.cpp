@@ -779,5 +779,6 @@ TEST(Graph, ArithmeticOfValuesThatDoNotBroadcastIsRefused) {
   add_node(g, "Conv", "c3", {"input", "w3"}, "b");
   add_node(g, "Mul", "bad_mul", {"a", "b"}, "out");
   const std::string e = load_error(m, 2, 3, 3, "out", "binary_bad");
-  for (const char* s : {"node 'bad_mul' (Mul)", "1x2x3x3", "1x3x3x3"}) EXPECT_NE(e.find(s), std::string::npos) << s << ": " << e;
+  for (const char* s : {"node 'bad_mul' (Mul)", "1x2x3x3", "1x3x3x3"})
+    EXPECT_NE(e.find(s), std::string::npos) << s << ": " << e;
 }
