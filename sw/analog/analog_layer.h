@@ -223,6 +223,10 @@ class AnalogLayer {
   void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
   void set_full_adc_ranges(Crossbar& x) const;
   void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
+  /// Per weight column of x: the resolution of its recovered output (output units), one ADC
+  /// code of each of its reads and physical columns combined as independent errors (root sum
+  /// of squares); zeros without an ADC.
+  Eigen::VectorXd output_steps(const Crossbar& x) const;
   template <typename S>
   void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
   template <typename S, typename XQ>
