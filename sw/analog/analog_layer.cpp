@@ -153,8 +153,14 @@ Eigen::MatrixXd AnalogLayer::range_vectors(const Eigen::MatrixXd& calib_in, cons
   const Eigen::Index take = std::min<Eigen::Index>(calib_in.rows(), cap);
   Eigen::MatrixXd range_x(take + cal.rows(), w_.rows());
   std::mt19937_64 rng(derive_seed(cfg_.calibration.seed, {kRangePickStream, salt_}));
-  for (Eigen::Index a = 0; a < take; ++a)
-    range_x.row(a) = calib_in.row(calib_in.rows() <= cap ? a : static_cast<Eigen::Index>(rng() % calib_in.rows()));
+  // Whole columns at a time (the matrices are column-major): the first rows, or random picks.
+  if (calib_in.rows() <= cap) {
+    range_x.topRows(take) = calib_in.topRows(take);
+  } else {
+    Eigen::VectorXi picks(take);
+    for (Eigen::Index a = 0; a < take; ++a) picks(a) = static_cast<int>(rng() % calib_in.rows());
+    range_x.topRows(take) = calib_in(picks, Eigen::all);
+  }
   range_x.bottomRows(cal.rows()) = cal;
   return dac(range_x);
 }
@@ -164,7 +170,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib, const SolverOptions& sol
   program(calib);
 }
 
-AnalogLayer::LayerInputs AnalogLayer::layer_inputs(const Eigen::MatrixXd& calib_given) const {
+AnalogLayer::LayerInputs AnalogLayer::layer_inputs(const Eigen::MatrixXd& calib_given, bool real_inputs) const {
   if (calib_given.size() > 0 && calib_given.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
   const Eigen::MatrixXd calib_in =
@@ -172,7 +178,7 @@ AnalogLayer::LayerInputs AnalogLayer::layer_inputs(const Eigen::MatrixXd& calib_
   LayerInputs in;
   in.cal = dac(calibration_vectors(calib_in));
   in.range_x = range_vectors(calib_in, in.cal);
-  if (calib_in.size()) in.calib_q = dac(calib_in);
+  if (real_inputs && calib_in.size()) in.calib_q = dac(calib_in);
   return in;
 }
 
@@ -226,7 +232,7 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
   try {
     cfg_ = cfg;
     cfg_.solver = before->cfg.solver;  // the options the crossbars' solvers were made with
-    const LayerInputs layer_in = layer_inputs(calib);
+    const LayerInputs layer_in = layer_inputs(calib, /*real_inputs=*/false);  // only conversion reads them
     for (size_t b = 0; b < xbars_.size(); ++b) {
       check_cancel();
       Crossbar& x = *xbars_[b];

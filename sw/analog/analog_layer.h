@@ -237,8 +237,9 @@ class AnalogLayer {
   struct LayerInputs;
   Eigen::MatrixXd calibration_vectors(const Eigen::MatrixXd& calib) const;
   Eigen::MatrixXd range_vectors(const Eigen::MatrixXd& calib_in, const Eigen::MatrixXd& cal) const;
-  /// What programming reads from `calib` (program()'s argument), for the whole layer.
-  LayerInputs layer_inputs(const Eigen::MatrixXd& calib) const;
+  /// What programming reads from `calib` (program()'s argument), for the whole layer; without
+  /// `real_inputs` no calib_q (the readout steps do not read it).
+  LayerInputs layer_inputs(const Eigen::MatrixXd& calib, bool real_inputs = true) const;
   /// The share of `in` crossbar `blk` reads while it is programmed.
   ProgrammingInputs crossbar_inputs(const LayerInputs& in, const Block& blk) const;
   // Programming steps (analog_programming.cpp), in order, for one crossbar.
