@@ -288,5 +288,18 @@ TEST(ExploreCommand, PointsDifferingInTheirReadoutShareOneProgramming) {
         j->erase(k);
     EXPECT_EQ(row.dump(1), expected.dump(1)) << p["label"];
   }
+  // Three ranks split the groups (6, 5 and 5 points: the first group reaches two ranks, and so
+  // does the second): the same results.
+  if (std::system("command -v mpirun >/dev/null 2>&1") == 0) {
+    const auto r3 = run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/three.jsonl --json " + dir +
+                                    "/three.json",
+                                "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 3 --oversubscribe ");
+    if (r3.out.find("built without MPI") == std::string::npos) {
+      ASSERT_EQ(r3.code, 0) << r3.out;
+      EXPECT_NE(r3.out.find("16 to run on 3 ranks; 4 crossbar programmings"), std::string::npos) << r3.out;
+      std::ifstream in3(dir + "/three.json");
+      EXPECT_EQ(without_timing(nlohmann::json::parse(in3)).dump(1), without_timing(all).dump(1));
+    }
+  }
   if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());
 }
