@@ -127,7 +127,8 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     // platform (in a child process, which inherits them) and the evaluation.
     // programs_alike checks the typed configurations: a key missing from readout_keys costs a
     // programming, never a wrong result.
-    const bool reuse = programmed.xb && programmed.group == p.group && programs_alike(programmed.xb->config(), design.ac);
+    const bool reuse =
+        programmed.xb && programmed.group == p.group && programs_alike(programmed.xb->config(), design.ac);
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar prog(static_cast<int>(model.linear.size()), (reuse ? "reading out " : "programming ") + progress_label);
     if (reuse) {
@@ -185,8 +186,8 @@ std::string interval(const nlohmann::json& row) {
 /// in a space (index) and how the point was written (label, point: 8 and 8.0 are one point) left
 /// out, so two lines of one point compare by their results.
 nlohmann::json result_part(nlohmann::json row) {
-  for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "reused_programming", "index",
-                        "label", "point"})
+  for (const char* k :
+       {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "reused_programming", "index", "label", "point"})
     row.erase(k);
   return row;
 }

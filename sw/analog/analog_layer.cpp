@@ -52,13 +52,13 @@ bool programs_alike(const AnalogConfig& a, const AnalogConfig& b) {
   const bool crossbar = xa.r_wire_ohm == xb.r_wire_ohm && xa.r_in_ohm == xb.r_in_ohm && xa.r_out_ohm == xb.r_out_ohm &&
                         xa.g_min_s == xb.g_min_s && xa.g_max_s == xb.g_max_s && xa.v_in_max_v == xb.v_in_max_v &&
                         xa.memristor.model == xb.memristor.model && xa.memristor.k_per_v == xb.memristor.k_per_v &&
-                        xa.memristor.v_read_v == xb.memristor.v_read_v &&
-                        xa.transistor.model == xb.transistor.model && xa.transistor.r_on_ohm == xb.transistor.r_on_ohm &&
-                        xa.transistor.vg_v == xb.transistor.vg_v && xa.transistor.vth_v == xb.transistor.vth_v &&
+                        xa.memristor.v_read_v == xb.memristor.v_read_v && xa.transistor.model == xb.transistor.model &&
+                        xa.transistor.r_on_ohm == xb.transistor.r_on_ohm && xa.transistor.vg_v == xb.transistor.vg_v &&
+                        xa.transistor.vth_v == xb.transistor.vth_v &&
                         xa.transistor.kp_a_per_v2 == xb.transistor.kp_a_per_v2;
   const SolverOptions &sa = a.solver, &sb = b.solver;
-  const bool solver = sa.method == sb.method && sa.tolerance == sb.tolerance && sa.max_iterations == sb.max_iterations &&
-                      sa.newton_max_iterations == sb.newton_max_iterations &&
+  const bool solver = sa.method == sb.method && sa.tolerance == sb.tolerance &&
+                      sa.max_iterations == sb.max_iterations && sa.newton_max_iterations == sb.newton_max_iterations &&
                       sa.newton_tolerance == sb.newton_tolerance && sa.newton_abstol_a == sb.newton_abstol_a &&
                       sa.max_step_v == sb.max_step_v && sa.batched_nonlinear == sb.batched_nonlinear &&
                       sa.nonlinear_tolerance == sb.nonlinear_tolerance;
@@ -74,8 +74,8 @@ bool programs_alike(const AnalogConfig& a, const AnalogConfig& b) {
   const bool calibration = a.calibration.samples == b.calibration.samples &&
                            a.calibration.signal == b.calibration.signal && a.calibration.seed == b.calibration.seed;
   const ConvertersSpec &da = a.converters, &db = b.converters;
-  const bool dacs = da.input_bits == db.input_bits && da.dac_bits == db.dac_bits &&
-                    da.dac_predistortion == db.dac_predistortion;
+  const bool dacs =
+      da.input_bits == db.input_bits && da.dac_bits == db.dac_bits && da.dac_predistortion == db.dac_predistortion;
   const bool noise = a.noise.sigma_s == b.noise.sigma_s && a.noise.seed == b.noise.seed;
   return crossbar && solver && mapping && conversion && calibration && dacs && noise;
 }

@@ -39,8 +39,8 @@ bool identical(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 /// Programs `base`, then reads it out with every change in turn (each from the previous one's
 /// readout, as an exploration's group does), and checks each against a layer programmed from
 /// scratch with that configuration; each change must change the outputs unless `no_effect`.
-void expect_readouts_equal_fresh_programming(const AnalogConfig& base, const std::vector<Change>& changes,
-                                             int rows, int cols, bool signed_inputs,
+void expect_readouts_equal_fresh_programming(const AnalogConfig& base, const std::vector<Change>& changes, int rows,
+                                             int cols, bool signed_inputs,
                                              const std::vector<std::string>& no_effect = {}) {
   const Eigen::MatrixXd w = synthetic_kernel("gaussian", rows, cols, 21);
   Eigen::MatrixXd calib = synthetic_inputs(40, rows, 0.4, 1.0, 22);
@@ -110,7 +110,8 @@ TEST(Readout, BitSerialReadsAndTheFullRange) {
       c,
       {{"per_read", [](AnalogConfig& a) { a.converters.adc_range = AdcRange::PerRead; }},
        {"full", [](AnalogConfig& a) { a.converters.adc_range = AdcRange::Full; }},
-       {"full, 5 bits", [](AnalogConfig& a) {
+       {"full, 5 bits",
+        [](AnalogConfig& a) {
           a.converters.adc_range = AdcRange::Full;
           a.converters.adc_bits = 5;
         }}},

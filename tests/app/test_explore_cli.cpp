@@ -255,8 +255,8 @@ TEST(ExploreCommand, PointsDifferingInTheirReadoutShareOneProgramming) {
       {"platform.clock_mhz", {"100", "200"}}};
   std::string lists;
   for (const auto& [key, values] : dims) lists += " --set '" + key + "=[" + values[0] + "," + values[1] + "]'";
-  const auto r = run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/all.jsonl --json " + dir +
-                             "/all.json");
+  const auto r =
+      run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/all.jsonl --json " + dir + "/all.json");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("16 to run; 2 crossbar programmings"), std::string::npos) << r.out;
   std::ifstream in(dir + "/all.json");
@@ -291,9 +291,9 @@ TEST(ExploreCommand, PointsDifferingInTheirReadoutShareOneProgramming) {
   // Three ranks split the groups (6, 5 and 5 points: the first group reaches two ranks, and so
   // does the second): the same results.
   if (std::system("command -v mpirun >/dev/null 2>&1") == 0) {
-    const auto r3 = run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/three.jsonl --json " + dir +
-                                    "/three.json",
-                                "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 3 --oversubscribe ");
+    const auto r3 =
+        run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/three.jsonl --json " + dir + "/three.json",
+                    "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 3 --oversubscribe ");
     if (r3.out.find("built without MPI") == std::string::npos) {
       ASSERT_EQ(r3.code, 0) << r3.out;
       EXPECT_NE(r3.out.find("16 to run on 3 ranks; 4 crossbar programmings"), std::string::npos) << r3.out;

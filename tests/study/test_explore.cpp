@@ -254,11 +254,11 @@ TEST(ResultJournalFile, MustBeARegularFile) {
 TEST(ProgrammingKey, ReadoutKeysShareAKeyProgrammingKeysDoNot) {
   const auto key = [](const std::vector<std::string>& sets) { return programming_key(cfg_with(sets), "m", "d"); };
   const std::string a = key({});
-  for (const char* same : {"converters.adc_bits=4", "converters.adc_bits=none", "converters.adc_margin=0.2",
-                           "converters.adc_offset_subtraction=false", "converters.adc_columns_per_adc=32",
-                           "mitigation.method=conversion", "platform.clock_mhz=200", "platform.schedule=pipelined",
-                           "architecture.machine=isaac-ce", "components.library=isaac", "solver.threads=3",
-                           "study.rows=10"})
+  for (const char* same :
+       {"converters.adc_bits=4", "converters.adc_bits=none", "converters.adc_margin=0.2",
+        "converters.adc_offset_subtraction=false", "converters.adc_columns_per_adc=32", "mitigation.method=conversion",
+        "platform.clock_mhz=200", "platform.schedule=pipelined", "architecture.machine=isaac-ce",
+        "components.library=isaac", "solver.threads=3", "study.rows=10"})
     EXPECT_EQ(key({same}), a) << same;
   EXPECT_EQ(key({"converters.adc_range=per_read", "converters.input_bits=8", "converters.dac_bits=2"}),
             key({"converters.input_bits=8", "converters.dac_bits=2"}));
