@@ -4,6 +4,7 @@
 // crossbars) and ReLU-like inputs (half of them zero, the rest mostly small). The minimum over
 // repetitions is the figure to compare (the machine is shared).
 // Run: build/bench/bench_analog_layer --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
+// (programming: --benchmark_filter=program --benchmark_repetitions=3)
 #include <benchmark/benchmark.h>
 
 #include <random>
@@ -73,6 +74,25 @@ void matvec_576x64(benchmark::State& state) {
       benchmark::Counter(1024, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+/// Programming at the defaults (conversion + calibration, 144-row crossbars) of an 8192 x 10
+/// weight (a large fully connected layer: 57 crossbars) with 256, 512 and 2048 real calibration
+/// rows (eval.calibration_samples): the cost must grow no worse than linearly in the rows. Each
+/// crossbar once converted the layer's whole range-estimation matrix to take its own columns
+/// (0.72 s / 10 s / 41 s: quadratic in the layer's rows, and a cache cliff at 512 rows).
+void program_8192x10(benchmark::State& state) {
+  const Eigen::MatrixXd w = synthetic_kernel("gaussian", 8192, 10, 5);
+  const Eigen::MatrixXd calib = relu_inputs(static_cast<int>(state.range(0)), 8192, 6).cast<double>();
+  AnalogConfig c = parse_analog_config(ConfigTree());
+  c.solver.threads = 1;
+  for (auto _ : state) {
+    AnalogLayer layer(c, w, 1.0, false, 1);
+    layer.program(calib);
+    benchmark::DoNotOptimize(&layer);
+  }
+  state.counters["us/row"] = benchmark::Counter(static_cast<double>(state.range(0)),
+                                                benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 double minimum(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
 }  // namespace
@@ -81,5 +101,6 @@ BENCHMARK_CAPTURE(forward, default_design, false)->Unit(benchmark::kMicrosecond)
 BENCHMARK_CAPTURE(forward, isaac_style, true)->Unit(benchmark::kMicrosecond)->ComputeStatistics("min", minimum);
 
 BENCHMARK(matvec_576x64)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
+BENCHMARK(program_8192x10)->Arg(256)->Arg(512)->Arg(2048)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 
 BENCHMARK_MAIN();

@@ -93,6 +93,34 @@ onnx::ModelProto ops_mix() {
   return m;
 }
 
+// 1x2x4x4 -> Conv 1x1 -> SiLU (Sigmoid, Mul) -> a squeeze-excitation (GlobalAveragePool,
+// HardSigmoid, Mul of 1x2x1x1 by 1x2x4x4) -> Sub of the pooled value -> Div by a Sigmoid of one
+// row (1x2x1x4) -> Flatten -> Gemm: the arithmetic of two computed values, broadcast.
+onnx::ModelProto squeeze_excite() {
+  auto m = base("squeeze_excite");
+  auto* g = m.mutable_graph();
+  io(g->add_input(), "x", {1, 2, 4, 4});
+  add_float_init(g, "w1", {2, 2, 1, 1});
+  add_float_init(g, "w2", {3, 32});
+  int_init(g, "st", {0});
+  int_init(g, "en", {1});
+  int_init(g, "ax", {2});
+  node(g, "Conv", {"x", "w1"}, "c");
+  node(g, "Sigmoid", {"c"}, "sg");
+  node(g, "Mul", {"c", "sg"}, "silu");
+  node(g, "GlobalAveragePool", {"silu"}, "gap");
+  node(g, "HardSigmoid", {"gap"}, "hs");
+  node(g, "Mul", {"hs", "silu"}, "se");
+  node(g, "Sub", {"se", "gap"}, "sb");
+  node(g, "Slice", {"c", "st", "en", "ax"}, "row");
+  node(g, "Sigmoid", {"row"}, "sr");
+  node(g, "Div", {"sb", "sr"}, "dv");
+  node(g, "Flatten", {"dv"}, "f");
+  int_attr(node(g, "Gemm", {"f", "w2"}, "y"), "transB", 1);
+  io(g->add_output(), "y", {1, 3});
+  return m;
+}
+
 bool write(const onnx::ModelProto& m, const std::string& path) {
   std::ofstream out(path, std::ios::binary);
   return m.SerializeToOstream(&out);
@@ -106,7 +134,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string dir = argv[1];
-  if (!write(small_cnn(), dir + "/small_cnn.onnx") || !write(ops_mix(), dir + "/ops_mix.onnx")) {
+  if (!write(small_cnn(), dir + "/small_cnn.onnx") || !write(ops_mix(), dir + "/ops_mix.onnx") ||
+      !write(squeeze_excite(), dir + "/squeeze_excite.onnx")) {
     std::fprintf(stderr, "cannot write into %s\n", dir.c_str());
     return 1;
   }

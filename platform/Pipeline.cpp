@@ -174,8 +174,12 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
       const int y = op->start[1] + r * op->step[1];
       return {y, y};
     }
-    case OpKind::Relu:
     case OpKind::Add:
+    case OpKind::Sub:
+    case OpKind::Mul:
+    case OpKind::Div:
+      return h == 1 ? std::make_pair(0, 0) : std::make_pair(r, r);  // one row: broadcast to every row
+    case OpKind::Relu:
     case OpKind::Affine:
     case OpKind::Activation:
     case OpKind::Softmax:
@@ -204,6 +208,9 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
     case OpKind::AvgPool:
       return std::min(in.h, op.k_h + op.s_h * grain + grain);
     case OpKind::Add:
+    case OpKind::Sub:
+    case OpKind::Mul:
+    case OpKind::Div:
     case OpKind::Concat:
     case OpKind::GlobalAvgPool:
     case OpKind::Flatten:
@@ -533,6 +540,9 @@ void Pipeline::submit_values(Stage& s, int image) {
       break;
     case OpKind::Relu:
     case OpKind::Add:
+    case OpKind::Sub:
+    case OpKind::Mul:
+    case OpKind::Div:
     case OpKind::Affine:
     case OpKind::MaxPool:
     case OpKind::AvgPool:
@@ -544,7 +554,7 @@ void Pipeline::submit_values(Stage& s, int image) {
     case OpKind::Softmax:
     case OpKind::Concat:
     case OpKind::Shuffle:
-      task = [this, &op, xs, y](int) { digital_op(op, model_.values[op.in[0]], model_.values[op.out], xs, *y); };
+      task = [this, &op, xs, y](int) { digital_op(op, model_.values, xs, *y); };
       break;
   }
   im.producer[op.out] = tasks_->submit(std::move(task), after);

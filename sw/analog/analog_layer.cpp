@@ -129,8 +129,20 @@ Eigen::MatrixXd AnalogLayer::calibration_vectors(const Eigen::MatrixXd& calib) c
     std::vector<int> idx(calib.rows());
     std::iota(idx.begin(), idx.end(), 0);
     std::shuffle(idx.begin(), idx.end(), rng);
+    // Distinct vectors first, in shuffled order: a repeated vector (eval samples an image's
+    // rows with repetition; a 1 x 1 map has one) adds no information to the fit. Repeats only
+    // when the real inputs hold fewer than `count` distinct vectors.
+    std::vector<int> kept;
+    Eigen::MatrixXd kept_q(count, k);  // the kept vectors as the DAC applies them
+    for (size_t a = 0; a < idx.size() && static_cast<int>(kept.size()) < count; ++a) {
+      const Eigen::MatrixXd q = dac(calib.row(idx[a]));
+      const auto n = static_cast<Eigen::Index>(kept.size());
+      if (n > 0 && (kept_q.topRows(n).rowwise() - q.row(0)).rowwise().squaredNorm().minCoeff() == 0) continue;
+      kept_q.row(n) = q.row(0);
+      kept.push_back(idx[a]);
+    }
     Eigen::MatrixXd out(count, k);
-    for (int a = 0; a < count; ++a) out.row(a) = calib.row(idx[a % idx.size()]);
+    for (int a = 0; a < count; ++a) out.row(a) = calib.row(kept[static_cast<size_t>(a) % kept.size()]);
     return out;
   }
   // Random signals with the sparsity of the real inputs (50 % when none are given).

@@ -250,6 +250,10 @@ class AnalogLayer {
   void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
   void set_full_adc_ranges(Crossbar& x) const;
   void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
+  /// Per weight column of x: the resolution of its recovered output (output units), one ADC
+  /// code of each of its reads and physical columns combined as independent errors (root sum
+  /// of squares); zeros without an ADC.
+  Eigen::VectorXd output_steps(const Crossbar& x) const;
   /// The readout steps (set_adc_ranges, then calibrate) of a crossbar whose conductances are written.
   void read_out(Crossbar& x, const ProgrammingInputs& in) const;
   template <typename S>

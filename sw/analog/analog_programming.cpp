@@ -209,7 +209,35 @@ void AnalogLayer::read_out(Crossbar& x, const ProgrammingInputs& in) const {
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;
-  x.fit = fit_columns(partial_of(x, in.cal_b, /*adc=*/true, /*calibrated=*/false), in.ideal_partial);
+  x.fit = fit_columns(partial_of(x, in.cal_b, /*adc=*/true, /*calibrated=*/false), in.ideal_partial, output_steps(x));
+}
+
+Eigen::VectorXd AnalogLayer::output_steps(const Crossbar& x) const {
+  Eigen::VectorXd step = Eigen::VectorXd::Zero(x.blk.cols);
+  if (cfg_.converters.adc_bits <= 0) return step;
+  // A code of physical column c in read s moves weight column j's output by
+  // w_s k_c step(c, g) / alpha (recover_of: k_c = sign / (beta s)); with an analog sum
+  // column, a code of it moves sum(X) by w_s step / (alpha (g_min + beta s a_sum)), which
+  // enters j's output times w_lo - g_min sum_c k_c.
+  const int slices = slicing_.slices, per = x.per_weight;
+  const bool per_read = x.adc_d.step.cols() > 1, analog_sum = cfg_.mapping.analog_sum();
+  const auto code = [&](int c, int s) { return x.adc_d.on(c, per_read ? s : 0) > 0 ? x.adc_d.step(c, per_read ? s : 0) : 0.0; };
+  const auto place = [&](int s) { return slicing_.weight.empty() ? 1.0 : slicing_.weight[static_cast<size_t>(s)]; };
+  for (int j = 0; j < x.blk.cols; ++j) {
+    double var = 0, k_sum = 0;
+    for (int q = 0; q < per; ++q) {
+      const int c = j * per + q;
+      k_sum += x.recover_k(c);
+      for (int s = 0; s < slices; ++s) var += std::pow(place(s) * x.recover_k(c) * code(c, s) / alpha_, 2);
+    }
+    if (analog_sum) {
+      const int c = x.pcols - 1;
+      const double per_sum = (x.w_lo - cfg_.xbar.g_min_s * k_sum) / (alpha_ * (cfg_.xbar.g_min_s + x.beta(c) * x.s(c) * x.a_sum));
+      for (int s = 0; s < slices; ++s) var += std::pow(place(s) * per_sum * code(c, s), 2);
+    }
+    step(j) = std::sqrt(var);
+  }
+  return step;
 }
 
 }  // namespace xbarsim

@@ -1,7 +1,9 @@
 #include "sw/analog/calibration.h"
 
 #include <algorithm>
+#include <cmath>
 #include <random>
+#include <vector>
 
 #include "sw/common/errors.h"
 #include "sw/common/seed.h"
@@ -12,28 +14,59 @@ Eigen::MatrixXd ColumnFit::apply(const Eigen::MatrixXd& actual) const {
   return ((actual.array().rowwise() * gain.transpose().array()).rowwise() + offset.transpose().array()).matrix();
 }
 
-ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal) {
+namespace {
+/// Outputs closer than this fraction of the column's largest |output| are equal (rounding of
+/// the recovery), when no ADC step says what is resolved.
+constexpr double kRoundingTolerance = 1e-9;
+
+/// How many distinct values x takes, counting values more than `tol` apart as distinct.
+int distinct_values(const Eigen::VectorXd& x, double tol) {
+  std::vector<double> v(x.data(), x.data() + x.size());
+  std::sort(v.begin(), v.end());
+  int n = v.empty() ? 0 : 1;
+  for (size_t r = 1; r < v.size(); ++r) n += v[r] - v[r - 1] > tol ? 1 : 0;
+  return n;
+}
+}  // namespace
+
+ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal, const Eigen::VectorXd& step) {
+  if (actual.rows() != ideal.rows() || actual.cols() != ideal.cols() || (step.size() && step.size() != actual.cols()))
+    throw InputError("calibration fit: actual outputs, ideal outputs and ADC steps disagree in size");
   const Eigen::Index n = actual.cols();
+  const double rows = static_cast<double>(actual.rows());
   ColumnFit f;
   f.gain.resize(n);
   f.offset.resize(n);
+  f.gain_fitted.resize(n);
   for (Eigen::Index j = 0; j < n; ++j) {
     const double mx = actual.col(j).mean(), my = ideal.col(j).mean();
+    // Offset only (gain 1) unless the data determine a gain.
+    f.gain(j) = 1.0;
+    f.offset(j) = my - mx;
+    f.gain_fitted(j) = false;
+    const double delta = step.size() ? step(j) : 0.0;
+    const double tol = std::max(0.5 * delta, kRoundingTolerance * actual.col(j).cwiseAbs().maxCoeff());
+    const int distinct = distinct_values(actual.col(j), tol);
     const Eigen::ArrayXd dx = actual.col(j).array() - mx;
     const double sxx = dx.square().sum();
-    const double sxy = (dx * (ideal.col(j).array() - my)).sum();
-    if (sxx > 1e-300 && actual.rows() > 1) {
-      f.gain(j) = sxy / sxx;
-      f.offset(j) = my - f.gain(j) * mx;
-    } else {
-      f.gain(j) = 1.0;
-      f.offset(j) = my - mx;
-    }
+    if (distinct < kMinDistinctOutputs) continue;
+    const double gain = (dx * (ideal.col(j).array() - my)).sum() / sxx;
+    const double offset = my - gain * mx;
+    // The gain's standard error: the residual variance (rows - 2 degrees of freedom) plus the
+    // ADC's quantization variance step^2 / 12, which the residuals of a few samples can miss.
+    const double ssr = (ideal.col(j).array() - gain * actual.col(j).array() - offset).square().sum();
+    const double se = std::sqrt((ssr / (rows - 2) + delta * delta / 12) / sxx);
+    if (!(se <= kMaxGainStandardError)) continue;
+    f.gain(j) = gain;
+    f.offset(j) = offset;
+    f.gain_fitted(j) = true;
   }
   return f;
 }
 
-ColumnFit identity_fit(int n) { return {Eigen::VectorXd::Ones(n), Eigen::VectorXd::Zero(n)}; }
+ColumnFit identity_fit(int n) {
+  return {Eigen::VectorXd::Ones(n), Eigen::VectorXd::Zero(n), Eigen::Array<bool, Eigen::Dynamic, 1>::Constant(n, false)};
+}
 
 namespace {
 /// Stream id of the calibration-row picks (derived with calibration.seed and the image).

@@ -11,12 +11,26 @@ namespace xbarsim {
 struct ColumnFit {
   Eigen::VectorXd gain;    ///< per column
   Eigen::VectorXd offset;  ///< per column: corrected = gain * actual + offset
+  Eigen::Array<bool, Eigen::Dynamic, 1> gain_fitted;  ///< per column: the gain was fitted (else 1)
   Eigen::MatrixXd apply(const Eigen::MatrixXd& actual) const;
 };
 
-/// Least-squares fit ideal ~ gain * actual + offset per column (closed form). A column
-/// whose actual outputs do not vary gets gain 1 and the mean difference as offset.
-ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal);
+/// A gain is fitted only when the actual outputs take at least this many resolved values.
+constexpr int kMinDistinctOutputs = 3;
+/// ... and only when the fitted gain's standard error is at most this.
+constexpr double kMaxGainStandardError = 1.0;
+
+/// Least-squares fit ideal ~ gain * actual + offset per column (closed form) where the
+/// calibration data determine a gain; elsewhere gain 1 and the mean difference as offset
+/// (docs/physics.md, "Calibration"). `step` (per column, output units; empty = no ADC) is the
+/// actual outputs' resolution: one ADC code, combined over the column's reads and physical
+/// columns. The gain is fitted when the actual outputs take at least kMinDistinctOutputs
+/// values more than half a step apart (a line through two points always fits, and a column
+/// whose outputs sit in one or two codes says nothing about its gain) and its standard error,
+/// with the ADC's quantization variance step^2 / 12 added to the residuals', is at most
+/// kMaxGainStandardError (a gain known no better than +-1 is not known at all).
+ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& ideal,
+                      const Eigen::VectorXd& step = Eigen::VectorXd());
 
 /// Identity fit (no calibration) for n columns.
 ColumnFit identity_fit(int n);

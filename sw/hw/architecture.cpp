@@ -150,8 +150,8 @@ std::pair<int, int> derive_mesh(long long routers) {
 
 const std::vector<std::string>& digital_op_names() {
   // Every name digital_op_name (sw/hw/mapper.h) gives an operation that computes.
-  static const std::vector<std::string> names = {"relu",    "affine",        "add",        "maxpool",
-                                                 "avgpool", "globalavgpool", "activation", "softmax"};
+  static const std::vector<std::string> names = {"relu",    "affine",  "add",           "mul",        "div",
+                                                 "maxpool", "avgpool", "globalavgpool", "activation", "softmax"};
   return names;
 }
 

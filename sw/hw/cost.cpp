@@ -179,6 +179,9 @@ long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
     case OpKind::Relu:
     case OpKind::Affine:
     case OpKind::Add:
+    case OpKind::Sub:
+    case OpKind::Mul:
+    case OpKind::Div:
     case OpKind::Activation:
       return static_cast<long long>(out.c) * out.w;
     case OpKind::Softmax:  // per value: an exponential, its share of the sum, a division

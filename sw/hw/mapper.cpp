@@ -255,7 +255,12 @@ const char* digital_op_name(OpKind k) {
     case OpKind::Affine:
       return "affine";
     case OpKind::Add:
+    case OpKind::Sub:  // an adder subtracts
       return "add";
+    case OpKind::Mul:
+      return "mul";
+    case OpKind::Div:
+      return "div";
     case OpKind::MaxPool:
       return "maxpool";
     case OpKind::AvgPool:

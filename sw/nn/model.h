@@ -40,7 +40,14 @@ struct LinearLayer {
 enum class OpKind {
   Linear,
   Relu,
+  /// Add, Sub, Mul, Div: element-wise, in[0] op in[1], of two values with numpy-style
+  /// broadcasting: along each of C, H and W an input's extent is the output's or 1, and a value
+  /// of extent 1 repeats along that axis (a squeeze-excitation's C x 1 x 1 scale of a C x H x W
+  /// map). An operand that is a constant is an Affine op instead.
   Add,
+  Sub,
+  Mul,
+  Div,
   MaxPool,
   AvgPool,
   GlobalAvgPool,

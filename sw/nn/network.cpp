@@ -1,8 +1,10 @@
 #include "sw/nn/network.h"
 
-#include <cmath>
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace xbarsim {
 
@@ -83,6 +85,58 @@ void pad(const Op& op, const Shape& in, const Shape& out, const std::vector<floa
             x[(static_cast<size_t>(c) * in.h + yy) * in.w + xx];
 }
 
+template <typename F>
+void broadcast(const Shape& sa, const Shape& sb, const Shape& out, const std::vector<float>& a,
+               const std::vector<float>& b, std::vector<float>& y, F f) {
+  y.resize(static_cast<size_t>(out.size()));
+  if (sa == out && sb == out) {  // the common case: no index arithmetic
+    for (size_t k = 0; k < y.size(); ++k) y[k] = f(a[k], b[k]);
+    return;
+  }
+  // Strides of an input over the output's (c, y, x): 0 along an axis of extent 1 (repeated).
+  auto strides = [&](const Shape& s) {
+    return std::array<size_t, 3>{s.c == 1 ? 0 : static_cast<size_t>(s.h) * s.w, s.h == 1 ? 0 : static_cast<size_t>(s.w),
+                                 s.w == 1 ? 0 : size_t{1}};
+  };
+  const std::array<size_t, 3> ta = strides(sa), tb = strides(sb);
+  size_t k = 0;
+  for (int c = 0; c < out.c; ++c)
+    for (int yy = 0; yy < out.h; ++yy)
+      for (int xx = 0; xx < out.w; ++xx, ++k)
+        y[k] = f(a[c * ta[0] + yy * ta[1] + xx * ta[2]], b[c * tb[0] + yy * tb[1] + xx * tb[2]]);
+}
+
+/// y = a op b element-wise (float32, IEEE: a division by zero is an infinity, as in torch),
+/// each input repeated along its axes of extent 1.
+void binary(OpKind kind, const Shape& sa, const Shape& sb, const Shape& out, const std::vector<float>& a,
+            const std::vector<float>& b, std::vector<float>& y) {
+  switch (kind) {
+    case OpKind::Add:
+      return broadcast(sa, sb, out, a, b, y, [](float u, float v) { return u + v; });
+    case OpKind::Sub:
+      return broadcast(sa, sb, out, a, b, y, [](float u, float v) { return u - v; });
+    case OpKind::Mul:
+      return broadcast(sa, sb, out, a, b, y, [](float u, float v) { return u * v; });
+    case OpKind::Div:
+      return broadcast(sa, sb, out, a, b, y, [](float u, float v) { return u / v; });
+    case OpKind::Linear:
+    case OpKind::Relu:
+    case OpKind::MaxPool:
+    case OpKind::AvgPool:
+    case OpKind::GlobalAvgPool:
+    case OpKind::Flatten:
+    case OpKind::Slice:
+    case OpKind::Pad:
+    case OpKind::Affine:
+    case OpKind::Activation:
+    case OpKind::Softmax:
+    case OpKind::Concat:
+    case OpKind::Shuffle:
+      break;
+  }
+  throw std::logic_error("binary: not an element-wise operation of two values");
+}
+
 float activation(const Op& op, float x) {
   switch (op.activation) {
     case Activation::Clip:
@@ -144,18 +198,21 @@ void linear_op(const Model& m, const Op& op, const LinearBackend& backend, const
 
 }  // namespace
 
-void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<const std::vector<float>*>& xs,
+void digital_op(const Op& op, const std::vector<Shape>& shapes, const std::vector<const std::vector<float>*>& xs,
                 std::vector<float>& y) {
   const std::vector<float>& x = *xs.at(0);
+  const Shape& in = shapes.at(static_cast<size_t>(op.in.at(0)));
+  const Shape& out = shapes.at(static_cast<size_t>(op.out));
   switch (op.kind) {
     case OpKind::Relu:
       y.resize(x.size());
       for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] > 0 ? x[k] : 0.0f;
       return;
     case OpKind::Add:
-      y.resize(x.size());
-      for (size_t k = 0; k < x.size(); ++k) y[k] = x[k] + (*xs.at(1))[k];
-      return;
+    case OpKind::Sub:
+    case OpKind::Mul:
+    case OpKind::Div:
+      return binary(op.kind, in, shapes.at(static_cast<size_t>(op.in.at(1))), out, x, *xs.at(1), y);
     case OpKind::Affine: {
       y.resize(x.size());
       const int hw = in.h * in.w;
@@ -219,7 +276,7 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
     else {
       std::vector<const std::vector<float>*> xs;
       for (int i : op.in) xs.push_back(&v[i]);
-      digital_op(op, m.values[op.in[0]], m.values[op.out], xs, v[op.out]);
+      digital_op(op, m.values, xs, v[op.out]);
     }
   }
   const std::vector<float>& o = v[m.output];
@@ -244,7 +301,11 @@ std::vector<bool> linear_inputs_signed(const Model& m) {
         result = true;
         break;
       case OpKind::Add:
+      case OpKind::Mul:
+      case OpKind::Div:
         result = in_nonneg(0) && in_nonneg(1);
+        break;
+      case OpKind::Sub:
         break;
       case OpKind::MaxPool:
       case OpKind::AvgPool:

@@ -49,20 +49,21 @@ struct LayerTrace {
   std::vector<Eigen::MatrixXf> outputs;
 };
 
-/// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
-/// One digital (non-linear-layer) op on one image: ReLU, Add, BatchNorm as affine, the
-/// element-wise activations, softmax, max/average pooling, global average pooling, flatten,
-/// slice, pad, concatenation. `xs`: its inputs' values, in op.in order; `in` the first's shape.
-void digital_op(const Op& op, const Shape& in, const Shape& out, const std::vector<const std::vector<float>*>& xs,
+/// One digital (non-linear-layer) op on one image: ReLU, Add/Sub/Mul/Div of two values
+/// (broadcasting), BatchNorm as affine, the element-wise activations, softmax, max/average
+/// pooling, global average pooling, flatten, slice, pad, concatenation. `shapes`: every value's
+/// shape (Model::values, indexed by op.in and op.out); `xs`: its inputs' values, in op.in order.
+void digital_op(const Op& op, const std::vector<Shape>& shapes, const std::vector<const std::vector<float>*>& xs,
                 std::vector<float>& y);
 
 /// Per linear layer: its inputs may be negative. Static: the network input is non-negative
 /// when every preprocessing mean is <= 0; a ReLU's output is non-negative, and pooling,
-/// flatten, slice, pad (with a value >= 0) and Add keep non-negative inputs so; everything else
-/// may be negative. The crossbars quantize and stream a layer's inputs by it (signed inputs
-/// take a sign), so every command counts the same reads.
+/// flatten, slice, pad (with a value >= 0), Add, Mul and Div keep non-negative inputs so;
+/// everything else (Sub among them) may be negative. The crossbars quantize and stream a
+/// layer's inputs by it (signed inputs take a sign), so every command counts the same reads.
 std::vector<bool> linear_inputs_signed(const Model& m);
 
+/// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend,
                           LayerTrace* trace = nullptr);
 

@@ -581,24 +581,15 @@ class Loader {
     model_.ops.push_back(op);
   }
 
-  /// Add, Sub, Mul, Div. Of two computed values: Add (same shapes). With a constant operand
-  /// (a scalar or one value per channel): an affine op, or, for an Add of a constant to a linear
-  /// layer's output that nothing else reads (MatMul + Add, a bias), folded into that layer's bias.
+  /// Add, Sub, Mul, Div. Of two computed values: an element-wise op of two values, each
+  /// broadcast along its axes of extent 1 (add_binary). With a constant operand (a scalar or one
+  /// value per channel): an affine op, or, for an Add of a constant to a linear layer's output
+  /// that nothing else reads (MatMul + Add, a bias), folded into that layer's bias.
   void add_arith(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
     check_known_attrs(n, {});
     require_io(n, 2);
     const bool c0 = inits_.count(n.input(0)) > 0, c1 = inits_.count(n.input(1)) > 0;
-    if (!c0 && !c1) {
-      if (t != "Add") reject(n, "operator of two computed values (only Add)");
-      const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
-      if (dims_of(n.input(0)) != dims_of(n.input(1)))
-        reject(n, "broadcasting (inputs of shapes " + dims_text(dims_of(n.input(0))) + " and " +
-                      dims_text(dims_of(n.input(1))) + ")");
-      Op op = make_op(OpKind::Add, n.name(), {a, b});
-      op.out = define(n.output(0), model_.values[a]);
-      model_.ops.push_back(op);
-      return;
-    }
+    if (!c0 && !c1) return add_binary(n, t, ctx);
     if (c0 && c1) return fold_arith(n, t, ctx);
     const std::string& var = n.input(c0 ? 1 : 0);
     const int in_id = value(var, ctx);
@@ -640,6 +631,30 @@ class Loader {
     // A bias after a linear layer whose output nothing else reads is folded into the layer once
     // the whole graph is read (fold_biases: only then are all the readers known).
     if (t == "Add") bias_adds_.insert(op.out);
+    model_.ops.push_back(op);
+  }
+
+  /// Add, Sub, Mul, Div of two computed values of the same rank (2 or 4), by ONNX's
+  /// (numpy's) broadcasting: along every axis the extents are equal or one of them is 1, and
+  /// the result has the larger. (Values of different ranks align at the end, which here would
+  /// pair a vector's channels with a map's width: refused.)
+  void add_binary(const onnx::NodeProto& n, const std::string& t, const std::string& ctx) {
+    const int a = value(n.input(0), ctx), b = value(n.input(1), ctx);
+    const std::vector<int64_t> da = dims_of(n.input(0)), db = dims_of(n.input(1));
+    auto refuse = [&] {
+      reject(n, "broadcasting of inputs of shapes " + dims_text(da) + " and " + dims_text(db) +
+                    " (along each axis the extents must be equal or one of them 1, in values of the same rank)");
+    };
+    if (da.size() != db.size()) refuse();
+    std::vector<int64_t> d(da.size());
+    for (size_t q = 0; q < d.size(); ++q) {
+      if (da[q] != db[q] && da[q] != 1 && db[q] != 1) refuse();
+      d[q] = std::max(da[q], db[q]);
+    }
+    const OpKind kind = t == "Add" ? OpKind::Add : t == "Sub" ? OpKind::Sub : t == "Mul" ? OpKind::Mul : OpKind::Div;
+    Op op = make_op(kind, n.name(), {a, b});
+    op.out = define(n.output(0), shape_for(d, model_.values[static_cast<size_t>(a)]));
+    if (d.size() == 2) dims_[n.output(0)] = d;
     model_.ops.push_back(op);
   }
 

@@ -88,6 +88,71 @@ TEST(Calibration, MatchesNormalEquations) {
   EXPECT_NEAR(g.offset(0), 1.0, 1e-15);
 }
 
+// Issue 39, item 3 follow-up: GoogLeNet's inception4c.branch2.1 showed a mean error of 8e9 of
+// its output range. Its crossbars' columns put all ten calibration outputs in one ADC code
+// (they differed in the last bits of the recovery) or all but one, and the least-squares gain,
+// sxy / sxx over a spread of rounding noise or one code, was -3.6e12 or -4013; real inputs then
+// multiplied their errors by it. A gain is fitted only where the data determine it.
+TEST(Calibration, OneAdcCodeStepGivesNoGain) {
+  // Nine outputs in one code (0.5), one a code lower (step 0.001); the crossbar's error (0.1 on
+  // the tenth vector) is not a gain. Hand computation of the old fit: mx = 0.4999, my = 0.51,
+  // sxx = 9 (1e-4)^2 + (9e-4)^2 = 9e-7, sxy = 9 (1e-4)(-0.01) + (-9e-4)(0.09) = -9e-5: gain
+  // -100, offset 0.51 + 100 x 0.4999 = 50.5, so an output of 0.6 became -9.5.
+  Eigen::MatrixXd actual = Eigen::MatrixXd::Constant(10, 1, 0.5), ideal = Eigen::MatrixXd::Constant(10, 1, 0.5);
+  actual(9, 0) = 0.499;
+  ideal(9, 0) = 0.6;
+  const ColumnFit f = fit_columns(actual, ideal, Eigen::VectorXd::Constant(1, 0.001));
+  EXPECT_FALSE(f.gain_fitted(0));
+  EXPECT_EQ(f.gain(0), 1.0);
+  EXPECT_NEAR(f.offset(0), 0.51 - 0.4999, 1e-12);  // mean(ideal) - mean(actual)
+  Eigen::MatrixXd real(1, 1);
+  real << 0.6;
+  EXPECT_NEAR(f.apply(real)(0, 0), 0.6101, 1e-12);
+}
+
+TEST(Calibration, OutputsEqualToRoundingGiveNoGain) {
+  // Without an ADC step: outputs one unit in the last place apart (what the recovery's rounding
+  // leaves of one ADC code) are one value. The old fit divided by sxx ~ 1e-33.
+  const double a = 0.3, b = std::nextafter(0.3, 1.0);
+  Eigen::MatrixXd actual(4, 1), ideal(4, 1);
+  actual << a, b, a, b;
+  ideal << 0.29, 0.31, 0.30, 0.30;
+  const ColumnFit f = fit_columns(actual, ideal);
+  EXPECT_FALSE(f.gain_fitted(0));
+  EXPECT_EQ(f.gain(0), 1.0);
+  EXPECT_NEAR(f.offset(0), 0.30 - (a + b) / 2, 1e-15);
+}
+
+TEST(Calibration, UndeterminedGainFallsBackToOffset) {
+  // Four resolved outputs, but the ideal outputs do not follow them: gain sxy / sxx = -5 / 5 =
+  // -1, offset 1.5, residuals -1.5, 4.5, -4.5, 1.5 (SSR 45), standard error
+  // sqrt(45 / 2 / 5) = 2.1 > 1: no gain; offset mean(ideal) - mean(actual) = -1.5.
+  Eigen::MatrixXd actual(4, 1), ideal(4, 1);
+  actual << 0, 1, 2, 3;
+  ideal << 0, 5, -5, 0;
+  const ColumnFit f = fit_columns(actual, ideal, Eigen::VectorXd::Zero(1));
+  EXPECT_FALSE(f.gain_fitted(0));
+  EXPECT_EQ(f.gain(0), 1.0);
+  EXPECT_NEAR(f.offset(0), -1.5, 1e-15);
+  // The same outputs with ideal = 2 actual + 1 + small residuals: gain fitted.
+  ideal << 1.01, 2.99, 5.0, 7.0;
+  const ColumnFit g = fit_columns(actual, ideal, Eigen::VectorXd::Constant(1, 0.01));
+  EXPECT_TRUE(g.gain_fitted(0));
+  EXPECT_NEAR(g.gain(0), 1.998, 1e-12);  // sxy / sxx = 9.99 / 5
+}
+
+TEST(Calibration, StepsCountOnlyResolvedOutputs) {
+  // Three outputs a quarter step apart are one code's worth: no gain; a step of 0 resolves them.
+  Eigen::MatrixXd actual(3, 1), ideal(3, 1);
+  actual << 1.0, 1.25, 1.5;
+  ideal << 2.0, 2.5, 3.0;
+  EXPECT_FALSE(fit_columns(actual, ideal, Eigen::VectorXd::Constant(1, 1.0)).gain_fitted(0));
+  const ColumnFit f = fit_columns(actual, ideal, Eigen::VectorXd::Zero(1));
+  EXPECT_TRUE(f.gain_fitted(0));
+  EXPECT_NEAR(f.gain(0), 2.0, 1e-12);
+  EXPECT_NEAR(f.offset(0), 0.0, 1e-12);
+}
+
 TEST(Metrics, PaperDefinitions) {
   Eigen::MatrixXd ideal(3, 2), actual(3, 2);
   ideal << 0, 10, 2, 10, 4, 10;  // column 1 constant: falls back to the largest range (4)

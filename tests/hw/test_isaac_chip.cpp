@@ -295,11 +295,15 @@ TEST(IsaacChip, PeakComputationalEfficiencyIsThePublishedOne) {
   EXPECT_TRUE(r.mapping.fits);
 }
 
-// Every operation that computes has a unit name an architecture can list (tile.units.*.ops).
+// Every operation that computes has a unit name an architecture can list (tile.units.*.ops),
+// and the built-in ISAAC-CE has a unit for each (a network with Mul, Div or Sub of two values,
+// as MobileNetV3's, runs on it).
 TEST(Mapper, EveryComputingOperationHasAUnitNameArchitecturesAccept) {
-  for (OpKind k : {OpKind::Linear, OpKind::Relu, OpKind::Add, OpKind::MaxPool, OpKind::AvgPool, OpKind::GlobalAvgPool,
-                   OpKind::Flatten, OpKind::Slice, OpKind::Pad, OpKind::Affine, OpKind::Activation, OpKind::Softmax,
-                   OpKind::Concat, OpKind::Shuffle}) {
+  const Architecture ce = parse_architecture(builtin_architecture_yaml("isaac-ce"), "isaac-ce");
+  for (const std::string& name : digital_op_names()) EXPECT_GT(ce.ops_per_ns(name), 0) << name;
+  for (OpKind k : {OpKind::Linear, OpKind::Relu, OpKind::Add, OpKind::Sub, OpKind::Mul, OpKind::Div, OpKind::MaxPool,
+                   OpKind::AvgPool, OpKind::GlobalAvgPool, OpKind::Flatten, OpKind::Slice, OpKind::Pad, OpKind::Affine,
+                   OpKind::Activation, OpKind::Softmax, OpKind::Concat, OpKind::Shuffle}) {
     const std::string name = digital_op_name(k);
     if (name.empty()) continue;
     const auto& names = digital_op_names();

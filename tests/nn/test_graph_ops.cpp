@@ -692,3 +692,93 @@ TEST(Graph, AnUnnamedNodeIsCalledByItsOutput) {
   for (const Op& op : model.ops) relu = relu || (op.kind == OpKind::Relu && op.name == "out");
   EXPECT_TRUE(relu);
 }
+
+// Issue 39, item 2: Mul, Div, Sub and Add of two computed values, with numpy-style
+// broadcasting over the axes of extent 1: SiLU (x * sigmoid x), a squeeze-excitation (a
+// C x 1 x 1 scale, HardSigmoid as torch exports it, times the C x H x W map, the scale first),
+// a row (C x 1 x W) subtracted from every row, a channel (1 x H x W) dividing every channel,
+// and a C x 1 x 1 value added. Against direct loops.
+TEST(Graph, ArithmeticOfTwoComputedValuesBroadcasts) {
+  const int C = 2, H = 3, W = 4;
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  const auto wc = randv(C * C, 61), wq = randv(C * C, 62), bq = randv(C, 63);
+  add_init(g, "wc", {C, C, 1, 1}, wc);
+  add_node(g, "Conv", "conv", {"input", "wc"}, "a");
+  add_node(g, "Sigmoid", "sig", {"a"}, "sg");
+  add_node(g, "Mul", "silu", {"a", "sg"}, "silu");
+  add_node(g, "GlobalAveragePool", "gap", {"silu"}, "p");
+  add_init(g, "wq", {C, C, 1, 1}, wq);
+  add_init(g, "bq", {C}, bq);
+  add_node(g, "Conv", "fc", {"p", "wq", "bq"}, "q");
+  auto* hs = add_node(g, "HardSigmoid", "hsig", {"q"}, "hs");
+  auto* alpha = hs->add_attribute();
+  alpha->set_name("alpha");
+  alpha->set_type(onnx::AttributeProto::FLOAT);
+  alpha->set_f(1.0f / 6);
+  add_node(g, "Mul", "se", {"hs", "silu"}, "se");
+  add_init_i64(g, "r0", {0});
+  add_init_i64(g, "r1", {1});
+  add_init_i64(g, "ax2", {2});
+  add_init_i64(g, "ax1", {1});
+  add_node(g, "Slice", "row", {"a", "r0", "r1", "ax2"}, "row");  // C x 1 x W: row 0
+  add_node(g, "Sub", "sub", {"se", "row"}, "sb");
+  add_node(g, "Slice", "chan", {"a", "r0", "r1", "ax1"}, "ch");  // 1 x H x W: channel 0
+  add_node(g, "Sigmoid", "sig_ch", {"ch"}, "sc");
+  add_node(g, "Div", "div", {"sb", "sc"}, "dv");
+  add_node(g, "Add", "add", {"dv", "q"}, "out");
+  const Model model = load_onnx_model(save(m, C, H, W, "out", "binary"));
+  int binary = 0;
+  for (const Op& op : model.ops)
+    binary += op.kind == OpKind::Add || op.kind == OpKind::Sub || op.kind == OpKind::Mul || op.kind == OpKind::Div;
+  EXPECT_EQ(binary, 5);
+  ASSERT_EQ(model.values[model.output].c, C);
+  ASSERT_EQ(model.values[model.output].h, H);
+  ASSERT_EQ(model.values[model.output].w, W);
+  const auto x = randv(C * H * W, 64);
+  SoftwareBackend sw(model);
+  const Eigen::VectorXf y = run_image(model, x.data(), sw);
+  ASSERT_EQ(y.size(), C * H * W);
+  auto at = [&](int c, int yy, int xx) { return (c * H + yy) * W + xx; };
+  std::vector<double> a(C * H * W), silu(C * H * W);
+  for (int c = 0; c < C; ++c)
+    for (int p = 0; p < H * W; ++p) {
+      double s = 0;
+      for (int k = 0; k < C; ++k) s += wc[c * C + k] * x[k * H * W + p];
+      a[c * H * W + p] = s;
+      silu[c * H * W + p] = s / (1 + std::exp(-s));
+    }
+  std::vector<double> q(C), scale(C);
+  for (int c = 0; c < C; ++c) {
+    q[c] = bq[c];
+    for (int k = 0; k < C; ++k) {
+      double mean = 0;
+      for (int p = 0; p < H * W; ++p) mean += silu[k * H * W + p] / (H * W);
+      q[c] += wq[c * C + k] * mean;
+    }
+    scale[c] = std::max(0.0, std::min(1.0, q[c] / 6 + 0.5));
+  }
+  for (int c = 0; c < C; ++c)
+    for (int yy = 0; yy < H; ++yy)
+      for (int xx = 0; xx < W; ++xx) {
+        const double se = scale[c] * silu[at(c, yy, xx)];
+        const double sub = se - a[at(c, 0, xx)];
+        const double div = sub / (1 / (1 + std::exp(-a[at(0, yy, xx)])));
+        EXPECT_NEAR(y[at(c, yy, xx)], div + q[c], 1e-4 * (1 + std::abs(div))) << c << "," << yy << "," << xx;
+      }
+}
+
+// Shapes that do not broadcast (3 against 2 channels; values of ranks 2 and 4) are refused
+// naming the node and both shapes.
+TEST(Graph, ArithmeticOfValuesThatDoNotBroadcastIsRefused) {
+  onnx::ModelProto m;
+  auto* g = m.mutable_graph();
+  add_init(g, "w2", {2, 2, 1, 1}, randv(4, 65));
+  add_init(g, "w3", {3, 2, 1, 1}, randv(6, 66));
+  add_node(g, "Conv", "c2", {"input", "w2"}, "a");
+  add_node(g, "Conv", "c3", {"input", "w3"}, "b");
+  add_node(g, "Mul", "bad_mul", {"a", "b"}, "out");
+  const std::string e = load_error(m, 2, 3, 3, "out", "binary_bad");
+  for (const char* s : {"node 'bad_mul' (Mul)", "1x2x3x3", "1x3x3x3"})
+    EXPECT_NE(e.find(s), std::string::npos) << s << ": " << e;
+}

@@ -33,16 +33,21 @@ void expect_torch_logits(const std::string& dir, const std::string& name) {
 
 }  // namespace
 
-// ResNet-18, MobileNetV2 (depthwise convolutions), SqueezeNet 1.1, DenseNet-121 and
-// ShuffleNetV2 (its channel shuffle: Shape, Gather, Reshape to 5-D, Transpose, Split) at 32 x 32.
+// ResNet-18, MobileNetV2 (depthwise convolutions), SqueezeNet 1.1, DenseNet-121,
+// ShuffleNetV2 (its channel shuffle: Shape, Gather, Reshape to 5-D, Transpose, Split),
+// MobileNetV3-small (HardSwish as HardSigmoid then Mul, squeeze-excitation: a Mul of
+// N x C x 1 x 1 by N x C x H x W) and torch_zoo.py's silu_se block (SiLU, squeeze-excitation,
+// Sub and Div of two computed tensors) at 32 x 32.
 TEST(TorchZoo, TorchvisionTopologiesAt32x32ImportAndGiveTorchsLogits) {
   const std::string py = xbarsim_test::torch_python();
   if (py.empty()) GTEST_SKIP() << "python3-torch / python3-torchvision not installed; test skipped";
   const std::string dir = ::testing::TempDir() + "xbarsim_zoo_32";
-  ASSERT_TRUE(xbarsim_test::export_zoo(py, dir, 32, "resnet18 mobilenet_v2 squeezenet1_1 densenet121 shufflenet_v2_x0_5"))
-      << "the export failed (see " << dir << "/export.log)";
-  for (const char* n : {"resnet18", "mobilenet_v2", "squeezenet1_1", "densenet121", "shufflenet_v2_x0_5"})
-    expect_torch_logits(dir, n);
+  const char* names[] = {"resnet18",           "mobilenet_v2",       "squeezenet1_1", "densenet121",
+                         "shufflenet_v2_x0_5", "mobilenet_v3_small", "silu_se"};
+  std::string list;
+  for (const char* n : names) list += std::string(list.empty() ? "" : " ") + n;
+  ASSERT_TRUE(xbarsim_test::export_zoo(py, dir, 32, list)) << "the export failed (see " << dir << "/export.log)";
+  for (const char* n : names) expect_torch_logits(dir, n);
 }
 
 // One network at ImageNet size: SqueezeNet 1.1 at 224 x 224 (ceil-mode pooling, Concat).

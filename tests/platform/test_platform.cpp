@@ -10,6 +10,7 @@
 #include "sw/nn/network.h"
 #include "sw/nn/presets.h"
 #include "sw/study/hardware.h"
+#include "tests/onnx_builder.h"
 
 using namespace xbarsim;
 
@@ -411,6 +412,62 @@ TEST(Platform, ReplicationDividesTheStageTime) {
   const double stage_ns = 576 * 10.0 / 4;  // conv1 / 4 = 1440 ns > conv2's 640 ns
   EXPECT_NEAR(r.throughput_per_s(), 1e9 / stage_ns, 0.01 * 1e9 / stage_ns);
   EXPECT_EQ(r.stages[0].replication, 4);
+}
+
+namespace {
+
+/// 3 x 8 x 8 -> Conv 3x3 (4 channels) -> SiLU (Sigmoid, Mul) -> a squeeze-excitation
+/// (GlobalAveragePool, Conv 1x1, HardSigmoid, the 4 x 1 x 1 scale times the 4 x 8 x 8 map)
+/// -> Sub of the pooled 4 x 1 x 1 -> Div by the sigmoid of the map -> Conv 3x3/2 ->
+/// GlobalAveragePool -> Flatten -> Gemm (4 -> 3).
+Model squeeze_excitation_model() {
+  using namespace onnx_builder;
+  onnx::ModelProto m = model("se", "xbarsim tests");
+  auto* g = m.mutable_graph();
+  io(g->add_input(), "x", {1, 3, 8, 8});
+  auto weights = [](size_t i) { return static_cast<float>(static_cast<int>(i * 7 % 11) - 5) * 0.1f; };
+  float_init(g, "w1", {4, 3, 3, 3}, weights);
+  float_init(g, "w2", {4, 4, 1, 1}, weights);
+  float_init(g, "w3", {4, 4, 3, 3}, weights);
+  float_init(g, "w4", {3, 4}, weights);
+  ints_attr(node(g, "Conv", {"x", "w1"}, "c1"), "pads", {1, 1, 1, 1});
+  node(g, "Sigmoid", {"c1"}, "s1");
+  node(g, "Mul", {"c1", "s1"}, "silu");
+  node(g, "GlobalAveragePool", {"silu"}, "gap");
+  node(g, "Conv", {"gap", "w2"}, "fc");
+  node(g, "HardSigmoid", {"fc"}, "scale");
+  node(g, "Mul", {"scale", "silu"}, "se");
+  node(g, "Sub", {"se", "gap"}, "centred");
+  node(g, "Sigmoid", {"se"}, "s2");
+  node(g, "Div", {"centred", "s2"}, "dv");
+  auto* c3 = node(g, "Conv", {"dv", "w3"}, "c3");
+  ints_attr(c3, "pads", {1, 1, 1, 1});
+  ints_attr(c3, "strides", {2, 2});
+  node(g, "GlobalAveragePool", {"c3"}, "gap3");
+  node(g, "Flatten", {"gap3"}, "f");
+  int_attr(node(g, "Gemm", {"f", "w4"}, "y"), "transB", 1);
+  io(g->add_output(), "y", {1, 3});
+  return load_onnx_model_from_bytes(m.SerializeAsString(), "se");
+}
+
+}  // namespace
+
+// Issue 39, item 2: Mul, Sub and Div of two values whose one input is a single row (a
+// squeeze-excitation's C x 1 x 1 scale) run in the pipeline: the row is read once and serves
+// every output row (it waited for row r of a one-row input, and the run never completed), the
+// buffers sized automatically, and the logits are the batch engine's.
+TEST(Platform, ASqueezeExcitationsScaleServesEveryRow) {
+  ONE_SIMULATION_PER_PROCESS();
+  const Model m = squeeze_excitation_model();
+  PlatformConfig pc = fast_platform(3, true);
+  pc.buffer_bytes = 0;  // sized automatically
+  pc.threads = 2;
+  PipelineRun run(m, pc);
+  run.expect_logits_of_the_batch_engine();
+  long long ops = 0;
+  for (const StageStats& st : run.pipe->result().stages)
+    if (st.kind == OpKind::Mul || st.kind == OpKind::Sub || st.kind == OpKind::Div) ops += st.digital_ops;
+  EXPECT_EQ(ops, 3LL * 4 * 4 * 8 * 8);  // one operation per output element: 3 images x 4 ops of 4 x 8 x 8
 }
 
 TEST(Platform, AutoReplicationUnderTwiceTheCrossbarsRaisesThroughput) {
