@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
+#include <set>
 #include <stdexcept>
 
 #include "platform/app/simulation.h"
@@ -25,11 +27,19 @@ namespace xbarsim {
 
 namespace {
 
-/// One point of the space: its values, its configuration and its identity.
+/// One point of the space: its values, its configuration, its identity and its programming's
+/// (programming_key: the points of one group program equal crossbars).
 struct SpacePoint {
   SweepPoint values;
   ConfigTree cfg;
-  std::string key, label;
+  std::string key, label, group;
+};
+
+/// The crossbars of the group being run: programmed for its first point, read out with each
+/// other point's configuration (CrossbarBackend::set_readout). One group's at a time.
+struct ProgrammedGroup {
+  std::string group;
+  std::unique_ptr<CrossbarBackend> xb;
 };
 
 /// What a row takes from the platform's report: the point's figures and, per layer, its own.
@@ -71,7 +81,7 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
                         "max_rows", "max_cols", "out_of_range_cells"})
     row[k] = ev[k];
   row["layers"] = layers;
-  // Timing of this run (not results: they differ between runs and ranks).
+  // How this run went (not results: they differ between runs and ranks).
   row["program_time_s"] = ev["program_time_s"];
   row["evaluate_time_s"] = ev["evaluate_time_s"];
   row["simulation_wall_time_s"] = pf["simulation_wall_time_s"];
@@ -100,9 +110,10 @@ nlohmann::json timing_row(const SimulationReport& pf) {
 }
 
 /// Evaluates one point and simulates its platform (or, without accuracy, only simulates its
-/// timing); a point that fails is a row with a reason.
+/// timing); a point that fails is a row with a reason. The crossbars of the point's group are
+/// programmed once: a point of the group `programmed` holds is read out of them.
 nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData& data, const EvalSpec& spec,
-                         const std::string& progress_label, bool accuracy) {
+                         const std::string& progress_label, bool accuracy, ProgrammedGroup& programmed) {
   try {
     if (!accuracy) {
       ConfigTree cfg = p.cfg;
@@ -114,11 +125,22 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     require_fit(model, design.hw);  // as simulate and eval, before the crossbars are programmed
     // The crossbars are programmed once, on the evaluation's calibration images, for both the
     // platform (in a child process, which inherits them) and the evaluation.
+    // programs_alike checks the typed configurations: a key missing from readout_keys costs a
+    // programming, never a wrong result.
+    const bool reuse =
+        programmed.xb && programmed.group == p.group && programs_alike(programmed.xb->config(), design.ac);
     const auto t0 = std::chrono::steady_clock::now();
-    ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + progress_label);
-    const CrossbarBackend xb =
-        program_crossbars(model, design, spec, data.calib, [&](int d, int) { prog.update(d); });
+    ProgressBar prog(static_cast<int>(model.linear.size()), (reuse ? "reading out " : "programming ") + progress_label);
+    if (reuse) {
+      programmed.xb->set_readout(design.ac, [&](int d, int) { prog.update(d); });
+    } else {
+      programmed.xb.reset();  // one group's crossbars at a time
+      programmed.xb = std::make_unique<CrossbarBackend>(
+          program_crossbars(model, design, spec, data.calib, [&](int d, int) { prog.update(d); }));
+      programmed.group = p.group;
+    }
     prog.finish();
+    const CrossbarBackend& xb = *programmed.xb;
     const double program_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     // The platform (it rejects an unschedulable design before the long evaluation) runs on
     // seeded random images: timing and counted actions do not depend on the pixel values.
@@ -131,7 +153,9 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     const EvalResult r = run_eval(model, design, data.test, xb, program_s, [&](int d, int) { bar.update(d); });
     bar.finish();
     const nlohmann::json ev = r.to_json();
-    return result_row(ev, pf);
+    nlohmann::json row = result_row(ev, pf);
+    row["reused_programming"] = reuse;
+    return row;
   } catch (const std::exception&) {
     const Failure f = current_failure();
     if (f.kind == Failure::Kind::Internal) throw;
@@ -162,7 +186,8 @@ std::string interval(const nlohmann::json& row) {
 /// in a space (index) and how the point was written (label, point: 8 and 8.0 are one point) left
 /// out, so two lines of one point compare by their results.
 nlohmann::json result_part(nlohmann::json row) {
-  for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "index", "label", "point"})
+  for (const char* k :
+       {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "reused_programming", "index", "label", "point"})
     row.erase(k);
   return row;
 }
@@ -204,8 +229,9 @@ int cmd_explore(int argc, char** argv) {
   space.reserve(values.size());
   std::map<std::string, size_t> point_of_key;
   for (const SweepPoint& v : values) {
-    SpacePoint p{v, sweep_config(base, v), "", sweep_label(v)};
+    SpacePoint p{v, sweep_config(base, v), "", sweep_label(v), ""};
     p.key = explore_point_key(p.cfg, model_id, data.test.name);
+    p.group = programming_key(p.cfg, model_id, data.test.name);
     const auto seen = point_of_key.emplace(p.key, space.size());
     if (!seen.second)
       throw InputError("points '" + space[seen.first->second].label + "' and '" + p.label +
@@ -251,18 +277,34 @@ int cmd_explore(int argc, char** argv) {
   std::vector<size_t> pending;
   for (size_t k = 0; k < space.size(); ++k)
     if (!done.count(space[k].key)) pending.push_back(k);
+  std::vector<std::string> group_of;
+  for (const SpacePoint& p : space) group_of.push_back(p.group);
   if (Ranks::root()) {
     std::fprintf(stderr, "xbarsim explore: %zu points, %zu already in %s, %zu to run", space.size(),
                  space.size() - pending.size(), out_path.c_str(), pending.size());
     if (Ranks::size() > 1) std::fprintf(stderr, " on %d ranks", Ranks::size());
+    size_t programmings = 0;  // a group's per rank it reaches
+    for (int r = 0; r < Ranks::size(); ++r) {
+      std::set<std::string> groups;
+      for (size_t k : explore_share(pending, group_of, r, Ranks::size())) groups.insert(group_of[k]);
+      programmings += groups.size();
+    }
+    if (spec.accuracy && programmings < pending.size())
+      std::fprintf(stderr, "; %zu crossbar programming%s, the other points only read out (ADCs, calibration)",
+                   programmings, programmings == 1 ? "" : "s");
     std::fprintf(stderr, "\n");
   }
-  for (size_t i = Ranks::rank(); i < pending.size(); i += Ranks::size()) {
-    const SpacePoint& p = space[pending[i]];
-    if (Ranks::root()) std::fprintf(stderr, "[%zu/%zu] %s\n", i + 1, pending.size(), p.label.c_str());
-    nlohmann::json row = run_point(p, model, data, eval_spec, p.label, spec.accuracy);
+  // Each rank runs a contiguous share of the points ordered group by group, so that a group is
+  // programmed once per rank it reaches (results do not depend on it: a point read out of
+  // another's crossbars equals one programmed for it, bit for bit).
+  const std::vector<size_t> share = explore_share(pending, group_of, Ranks::rank(), Ranks::size());
+  ProgrammedGroup programmed;
+  for (size_t i = 0; i < share.size(); ++i) {
+    const SpacePoint& p = space[share[i]];
+    if (Ranks::root()) std::fprintf(stderr, "[%zu/%zu] %s\n", i + 1, share.size(), p.label.c_str());
+    nlohmann::json row = run_point(p, model, data, eval_spec, p.label, spec.accuracy, programmed);
     row["key"] = p.key;
-    row["index"] = pending[i];
+    row["index"] = share[i];
     row["label"] = p.label;
     row["point"] = point_json(p.values);
     const std::string problem = explore_row_problem(row);

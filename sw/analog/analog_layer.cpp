@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <type_traits>
 
 #include "sw/analog/error_metrics.h"
@@ -44,6 +45,39 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
                      std::string(c.mitigation.name()) +
                      "), which targets I = V G at the applied voltage; use conversion or conversion+calibration");
   return c;
+}
+
+bool programs_alike(const AnalogConfig& a, const AnalogConfig& b) {
+  const CrossbarParams &xa = a.xbar, &xb = b.xbar;
+  const bool crossbar = xa.r_wire_ohm == xb.r_wire_ohm && xa.r_in_ohm == xb.r_in_ohm && xa.r_out_ohm == xb.r_out_ohm &&
+                        xa.g_min_s == xb.g_min_s && xa.g_max_s == xb.g_max_s && xa.v_in_max_v == xb.v_in_max_v &&
+                        xa.memristor.model == xb.memristor.model && xa.memristor.k_per_v == xb.memristor.k_per_v &&
+                        xa.memristor.v_read_v == xb.memristor.v_read_v && xa.transistor.model == xb.transistor.model &&
+                        xa.transistor.r_on_ohm == xb.transistor.r_on_ohm && xa.transistor.vg_v == xb.transistor.vg_v &&
+                        xa.transistor.vth_v == xb.transistor.vth_v &&
+                        xa.transistor.kp_a_per_v2 == xb.transistor.kp_a_per_v2;
+  const SolverOptions &sa = a.solver, &sb = b.solver;
+  const bool solver = sa.method == sb.method && sa.tolerance == sb.tolerance &&
+                      sa.max_iterations == sb.max_iterations && sa.newton_max_iterations == sb.newton_max_iterations &&
+                      sa.newton_tolerance == sb.newton_tolerance && sa.newton_abstol_a == sb.newton_abstol_a &&
+                      sa.max_step_v == sb.max_step_v && sa.batched_nonlinear == sb.batched_nonlinear &&
+                      sa.nonlinear_tolerance == sb.nonlinear_tolerance;
+  const MappingSpec &ma = a.mapping, &mb = b.mapping;
+  const bool mapping = ma.max_rows == mb.max_rows && ma.max_cols == mb.max_cols && ma.negative == mb.negative &&
+                       ma.sum_x == mb.sum_x && ma.g_headroom == mb.g_headroom && ma.scheme == mb.scheme &&
+                       ma.cell_bits == mb.cell_bits && ma.weight_bits == mb.weight_bits;
+  const ConversionSpec &ca = a.conversion, &cb = b.conversion;
+  const bool conversion = a.mitigation.conversion() == b.mitigation.conversion() && ca.signal == cb.signal &&
+                          ca.amplitude_mode == cb.amplitude_mode && ca.amplitude == cb.amplitude &&
+                          ca.column_scaling == cb.column_scaling && ca.max_iterations == cb.max_iterations &&
+                          ca.tolerance == cb.tolerance;
+  const bool calibration = a.calibration.samples == b.calibration.samples &&
+                           a.calibration.signal == b.calibration.signal && a.calibration.seed == b.calibration.seed;
+  const ConvertersSpec &da = a.converters, &db = b.converters;
+  const bool dacs =
+      da.input_bits == db.input_bits && da.dac_bits == db.dac_bits && da.dac_predistortion == db.dac_predistortion;
+  const bool noise = a.noise.sigma_s == b.noise.sigma_s && a.noise.seed == b.noise.seed;
+  return crossbar && solver && mapping && conversion && calibration && dacs && noise;
 }
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
@@ -131,8 +165,14 @@ Eigen::MatrixXd AnalogLayer::range_vectors(const Eigen::MatrixXd& calib_in, cons
   const Eigen::Index take = std::min<Eigen::Index>(calib_in.rows(), cap);
   Eigen::MatrixXd range_x(take + cal.rows(), w_.rows());
   std::mt19937_64 rng(derive_seed(cfg_.calibration.seed, {kRangePickStream, salt_}));
-  for (Eigen::Index a = 0; a < take; ++a)
-    range_x.row(a) = calib_in.row(calib_in.rows() <= cap ? a : static_cast<Eigen::Index>(rng() % calib_in.rows()));
+  // Whole columns at a time (the matrices are column-major): the first rows, or random picks.
+  if (calib_in.rows() <= cap) {
+    range_x.topRows(take) = calib_in.topRows(take);
+  } else {
+    Eigen::VectorXi picks(take);
+    for (Eigen::Index a = 0; a < take; ++a) picks(a) = static_cast<int>(rng() % calib_in.rows());
+    range_x.topRows(take) = calib_in(picks, Eigen::all);
+  }
   range_x.bottomRows(cal.rows()) = cal;
   return dac(range_x);
 }
@@ -142,14 +182,27 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib, const SolverOptions& sol
   program(calib);
 }
 
-void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
+AnalogLayer::LayerInputs AnalogLayer::layer_inputs(const Eigen::MatrixXd& calib_given, bool real_inputs) const {
   if (calib_given.size() > 0 && calib_given.cols() != w_.rows())
     throw InputError("analog layer: calibration vectors have the wrong length");
   const Eigen::MatrixXd calib_in =
       order_.size() && calib_given.size() ? Eigen::MatrixXd(calib_given(Eigen::all, order_)) : calib_given;
-  const Eigen::MatrixXd cal = dac(calibration_vectors(calib_in));
-  const Eigen::MatrixXd range_x = range_vectors(calib_in, cal);
-  const Eigen::MatrixXd calib_q = calib_in.size() ? dac(calib_in) : Eigen::MatrixXd();
+  LayerInputs in;
+  in.cal = dac(calibration_vectors(calib_in));
+  in.range_x = range_vectors(calib_in, in.cal);
+  if (real_inputs && calib_in.size()) in.calib_q = dac(calib_in);
+  return in;
+}
+
+AnalogLayer::ProgrammingInputs AnalogLayer::crossbar_inputs(const LayerInputs& in, const Block& blk) const {
+  return {in.cal.middleCols(blk.row0, blk.rows),
+          in.calib_q.size() ? Eigen::MatrixXd(in.calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(),
+          in.range_x.middleCols(blk.row0, blk.rows),
+          in.cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
+}
+
+void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
+  const LayerInputs layer_in = layer_inputs(calib_given);
   // All or nothing: the crossbars replace the layer's only once every one is programmed (an
   // error or a cancellation leaves the layer as it was).
   std::vector<std::unique_ptr<Crossbar>> xbars;
@@ -165,18 +218,13 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
       // Programming reads the crossbar's own rows of every input (in0 = 0), then the crossbar
       // reads the whole layer's inputs at its rows.
-      const ProgrammingInputs in{
-          cal.middleCols(blk.row0, blk.rows),
-          calib_q.size() ? Eigen::MatrixXd(calib_q.middleCols(blk.row0, blk.rows)) : Eigen::MatrixXd(),
-          range_x.middleCols(blk.row0, blk.rows),
-          cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
+      const ProgrammingInputs in = crossbar_inputs(layer_in, blk);
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
       add_programming_noise(*xb, static_cast<int>(b));
-      set_adc_ranges(*xb, in.range_b);
-      calibrate(*xb, in);
+      read_out(*xb, in);
       xb->in0 = blk.row0;
       xbars.push_back(std::move(xb));
       reports.push_back(rep);
@@ -186,6 +234,58 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
   }
   xbars_ = std::move(xbars);
   reports_ = std::move(reports);
+}
+
+void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& calib) {
+  if (xbars_.empty()) throw std::invalid_argument("analog layer: set_readout before program()");
+  if (!programs_alike(cfg_, cfg))
+    throw std::invalid_argument("analog layer: set_readout with a configuration that programs other conductances");
+  const std::shared_ptr<const SavedReadout> before = save_readout();
+  try {
+    cfg_ = cfg;
+    cfg_.solver = before->cfg.solver;  // the options the crossbars' solvers were made with
+    const LayerInputs layer_in = layer_inputs(calib, /*real_inputs=*/false);  // only conversion reads them
+    for (size_t b = 0; b < xbars_.size(); ++b) {
+      check_cancel();
+      Crossbar& x = *xbars_[b];
+      try {
+        // As program(): the crossbar's own rows of every input (in0 = 0).
+        x.in0 = 0;
+        read_out(x, crossbar_inputs(layer_in, blocks_[b]));
+        x.in0 = blocks_[b].row0;
+      } catch (const std::exception&) {
+        x.in0 = blocks_[b].row0;
+        rethrow_with_context("reading out its " + crossbar_name(blocks_[b]));
+      }
+    }
+  } catch (...) {
+    restore_readout(*before);
+    throw;
+  }
+}
+
+std::shared_ptr<const AnalogLayer::SavedReadout> AnalogLayer::save_readout() const {
+  auto s = std::make_shared<SavedReadout>();
+  s->cfg = cfg_;
+  s->xbars.reserve(xbars_.size());
+  for (const auto& x : xbars_) s->xbars.push_back({x->adc_lo, x->adc_hi, x->adc_offset, x->fit, x->adc_f, x->adc_d});
+  return s;
+}
+
+void AnalogLayer::restore_readout(const SavedReadout& saved) {
+  if (saved.xbars.size() != xbars_.size())
+    throw std::invalid_argument("analog layer: restore_readout of another layer's crossbars");
+  cfg_ = saved.cfg;
+  for (size_t b = 0; b < xbars_.size(); ++b) {
+    Crossbar& x = *xbars_[b];
+    const SavedReadout::Readout& r = saved.xbars[b];
+    x.adc_lo = r.adc_lo;
+    x.adc_hi = r.adc_hi;
+    x.adc_offset = r.adc_offset;
+    x.fit = r.fit;
+    x.adc_f = r.adc_f;
+    x.adc_d = r.adc_d;
+  }
 }
 
 std::string AnalogLayer::crossbar_name(const Block& blk) const {

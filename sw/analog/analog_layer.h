@@ -45,6 +45,15 @@ struct AnalogConfig {
 /// Reads and validates the sections above; the method comes from `method_key`.
 AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& method_key = "mitigation.method");
 
+/// Whether two configurations program the same conductances (AnalogLayer::program's conversion,
+/// noise and circuit state): they differ at most in the readout, which programming applies after
+/// the conductances are written (ADC ranging and calibration): converters.adc_bits, adc_range,
+/// adc_margin, adc_offset_subtraction and adc_columns_per_adc (cost only), whether the method
+/// calibrates (not its conversion), and solver.threads (no result depends on it). Everything else
+/// (crossbar, solver, mapping, conversion, calibration, noise, DAC and input bits, pre-distortion)
+/// programs. A new field of AnalogConfig is compared here unless it is read out only.
+bool programs_alike(const AnalogConfig& a, const AnalogConfig& b);
+
 /// Statistics of one programmed crossbar.
 struct CrossbarReport {
   Block block;                      ///< rows/columns of W it holds
@@ -88,6 +97,18 @@ class AnalogLayer {
   void program(const Eigen::MatrixXd& calib);
   /// The same with other solver options (e.g. one thread when layers program in parallel).
   void program(const Eigen::MatrixXd& calib, const SolverOptions& solver);
+  /// Gives the programmed crossbars the readout of `cfg` (programs_alike: its ADCs and whether it
+  /// calibrates) without converting or writing them again: only program()'s last two steps run
+  /// again (ADC ranging and calibration), on the same inputs, so the layer equals one programmed
+  /// from scratch with `cfg` and `calib`, bit for bit. `calib` must be what program() was given.
+  /// std::invalid_argument when `cfg` does not program alike or nothing is programmed; on any
+  /// error the layer keeps its readout.
+  void set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& calib);
+  /// A copy of what set_readout changes (the configuration, every crossbar's ADC ranges and
+  /// calibration), to put back with restore_readout (a caller's all-or-nothing over layers).
+  struct SavedReadout;
+  std::shared_ptr<const SavedReadout> save_readout() const;
+  void restore_readout(const SavedReadout& saved);
 
   template <typename S>
   using Mat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
@@ -213,8 +234,14 @@ class AnalogLayer {
  private:
   struct Crossbar;
   struct ProgrammingInputs;
+  struct LayerInputs;
   Eigen::MatrixXd calibration_vectors(const Eigen::MatrixXd& calib) const;
   Eigen::MatrixXd range_vectors(const Eigen::MatrixXd& calib_in, const Eigen::MatrixXd& cal) const;
+  /// What programming reads from `calib` (program()'s argument), for the whole layer; without
+  /// `real_inputs` no calib_q (the readout steps do not read it).
+  LayerInputs layer_inputs(const Eigen::MatrixXd& calib, bool real_inputs = true) const;
+  /// The share of `in` crossbar `blk` reads while it is programmed.
+  ProgrammingInputs crossbar_inputs(const LayerInputs& in, const Block& blk) const;
   // Programming steps (analog_programming.cpp), in order, for one crossbar.
   void install(Crossbar& x, const Eigen::MatrixXd& g) const;
   void convert(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
@@ -227,6 +254,8 @@ class AnalogLayer {
   /// code of each of its reads and physical columns combined as independent errors (root sum
   /// of squares); zeros without an ADC.
   Eigen::VectorXd output_steps(const Crossbar& x) const;
+  /// The readout steps (set_adc_ranges, then calibrate) of a crossbar whose conductances are written.
+  void read_out(Crossbar& x, const ProgrammingInputs& in) const;
   template <typename S>
   void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
   template <typename S, typename XQ>

@@ -50,6 +50,26 @@ struct AnalogLayer::Crossbar : MappedWeights {
   Eigen::ArrayXd recover_k;
 };
 
+/// What AnalogLayer::set_readout changes.
+struct AnalogLayer::SavedReadout {
+  AnalogConfig cfg;
+  struct Readout {
+    Eigen::MatrixXd adc_lo, adc_hi;
+    Eigen::VectorXd adc_offset;
+    ColumnFit fit;
+    Crossbar::AdcTable<float> adc_f;
+    Crossbar::AdcTable<double> adc_d;
+  };
+  std::vector<Readout> xbars;
+};
+
+/// What programming reads for the whole layer (DAC values, the crossbars' row order).
+struct AnalogLayer::LayerInputs {
+  Eigen::MatrixXd cal;      ///< calibration vectors
+  Eigen::MatrixXd range_x;  ///< the ADC range-estimation reads
+  Eigen::MatrixXd calib_q;  ///< the real inputs; may be empty
+};
+
 /// What the programming steps of one crossbar read.
 struct AnalogLayer::ProgrammingInputs {
   Eigen::MatrixXd cal_b;          ///< calibration vectors (DAC values), this crossbar's rows

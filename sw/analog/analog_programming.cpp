@@ -201,6 +201,11 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
   }
 }
 
+void AnalogLayer::read_out(Crossbar& x, const ProgrammingInputs& in) const {
+  set_adc_ranges(x, in.range_b);
+  calibrate(x, in);
+}
+
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;

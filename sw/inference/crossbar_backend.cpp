@@ -6,6 +6,7 @@
 #include <limits>
 #include <exception>
 #include <mutex>
+#include <stdexcept>
 #include <thread>
 
 #include "sw/analog/calibration.h"
@@ -134,11 +135,34 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
 }
 
 void CrossbarBackend::program_layers(const std::function<void(int, int)>& progress) {
-  const int L = static_cast<int>(model_.linear.size());
   make_layers();
-  // Layers are independent: program them on all threads (largest first), each serially.
-  AnalogConfig serial = cfg_;
-  serial.solver.threads = 1;
+  // Layers are independent: each is programmed serially, on all threads together.
+  SolverOptions serial = cfg_.solver;
+  serial.threads = 1;
+  for_layers([&](int l) { layers_[l].program(stats_[l].samples, serial); }, progress);
+}
+
+void CrossbarBackend::set_readout(const AnalogConfig& cfg, const std::function<void(int, int)>& progress) {
+  if (layers_.empty() && !model_.linear.empty())
+    throw std::invalid_argument("crossbar backend: set_readout before program()");
+  if (!programs_alike(cfg_, cfg))
+    throw std::invalid_argument("crossbar backend: set_readout with a configuration that programs other conductances");
+  // All or nothing: on an error the layers read out already go back to the readout they had.
+  std::vector<std::shared_ptr<const AnalogLayer::SavedReadout>> before;
+  for (const AnalogLayer& layer : layers_) before.push_back(layer.save_readout());
+  try {
+    for_layers([&](int l) { layers_[l].set_readout(cfg, stats_[l].samples); }, progress);
+  } catch (...) {
+    for (size_t l = 0; l < layers_.size(); ++l) layers_[l].restore_readout(*before[l]);
+    throw;
+  }
+  cfg_ = cfg;
+}
+
+void CrossbarBackend::for_layers(const std::function<void(int)>& f,
+                                 const std::function<void(int, int)>& progress) const {
+  const int L = static_cast<int>(model_.linear.size());
+  // Largest first, so that the last layers to finish are short.
   std::vector<int> order(L);
   for (int l = 0; l < L; ++l) order[l] = l;
   std::sort(order.begin(), order.end(), [&](int a, int b) {
@@ -153,7 +177,7 @@ void CrossbarBackend::program_layers(const std::function<void(int, int)>& progre
   parallel_for(L, workers, [&](int k) {
     const int l = order[k];
     try {
-      layers_[l].program(stats_[l].samples, serial.solver);
+      f(l);
     } catch (...) {
       failed[l] = current_exception_with_context("layer " + model_.linear[l].name);
       return;

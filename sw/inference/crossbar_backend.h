@@ -27,6 +27,15 @@ class CrossbarBackend : public LinearBackend {
   /// calibrates every layer. `progress(done, total)` is called per programmed layer.
   void program(const Dataset& calib, int max_samples = 2048, const std::function<void(int, int)>& progress = nullptr);
 
+  /// Gives the programmed layers the readout of `cfg` (AnalogLayer::set_readout: its ADCs and
+  /// whether it calibrates; programs_alike) without programming them again: the backend then
+  /// equals one constructed with `cfg` and programmed on the same images, bit for bit.
+  /// `progress(done, total)` per layer. std::invalid_argument when `cfg` does not program alike
+  /// or nothing is programmed; on an error every layer keeps its readout.
+  void set_readout(const AnalogConfig& cfg, const std::function<void(int, int)>& progress = nullptr);
+  /// The configuration the layers are programmed and read out with.
+  const AnalogConfig& config() const { return cfg_; }
+
   /// The layers' crossbars, mapping and input slicing without programming them (timing-only
   /// simulation: timing and action counts do not depend on the conductances); inputs are
   /// signed where the network can make them negative. multiply() must not be called.
@@ -48,6 +57,9 @@ class CrossbarBackend : public LinearBackend {
   void make_layers();
   /// Builds and programs one AnalogLayer per linear layer (in parallel, deterministic).
   void program_layers(const std::function<void(int, int)>& progress);
+  /// Runs f(l) for every layer on all threads, largest first, each serially; the first failure
+  /// in network order is rethrown with the layer's name.
+  void for_layers(const std::function<void(int)>& f, const std::function<void(int, int)>& progress) const;
 
   const Model& model_;
   AnalogConfig cfg_;

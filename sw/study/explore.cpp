@@ -8,8 +8,10 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
+#include "sw/analog/analog_spec.h"
 #include "sw/common/errors.h"
 #include "sw/common/input_file.h"
 #include "sw/nn/dataset.h"
@@ -199,6 +201,64 @@ std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& als
 
 std::string explore_point_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset) {
   return point_key(point_cfg, {"explore.model", "explore.dataset"}) + " model " + model_id + " " + dataset;
+}
+
+const std::vector<std::string>& readout_keys() {
+  static const std::vector<std::string> keys = {"converters.adc_bits",
+                                                "converters.adc_range",
+                                                "converters.adc_margin",
+                                                "converters.adc_offset_subtraction",
+                                                "converters.adc_columns_per_adc",
+                                                "components.",
+                                                "architecture.",
+                                                "platform.",
+                                                "study."};
+  return keys;
+}
+
+std::string programming_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset) {
+  // The method by its conversion: whether it calibrates is read out (AnalogLayer::set_readout).
+  ConfigTree cfg = point_cfg;
+  const char* conversion = "none";
+  switch (mitigation_from_name(cfg.get_string("mitigation.method")).conversion()) {
+    case ConversionKind::None:
+      conversion = "none";
+      break;
+    case ConversionKind::Signal:
+      conversion = "conversion";
+      break;
+    case ConversionKind::Matrix:
+      conversion = "matrix-conversion";
+      break;
+  }
+  cfg.set_scalar("mitigation.method", conversion);
+  std::vector<std::string> ignored = readout_keys();
+  ignored.insert(ignored.end(), {"explore.model", "explore.dataset"});
+  return point_key(cfg, ignored) + " model " + model_id + " " + dataset;
+}
+
+std::vector<size_t> explore_share(const std::vector<size_t>& pending, const std::vector<std::string>& group_of,
+                                  int rank, int ranks) {
+  // Group by group, each group where its first point is.
+  std::map<std::string, std::vector<size_t>> members;
+  std::vector<const std::string*> groups;  // in the order of their first point
+  for (size_t k : pending) {
+    auto it = members.find(group_of.at(k));
+    if (it == members.end()) {
+      it = members.emplace(group_of.at(k), std::vector<size_t>()).first;
+      groups.push_back(&it->first);
+    }
+    it->second.push_back(k);
+  }
+  std::vector<size_t> ordered;
+  ordered.reserve(pending.size());
+  for (const std::string* g : groups) ordered.insert(ordered.end(), members[*g].begin(), members[*g].end());
+  // Contiguous shares: the first (n mod ranks) ranks take one point more.
+  const size_t n = ordered.size(), r = static_cast<size_t>(rank), size = static_cast<size_t>(ranks);
+  const size_t first = r * (n / size) + std::min(r, n % size);
+  const size_t count = n / size + (r < n % size ? 1 : 0);
+  return std::vector<size_t>(ordered.begin() + static_cast<std::ptrdiff_t>(first),
+                             ordered.begin() + static_cast<std::ptrdiff_t>(first + count));
 }
 
 double objective_cost(const nlohmann::json& row, Objective o) {

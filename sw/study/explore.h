@@ -77,6 +77,27 @@ bool point_key_ignores(const std::string& key);
 /// a changed file not) and the dataset by name, as eval_run_key does.
 std::string explore_point_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset);
 
+/// The keys a point's crossbars are read out with after they are programmed, or that do not
+/// reach the crossbars at all (an entry ending in '.' is a whole section): the ADCs
+/// (converters.adc_bits, adc_range, adc_margin, adc_offset_subtraction, adc_columns_per_adc), the
+/// component library, the architecture, the platform and xbar-study's section. Explore programs
+/// the points that differ only in these (and in whether mitigation.method calibrates) once, and
+/// reads the others out of those crossbars (CrossbarBackend::set_readout).
+const std::vector<std::string>& readout_keys();
+
+/// A point's programming identity: point_key without readout_keys, mitigation.method known by
+/// its conversion only (conversion and conversion+calibration program alike), with the model and
+/// dataset as in explore_point_key. Points with equal keys program equal crossbars.
+std::string programming_key(const ConfigTree& point_cfg, const std::string& model_id, const std::string& dataset);
+
+/// The points one of `ranks` MPI ranks runs, in order: `pending` (indices into the space, with
+/// `group_of` their programming_key by index) ordered group by group (the groups in the order of
+/// their first point, each group's points in space order) and cut into `ranks` contiguous shares
+/// whose sizes differ by at most one. A group is programmed once per rank it reaches: at most
+/// groups + ranks - 1 programmings in all, whatever the ranks.
+std::vector<size_t> explore_share(const std::vector<size_t>& pending, const std::vector<std::string>& group_of,
+                                  int rank, int ranks);
+
 /// A number as one text per value. For a real key: the shortest text that reads back as the
 /// same double ("3.0", "3e0" and "3" are "3"; "0.40" is "0.4"; "1000", "1000.0" and "1e3" are
 /// "1e+03"). For an `integer` key (ConfigTree::is_integer): an integer text exactly, whatever

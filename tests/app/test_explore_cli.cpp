@@ -13,9 +13,13 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <set>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "tests/app/cli_test_util.h"
+#include "tests/app/tiny_network.h"
 
 using xbarsim_test::run_xbarsim;
 
@@ -45,7 +49,8 @@ int lines(const std::string& path) {
 
 nlohmann::json without_timing(nlohmann::json j) {
   for (auto& r : j["points"])
-    for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s"}) r.erase(k);
+    for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "reused_programming"})
+      r.erase(k);
   return j;
 }
 
@@ -227,4 +232,74 @@ TEST(ExploreCommand, WithoutAccuracyPointsRunTimingOnlyWithTheFullRunsFigures) {
                                " --set explore.accuracy=false --set explore.objectives=accuracy,energy --out " +
                                tmp("bad.jsonl"));
   EXPECT_EQ(bad.code, 2) << bad.out;
+}
+
+// Points that differ only in their readout (ADC bits, whether the method calibrates, the
+// platform's clock) share one programming: 2 x 2 x 2 x 2 points over two conductance headrooms
+// are 2 programmings, and every point's row equals the row of an exploration of that point
+// alone (programmed for it), bit for bit. On the tiny network the test writes (no shared data).
+TEST(ExploreCommand, PointsDifferingInTheirReadoutShareOneProgramming) {
+  const std::string dir = tmp("reuse");
+  std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "/models'").c_str());
+  xbarsim_test::write_tiny_cifar(dir + "/data", 12);
+  xbarsim_test::write_tiny_model(dir + "/models/tiny.onnx");
+  const std::string cfg = dir + "/space.yaml";
+  std::ofstream(cfg) << "data:\n  dir: " << dir << "/data\n  models_dir: " << dir
+                     << "/models\nexplore:\n  model: tiny\neval:\n  images: 12\n  calibration_images: 6\n"
+                        "  calibration_samples: 64\nmapping:\n  max_rows: 16\n  max_cols: 4\nnoise:\n"
+                        "  sigma_us: 0.5\nsolver:\n  threads: 1\n";
+  const std::vector<std::pair<std::string, std::vector<std::string>>> dims = {
+      {"mapping.g_headroom", {"0.1", "0.3"}},
+      {"converters.adc_bits", {"3", "6"}},
+      {"mitigation.method", {"conversion", "conversion+calibration"}},
+      {"platform.clock_mhz", {"100", "200"}}};
+  std::string lists;
+  for (const auto& [key, values] : dims) lists += " --set '" + key + "=[" + values[0] + "," + values[1] + "]'";
+  const auto r =
+      run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/all.jsonl --json " + dir + "/all.json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("16 to run; 2 crossbar programmings"), std::string::npos) << r.out;
+  std::ifstream in(dir + "/all.json");
+  const auto all = nlohmann::json::parse(in);
+  ASSERT_EQ(all["points"].size(), 16u);
+  int programmings = 0;
+  std::set<std::string> accuracies_and_errors;  // the readout changes results
+  for (const auto& p : all["points"]) {
+    ASSERT_EQ(p["status"], "ok") << p;
+    programmings += !p["reused_programming"].get<bool>();
+    accuracies_and_errors.insert(p["mean_relative_error"].dump() + " " + p["energy_uj_per_image"].dump());
+  }
+  EXPECT_EQ(programmings, 2);
+  EXPECT_GE(accuracies_and_errors.size(), 8u);
+  // Each point on its own, programmed for itself.
+  for (const auto& p : all["points"]) {
+    std::string sets;
+    for (const auto& [key, value] : p["point"].items()) sets += " --set '" + key + "=" + value.get<std::string>() + "'";
+    const std::string one = dir + "/one_" + std::to_string(p["index"].get<int>());
+    const auto r1 = run_xbarsim("explore --config " + cfg + sets + " --out " + one + ".jsonl --json " + one + ".json");
+    ASSERT_EQ(r1.code, 0) << r1.out;
+    std::ifstream in1(one + ".json");
+    auto row = nlohmann::json::parse(in1)["points"][0];
+    EXPECT_FALSE(row["reused_programming"].get<bool>());
+    auto expected = p;
+    for (auto* j : {&row, &expected})
+      for (const char* k : {"program_time_s", "evaluate_time_s", "simulation_wall_time_s", "reused_programming",
+                            "index", "label", "point", "front"})
+        j->erase(k);
+    EXPECT_EQ(row.dump(1), expected.dump(1)) << p["label"];
+  }
+  // Three ranks split the groups (6, 5 and 5 points: the first group reaches two ranks, and so
+  // does the second): the same results.
+  if (std::system("command -v mpirun >/dev/null 2>&1") == 0) {
+    const auto r3 =
+        run_xbarsim("explore --config " + cfg + lists + " --out " + dir + "/three.jsonl --json " + dir + "/three.json",
+                    "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -n 3 --oversubscribe ");
+    if (r3.out.find("built without MPI") == std::string::npos) {
+      ASSERT_EQ(r3.code, 0) << r3.out;
+      EXPECT_NE(r3.out.find("16 to run on 3 ranks; 4 crossbar programmings"), std::string::npos) << r3.out;
+      std::ifstream in3(dir + "/three.json");
+      EXPECT_EQ(without_timing(nlohmann::json::parse(in3)).dump(1), without_timing(all).dump(1));
+    }
+  }
+  if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());
 }

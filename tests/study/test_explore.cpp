@@ -247,3 +247,54 @@ TEST(ResultJournalFile, MustBeARegularFile) {
     EXPECT_NE(std::string(e.what()).find("cannot write the example journal"), std::string::npos) << e.what();
   }
 }
+
+// Points that differ only in what is read out after programming (the ADCs, whether the method
+// calibrates, the platform) program equal crossbars: one programming key; anything that changes
+// the conductances, the conversion or the programming inputs is another.
+TEST(ProgrammingKey, ReadoutKeysShareAKeyProgrammingKeysDoNot) {
+  const auto key = [](const std::vector<std::string>& sets) { return programming_key(cfg_with(sets), "m", "d"); };
+  const std::string a = key({});
+  for (const char* same :
+       {"converters.adc_bits=4", "converters.adc_bits=none", "converters.adc_margin=0.2",
+        "converters.adc_offset_subtraction=false", "converters.adc_columns_per_adc=32", "mitigation.method=conversion",
+        "platform.clock_mhz=200", "platform.schedule=pipelined", "architecture.machine=isaac-ce",
+        "components.library=isaac", "solver.threads=3", "study.rows=10"})
+    EXPECT_EQ(key({same}), a) << same;
+  EXPECT_EQ(key({"converters.adc_range=per_read", "converters.input_bits=8", "converters.dac_bits=2"}),
+            key({"converters.input_bits=8", "converters.dac_bits=2"}));
+  for (const char* other :
+       {"mitigation.method=calibration", "mitigation.method=matrix-conversion", "mapping.g_headroom=0.1",
+        "mapping.max_rows=64", "mapping.weight_bits=6", "crossbar.cell_bits=3", "crossbar.r_wire=2",
+        "converters.dac_bits=6", "converters.input_bits=8", "converters.dac_predistortion=true", "noise.sigma_us=0.1",
+        "noise.seed=3", "calibration.samples=20", "calibration.seed=1", "conversion.amplitude=0.2",
+        "solver.tolerance=1e-10"})
+    EXPECT_NE(key({other}), a) << other;
+  EXPECT_EQ(key({"mitigation.method=none"}), key({"mitigation.method=calibration"}));
+  EXPECT_EQ(key({"mitigation.method=matrix-conversion"}), key({"mitigation.method=matrix-conversion+calibration"}));
+  EXPECT_NE(programming_key(cfg_with({}), "m", "d"), programming_key(cfg_with({}), "other model", "d"));
+}
+
+// The shares of the ranks: every pending point once, a group's points together, each group
+// reaching as few ranks as contiguous shares allow (programmings <= groups + ranks - 1), share
+// sizes within one of each other.
+TEST(ExploreShare, GroupByGroupInContiguousShares) {
+  // Space of 9 points in 3 groups, interleaved (a x b with the group from b); point 4 is done.
+  const std::vector<std::string> group_of = {"A", "B", "C", "A", "B", "C", "A", "B", "C"};
+  const std::vector<size_t> pending = {0, 1, 2, 3, 5, 6, 7, 8};
+  EXPECT_EQ(explore_share(pending, group_of, 0, 1), (std::vector<size_t>{0, 3, 6, 1, 7, 2, 5, 8}));
+  for (int ranks = 1; ranks <= 9; ++ranks) {
+    std::vector<size_t> all;
+    int programmings = 0;
+    for (int r = 0; r < ranks; ++r) {
+      const std::vector<size_t> share = explore_share(pending, group_of, r, ranks);
+      EXPECT_LE(share.size(), pending.size() / ranks + 1) << ranks;
+      EXPECT_GE(share.size(), pending.size() / ranks) << ranks;
+      for (size_t i = 0; i < share.size(); ++i) programmings += i == 0 || group_of[share[i]] != group_of[share[i - 1]];
+      all.insert(all.end(), share.begin(), share.end());
+    }
+    EXPECT_EQ(all, explore_share(pending, group_of, 0, 1)) << ranks;  // the shares cut one order
+    EXPECT_LE(programmings, 3 + ranks - 1) << ranks;
+  }
+  EXPECT_EQ(explore_share(pending, group_of, 0, 2), (std::vector<size_t>{0, 3, 6, 1}));
+  EXPECT_EQ(explore_share(pending, group_of, 1, 2), (std::vector<size_t>{7, 2, 5, 8}));
+}
