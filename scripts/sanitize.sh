@@ -22,7 +22,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=build-asan
 JOBS=${JOBS:-2}
-EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)|^BitSerialCli\.(Simulate|Explore)'}
+# Simulating tests are left out (SystemC runs); so are the CLI runs of a simulation on a machine
+# (configs/isaac.yaml), whose xbarsim processes end, in 2 runs of 3, with LeakSanitizer's own
+# stop-the-world tracer faulting while it reads the threads' stacks ("Tracer caught signal 11
+# ... LeakSanitizer has encountered a fatal error", no report; LSAN_OPTIONS=use_stacks=0 avoids
+# it): not understood yet. The machine's in-process simulations (MapperAgreesWithTheSimulation)
+# stay here.
+EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)|^BitSerialCli\.(Simulate|Explore)|^Robustness\.(MachineVcd|HugeMachines)|^TorchZooCli\.|^Safety\.OneImageReports'}
 EXCLUDE_LABEL=${SANITIZE_EXCLUDE_LABEL:-^slow\$}
 FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 
