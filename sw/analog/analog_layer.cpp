@@ -465,9 +465,12 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   RowMat<S> xq_buf;
   const RowMat<S>* xq = &x;
   if ((dac_q_.enabled() && !quantized) || order_.size()) {
-    xq_buf = x;
+    // One copy: a grouped layer's inputs taken in the crossbars' row order (arrange_inputs).
+    if (order_.size())
+      xq_buf = x(Eigen::all, order_);
+    else
+      xq_buf = x;
     if (!quantized) dac_inplace<S>(xq_buf);
-    arrange_inputs<S>(xq_buf);
     xq = &xq_buf;
   }
   y.setZero(x.rows(), w_.cols());
