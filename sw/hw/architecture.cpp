@@ -8,7 +8,7 @@
 
 #include "sw/analog/input_slicing.h"
 #include "sw/common/input_file.h"
-#include "sw/hw/yaml_section.h"
+#include "sw/common/yaml_section.h"
 
 namespace xbarsim {
 

@@ -1,7 +1,7 @@
 #include "sw/hw/component_library.h"
 
 #include "sw/common/input_file.h"
-#include "sw/hw/yaml_section.h"
+#include "sw/common/yaml_section.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -34,14 +34,23 @@ double ConverterModel::area_at(int bits) const { return scale_by_bits(area_mm2, 
 
 namespace {
 
+/// energy_scaling / area_scaling: exponential (default), linear or constant in the bits.
+Scaling scaling(YamlSection& s, const std::string& key) {
+  const std::string v = s.word_or(key, "exponential");
+  if (v == "exponential") return Scaling::Exponential;
+  if (v == "linear") return Scaling::Linear;
+  if (v == "constant") return Scaling::Constant;
+  throw InputError(s.where(key) + " must be exponential, linear or constant, got '" + v + "'");
+}
+
 ConverterModel converter(YamlSection& s) {
   ConverterModel c;
   c.area_mm2 = s.number("area_mm2", true);
   c.leakage_mw = s.number("leakage_mw");
   c.conversion_pj = s.number("conversion_pj");
   c.reference_bits = s.integer("reference_bits");
-  c.energy_scaling = s.scaling("energy_scaling");
-  c.area_scaling = s.scaling("area_scaling");
+  c.energy_scaling = scaling(s, "energy_scaling");
+  c.area_scaling = scaling(s, "area_scaling");
   return c;
 }
 

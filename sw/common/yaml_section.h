@@ -1,6 +1,6 @@
 #pragma once
-/// Strict reading of one YAML map of a hardware file (the component library, an
-/// architecture): every key read is checked, every key present must have been read, and
+/// Strict reading of one YAML map of a data file (the component library, an
+/// architecture, a device model): every key read is checked, every key present must have been read, and
 /// numbers are finite and non-negative. Errors name the file, the section and the key.
 #include <yaml-cpp/yaml.h>
 
@@ -70,6 +70,20 @@ class YamlSection {
                        " number at most 1e12, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return v;
   }
+  /// The node at `key` as it is (required), for a form the getters do not read.
+  YAML::Node raw(const std::string& key) { return get(key); }
+  /// A finite number of either sign, at most kMaxQuantity in magnitude (a fit's coefficient).
+  double real(const std::string& key) { return real_of(get(key), key); }
+  /// A list of such numbers, of min_count to max_count entries.
+  std::vector<double> reals(const std::string& key, size_t min_count, size_t max_count) {
+    const YAML::Node n = get(key);
+    if (!n.IsSequence() || n.size() < min_count || n.size() > max_count)
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a list of " + std::to_string(min_count) +
+                       (max_count > min_count ? " to " + std::to_string(max_count) : std::string()) + " numbers");
+    std::vector<double> out;
+    for (const auto& item : n) out.push_back(real_of(item, key));
+    return out;
+  }
   /// The largest count a hardware file may give (2^30): products of counts are then taken in
   /// 64 bits, and a file states its own limits on them.
   static constexpr int kMaxCount = 1 << 30;
@@ -82,16 +96,13 @@ class YamlSection {
                        std::to_string(kMaxCount) + ", got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return static_cast<int>(v);
   }
-  Scaling scaling(const std::string& key) {
+  /// "<origin>: '<section>.<key>'", for a caller's message about a value it read.
+  std::string where(const std::string& key) const { return origin_ + ": '" + name_ + "." + key + "'"; }
+  /// The word at `key`, or `fallback` when the key is absent (an optional name).
+  std::string word_or(const std::string& key, const std::string& fallback) {
     read_.push_back(key);
     const YAML::Node n = node_[key];
-    if (!n) return Scaling::Exponential;
-    const std::string s = n.Scalar();
-    if (s == "exponential") return Scaling::Exponential;
-    if (s == "linear") return Scaling::Linear;
-    if (s == "constant") return Scaling::Constant;
-    throw InputError(origin_ + ": '" + name_ + "." + key + "' must be exponential, linear or constant, got '" + s +
-                     "'");
+    return n ? n.Scalar() : fallback;
   }
   /// Rejects keys that were not read (a misspelt key would otherwise be ignored).
   void finish() const {
@@ -106,6 +117,13 @@ class YamlSection {
   }
 
  private:
+  double real_of(const YAML::Node& n, const std::string& key) const {
+    double v = 0;
+    if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || std::abs(v) > kMaxQuantity)
+      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a finite number, got '" +
+                       (n.IsScalar() ? n.Scalar() : "?") + "'");
+    return v;
+  }
   YAML::Node get(const std::string& key) {
     read_.push_back(key);
     const YAML::Node n = node_[key];
