@@ -30,7 +30,7 @@ class CrossbarArray : public sc_core::sc_module {
   /// counters: safe on any thread).
   static void read(LayerJob& job, int b, Eigen::Index first, Eigen::Index count) {
     job.read_currents.resize(static_cast<size_t>(job.analog->crossbars()));
-    job.analog->analog<float>(b, job.codes, first, count, job.read_currents[static_cast<size_t>(b)]);
+    job.analog->analog<float>(b, job.codes, first, count, job.read_currents[static_cast<size_t>(b)], job.image);
   }
   /// The values of a pass: every crossbar's column currents for every read, from the circuit
   /// solver (no timing, no counters: safe on any thread).
@@ -41,7 +41,7 @@ class CrossbarArray : public sc_core::sc_module {
       if (job.serial())
         read(job, b, 0, job.iterations());
       else
-        job.analog->analog<float>(b, job.xq, job.currents[b]);
+        job.analog->analog<float>(b, job.xq, job.currents[b], job.image);
     }
   }
 

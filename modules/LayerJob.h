@@ -24,6 +24,7 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   const LinearLayer* layer = nullptr;
   const AnalogLayer* analog = nullptr;
   const float* activation = nullptr;  ///< C x H x W input of the layer
+  uint64_t image = 0;                 ///< the image's index in the dataset (keys the read noise)
   bool detailed = true;               ///< timing mode
   /// Timing only (platform.timing_only): the modules count actions and record stage latencies
   /// from the layer's geometry and compute no values (xq, currents and y stay empty).

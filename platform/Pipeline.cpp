@@ -523,13 +523,14 @@ void Pipeline::submit_values(Stage& s, int image) {
   switch (op.kind) {
     case OpKind::Linear:
       // The tile's datapath, by its modules' functions, on this worker's copy of the job.
-      task = [this, &op, x0 = xs.front(), y](int worker) {
+      task = [this, &op, x0 = xs.front(), y, image](int worker) {
         const LinearLayer& L = model_.linear[op.linear];
         LayerJob& job = *scratch_[static_cast<size_t>(worker)][static_cast<size_t>(op.linear)];
         job.reset_counters();
         job.layer = &L;
         job.analog = &programmed_.layer(op.linear);
         job.activation = x0->data();
+        job.image = static_cast<uint64_t>(image);
         job.detailed = true;
         Tile::compute_values(job);
         const int pixels = L.out.h * L.out.w;

@@ -28,7 +28,10 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.calibration = parse_calibration_spec(cfg);
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
-  c.noise = parse_noise_spec(cfg);
+  c.device = parse_device_spec(cfg);
+  // One key per physical quantity: a model with its own conductance range sets the crossbar's.
+  c.xbar.g_min_s = c.device.g_min_s;
+  c.xbar.g_max_s = c.device.g_max_s;
   if (c.converters.adc_range == AdcRange::Full) {
     const char* missing = c.mapping.cell_bits == 0              ? "crossbar.cell_bits (a level to count)"
                           : c.converters.activation_bits() == 0 ? "converters.dac_bits or input_bits (a read step)"
@@ -76,16 +79,33 @@ bool programs_alike(const AnalogConfig& a, const AnalogConfig& b) {
   const ConvertersSpec &da = a.converters, &db = b.converters;
   const bool dacs =
       da.input_bits == db.input_bits && da.dac_bits == db.dac_bits && da.dac_predistortion == db.dac_predistortion;
-  const bool noise = a.noise.sigma_s == b.noise.sigma_s && a.noise.seed == b.noise.seed;
-  return crossbar && solver && mapping && conversion && calibration && dacs && noise;
+  // The device's programming and read statistics program (conversion may read); the time the
+  // layer is read at and the compensation are readout (set_readout moves the layer in time).
+  const DeviceSpec &va = a.device, &vb = b.device;
+  const bool device = va.model == vb.model && va.program_sigma_s == vb.program_sigma_s &&
+                      va.read_sigma_s == vb.read_sigma_s && va.stuck_gmin == vb.stuck_gmin &&
+                      va.stuck_gmax == vb.stuck_gmax && va.spare_columns == vb.spare_columns && va.seed == vb.seed &&
+                      da.readout_noise_a == db.readout_noise_a;
+  return crossbar && solver && mapping && conversion && calibration && dacs && device;
 }
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
                          uint64_t salt, const RowGroups& groups)
-    : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt) {
+    : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt), device_(cfg.device) {
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
-  alpha_ = cfg.xbar.v_in_max_v / x_max;
+  // The cells' range: the model's when it fixes one (the crossbar's range follows), else the crossbar's.
+  DeviceSpec dev = cfg.device;
+  if (dev.fixes_range()) {
+    cfg_.xbar.g_min_s = dev.g_min_s = dev.stat.g_min_s;
+    cfg_.xbar.g_max_s = dev.g_max_s = dev.stat.g_max_s;
+  } else {
+    dev.g_min_s = cfg.xbar.g_min_s;
+    dev.g_max_s = cfg.xbar.g_max_s;
+  }
+  cfg_.device = dev;
+  device_ = Device(dev);
+  alpha_ = cfg_.xbar.v_in_max_v / x_max;
   // With pre-distortion I/G = h(V(x)) = alpha x, full scale at v_in_max.
   if (cfg.dac_predistorts())
     alpha_ = MemristorDevice(cfg.xbar.memristor).current_per_siemens(cfg.xbar.v_in_max_v) / x_max;
@@ -214,6 +234,8 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       auto xb = std::make_unique<Crossbar>();
       static_cast<MappedWeights&>(*xb) =
           map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
+      xb->index = static_cast<int>(b);
+      xb->stream = derive_seed(cfg_.device.seed, {salt_, static_cast<uint64_t>(b)});
       xb->beta = Eigen::VectorXd::Ones(xb->pcols);
       xb->solver = make_crossbar_solver(cfg_.xbar, cfg_.solver);
       // Programming reads the crossbar's own rows of every input (in0 = 0), then the crossbar
@@ -223,7 +245,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
-      add_programming_noise(*xb, static_cast<int>(b));
+      write_cells(*xb, rep);
       read_out(*xb, in);
       xb->in0 = blk.row0;
       xbars.push_back(std::move(xb));
@@ -232,8 +254,15 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
     }
   }
-  xbars_ = std::move(xbars);
+  xbars.swap(xbars_);
   reports_ = std::move(reports);
+  time_s_ = 0;
+  try {
+    move_to_time(layer_in);
+  } catch (...) {
+    xbars.swap(xbars_);  // all or nothing: the layer as it was
+    throw;
+  }
 }
 
 void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& calib) {
@@ -242,15 +271,27 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
     throw std::invalid_argument("analog layer: set_readout with a configuration that programs other conductances");
   const std::shared_ptr<const SavedReadout> before = save_readout();
   try {
+    // Only the time or the compensation changes, and the readout at t = 0 is still the one
+    // programming made (no recalibration at another time since): move in time only.
+    const ConvertersSpec &ca = cfg_.converters, &cb = cfg.converters;
+    const bool same_readout = ca.adc_bits == cb.adc_bits && ca.adc_range == cb.adc_range &&
+                              ca.adc_margin == cb.adc_margin && ca.adc_offset_subtraction == cb.adc_offset_subtraction &&
+                              cfg_.mitigation.calibrate() == cfg.mitigation.calibrate() &&
+                              cfg_.device.compensation != Compensation::Recalibrate;
     cfg_ = cfg;
     cfg_.solver = before->cfg.solver;  // the options the crossbars' solvers were made with
     const LayerInputs layer_in = layer_inputs(calib, /*real_inputs=*/false);  // only conversion reads them
+    if (same_readout) {
+      move_to_time(layer_in);
+      return;
+    }
     for (size_t b = 0; b < xbars_.size(); ++b) {
       check_cancel();
       Crossbar& x = *xbars_[b];
       try {
         // As program(): the crossbar's own rows of every input (in0 = 0).
         x.in0 = 0;
+        if (time_s_ != 0) settle(x, 0);
         read_out(x, crossbar_inputs(layer_in, blocks_[b]));
         x.in0 = blocks_[b].row0;
       } catch (const std::exception&) {
@@ -258,6 +299,8 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
         rethrow_with_context("reading out its " + crossbar_name(blocks_[b]));
       }
     }
+    time_s_ = 0;
+    move_to_time(layer_in);
   } catch (...) {
     restore_readout(*before);
     throw;
@@ -267,8 +310,10 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
 std::shared_ptr<const AnalogLayer::SavedReadout> AnalogLayer::save_readout() const {
   auto s = std::make_shared<SavedReadout>();
   s->cfg = cfg_;
+  s->time_s = time_s_;
   s->xbars.reserve(xbars_.size());
-  for (const auto& x : xbars_) s->xbars.push_back({x->adc_lo, x->adc_hi, x->adc_offset, x->fit, x->adc_f, x->adc_d});
+  for (const auto& x : xbars_)
+    s->xbars.push_back({x->adc_lo, x->adc_hi, x->adc_offset, x->fit, x->adc_f, x->adc_d, x->ref0, x->comp});
   return s;
 }
 
@@ -285,8 +330,15 @@ void AnalogLayer::restore_readout(const SavedReadout& saved) {
     x.fit = r.fit;
     x.adc_f = r.adc_f;
     x.adc_d = r.adc_d;
+    x.ref0 = r.ref0;
+    x.comp = r.comp;
+    x.comp_f = r.comp.cast<float>().array();
+    if (time_s_ != saved.time_s) settle(x, saved.time_s);
   }
+  time_s_ = saved.time_s;
 }
+
+const Eigen::MatrixXd& AnalogLayer::conductances(int b) const { return xbars_.at(b)->g_prog; }
 
 std::string AnalogLayer::crossbar_name(const Block& blk) const {
   return "crossbar of rows " + std::to_string(blk.row0) + ".." + std::to_string(blk.row0 + blk.rows - 1) +
@@ -319,9 +371,9 @@ void AnalogLayer::dac_values(S* d, Eigen::Index n) const {
   }
 }
 
-Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const {
+Eigen::MatrixXd AnalogLayer::currents_of(const Crossbar& x, const Eigen::MatrixXd& xq, uint64_t image) const {
   Mat<double> cur;
-  analog_of<double>(x, xq, cur);
+  analog_of<double>(x, xq, cur, image);
   return cur;
 }
 
@@ -344,22 +396,29 @@ void AnalogLayer::arrange_inputs(RowMat<S>& x) const {
 }
 
 template <typename S>
-void AnalogLayer::analog(int b, const RowMat<S>& xq, Mat<S>& currents) const {
-  analog_of<S>(*xbars_.at(b), xq, currents);
+void AnalogLayer::analog(int b, const RowMat<S>& xq, Mat<S>& currents, uint64_t image) const {
+  analog_of<S>(*xbars_.at(b), xq, currents, image);
 }
 
 template <typename S>
-void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const {
+void AnalogLayer::analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents, uint64_t image) const {
+  const auto values = xq.middleCols(x.in0, x.blk.rows);
   if (cfg_.xbar.is_linear()) {
     // I = V * G_eff with V = alpha * X: alpha is folded into the stored matrix.
     if constexpr (std::is_same_v<S, float>)
-      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_f;
+      currents.noalias() = values * x.geff_f;
     else
-      currents.noalias() = xq.middleCols(x.in0, x.blk.rows) * x.geff_d;
+      currents.noalias() = values * x.geff_d;
+    add_read_noise<S>(x, values, currents.data(), currents.rows(), /*row_major=*/false, 0, image);
     return;
   }
-  const Eigen::MatrixXd v = volts(xq.middleCols(x.in0, x.blk.rows).template cast<double>());
+  const Eigen::MatrixXd v = volts(values.template cast<double>());
+  if (cfg_.device.has_read_noise()) {  // every read solved with its own conductances
+    currents = noisy_solves(x, v, 0, image).template cast<S>();
+    return;
+  }
   currents = x.solver->column_currents(v).template cast<S>();
+  add_read_noise<S>(x, values, currents.data(), currents.rows(), /*row_major=*/false, 0, image);
 }
 
 template <typename S>
@@ -369,7 +428,10 @@ void AnalogLayer::adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) cons
 
 template <typename S, typename XQ>
 void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const {
-  if (cfg_.converters.adc_bits <= 0) return;
+  if (cfg_.converters.adc_bits <= 0) {
+    compensate<S>(x, currents.data(), currents.rows(), currents.rows(), /*row_major=*/false);
+    return;
+  }
   using Col = Eigen::Array<S, Eigen::Dynamic, 1>;
   const Col sum_x = input_sums<S>(xq, x.in0, x.blk.rows).array();
   Col offset(currents.rows());
@@ -388,6 +450,7 @@ void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) cons
     }
     col = v.template cast<S>() + offset;
   }
+  compensate<S>(x, currents.data(), currents.rows(), currents.rows(), /*row_major=*/false);
 }
 
 template <typename S>
@@ -455,7 +518,7 @@ void AnalogLayer::recover_of(const Crossbar& x, const Mat<S>& iq, const RowMat<S
 }
 
 template <typename S>
-void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
+void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized, uint64_t image) const {
   if (x.cols() != w_.rows()) {
     std::ostringstream os;
     os << "analog layer: input vectors have " << x.cols() << " values, the layer expects " << w_.rows();
@@ -475,14 +538,14 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   }
   y.setZero(x.rows(), w_.cols());
   if (slicing_.serial()) {
-    forward_serial<S>(*xq, y);
+    forward_serial<S>(*xq, y, image);
     return;
   }
   Mat<S> cur;
   for (int b = 0; b < crossbars(); ++b) {
     check_cancel();
     try {
-      analog<S>(b, *xq, cur);
+      analog<S>(b, *xq, cur, image);
       adc_inplace<S>(b, cur, *xq);
       recover_add<S>(b, cur, *xq, y);
     } catch (const std::exception&) {
@@ -491,42 +554,43 @@ void AnalogLayer::forward(const RowMat<S>& x, Mat<S>& y, bool quantized) const {
   }
 }
 
-Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x) const {
+Eigen::MatrixXd AnalogLayer::forward(const Eigen::MatrixXd& x, uint64_t image) const {
   const RowMat<double> xr = x;
   Mat<double> y;
-  forward<double>(xr, y);
+  forward<double>(xr, y, false, image);
   return y;
 }
 
 Eigen::MatrixXd AnalogLayer::partial(int b, const Eigen::MatrixXd& x) const {
   const Eigen::MatrixXd xq = dac(x);
-  if (order_.size()) return partial_of(*xbars_.at(b), xq(Eigen::all, order_), /*adc=*/true, /*calibrated=*/true);
-  return partial_of(*xbars_.at(b), xq, /*adc=*/true, /*calibrated=*/true);
+  if (order_.size()) return partial_of(*xbars_.at(b), xq(Eigen::all, order_), /*adc=*/true, /*calibrated=*/true, 0);
+  return partial_of(*xbars_.at(b), xq, /*adc=*/true, /*calibrated=*/true, 0);
 }
 
-Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const {
+Eigen::MatrixXd AnalogLayer::partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated,
+                                        uint64_t image) const {
   Mat<double> y = Mat<double>::Zero(xq.rows(), x.blk.cols);
   if (slicing_.serial()) {
     Codes codes;
     slice_inputs<double>(xq, codes);
     ReadCurrents<double> cur;
-    analog_of<double>(x, codes, 0, xq.rows(), cur);
+    analog_of<double>(x, codes, 0, xq.rows(), cur, image);
     if (adc) adc_of<double>(x, cur);
     recover_of<double>(x, cur, y, 0, calibrated);
     return y;
   }
-  Mat<double> cur = currents_of(x, xq);
+  Mat<double> cur = currents_of(x, xq, image);
   if (adc) adc_of<double, Eigen::MatrixXd>(x, cur, xq);
   recover_of<double>(x, cur, xq, y, 0, calibrated);
   return y;
 }
 
 #define XBARSIM_INSTANTIATE(S)                                                     \
-  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool) const;    \
+  template void AnalogLayer::forward<S>(const RowMat<S>&, Mat<S>&, bool, uint64_t) const;    \
   template void AnalogLayer::dac_values<S>(S*, Eigen::Index) const;                \
   template void AnalogLayer::dac_inplace<S>(RowMat<S>&) const;                     \
   template void AnalogLayer::arrange_inputs<S>(RowMat<S>&) const;                  \
-  template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&) const;      \
+  template void AnalogLayer::analog<S>(int, const RowMat<S>&, Mat<S>&, uint64_t) const;      \
   template void AnalogLayer::adc_inplace<S>(int, Mat<S>&, const RowMat<S>&) const; \
   template void AnalogLayer::recover_add<S>(int, const Mat<S>&, const RowMat<S>&, Mat<S>&, bool) const;
 XBARSIM_INSTANTIATE(float)

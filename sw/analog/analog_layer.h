@@ -21,11 +21,12 @@
 #include "sw/analog/weight_mapping.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/common/config.h"
+#include "sw/device/device.h"
 
 namespace xbarsim {
 
 /// Everything that configures an analog layer: the typed specs of the sections crossbar,
-/// solver, mapping, mitigation, conversion, calibration, converters and noise.
+/// solver, mapping, mitigation, conversion, calibration, converters and device.
 struct AnalogConfig {
   CrossbarParams xbar;
   SolverOptions solver;
@@ -34,7 +35,7 @@ struct AnalogConfig {
   ConversionSpec conversion;
   CalibrationSpec calibration;
   ConvertersSpec converters;
-  NoiseSpec noise;
+  DeviceSpec device;
   /// Sets the mitigation from a method name; throws InputError naming `key`.
   void set_method(const std::string& name, const std::string& key) { mitigation = mitigation_from_name(name, key); }
   /// The DACs pre-distort (and carry lookup tables): converters.dac_predistortion with a sinh
@@ -46,12 +47,13 @@ struct AnalogConfig {
 AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& method_key = "mitigation.method");
 
 /// Whether two configurations program the same conductances (AnalogLayer::program's conversion,
-/// noise and circuit state): they differ at most in the readout, which programming applies after
-/// the conductances are written (ADC ranging and calibration): converters.adc_bits, adc_range,
-/// adc_margin, adc_offset_subtraction and adc_columns_per_adc (cost only), whether the method
-/// calibrates (not its conversion), and solver.threads (no result depends on it). Everything else
-/// (crossbar, solver, mapping, conversion, calibration, noise, DAC and input bits, pre-distortion)
-/// programs. A new field of AnalogConfig is compared here unless it is read out only.
+/// device programming and circuit state): they differ at most in the readout, which programming
+/// applies after the conductances are written (ADC ranging and calibration) and the time the
+/// layer is read at: converters.adc_bits, adc_range, adc_margin, adc_offset_subtraction and
+/// adc_columns_per_adc (cost only), whether the method calibrates (not its conversion),
+/// device.time_s and device.compensation, and solver.threads (no result depends on it).
+/// Everything else (crossbar, solver, mapping, conversion, calibration, the device's model, seed,
+/// faults and read noise, the readout noise, DAC and input bits, pre-distortion) programs. A new field of AnalogConfig is compared here unless it is read out only.
 bool programs_alike(const AnalogConfig& a, const AnalogConfig& b);
 
 /// Statistics of one programmed crossbar.
@@ -62,6 +64,8 @@ struct CrossbarReport {
   double min_column_gain = 1;       ///< matrix conversion column scaling (1 = full range)
   double conversion_amplitude = 0;  ///< constant-signal amplitude used (fraction of v_in_max)
   double conversion_residual = 0;   ///< matrix conversion max |G_eff - T| / max T
+  int stuck_cells = 0;              ///< cells stuck at g_min or g_max (device.stuck_at_*), after spares
+  int spare_columns_used = 0;       ///< columns replaced by spare columns
 };
 
 /// A grouped convolution's rows (Conv `group`): rows r = p * channels + c (window position p,
@@ -80,6 +84,10 @@ class AnalogLayer {
   static constexpr int kRangeVectorsLinear = 2048, kRangeVectorsNonlinear = 128;
   /// Stream ids of the random picks (derived with calibration.seed and the layer's salt).
   static constexpr uint64_t kCalibrationPickStream = 0xCA1, kRangePickStream = 0x5A7;
+  /// The "images" of the reads programming and compensation make (read noise streams): an
+  /// inference image is its index in the dataset, below these.
+  static constexpr uint64_t kRangeReads = ~0ull - 1, kCalibrationReads = ~0ull - 2, kReferenceReads = ~0ull - 3,
+                            kConversionReads = ~0ull - 4;
 
   /// `w` is K x N (inputs x outputs). Inputs span [0, x_max] (or [-x_max, x_max] when
   /// `signed_inputs`) and map to [0, v_in_max] volts. `salt` decorrelates the random
@@ -91,16 +99,17 @@ class AnalogLayer {
   ~AnalogLayer();
   AnalogLayer(AnalogLayer&&) noexcept;
 
-  /// Maps, converts, programs (with noise) every crossbar, sets ADC ranges and calibrates.
+  /// Maps, converts, programs (device.model: programming error, faults) every crossbar, sets ADC
+  /// ranges and calibrates (reads at t = 0), then moves to device.time_s (drift, compensation).
   /// `calib` (C x K) holds real input vectors for calibration and range estimation; when
   /// empty, calibration uses random vectors (50 % sparse).
   void program(const Eigen::MatrixXd& calib);
   /// The same with other solver options (e.g. one thread when layers program in parallel).
   void program(const Eigen::MatrixXd& calib, const SolverOptions& solver);
-  /// Gives the programmed crossbars the readout of `cfg` (programs_alike: its ADCs and whether it
-  /// calibrates) without converting or writing them again: only program()'s last two steps run
-  /// again (ADC ranging and calibration), on the same inputs, so the layer equals one programmed
-  /// from scratch with `cfg` and `calib`, bit for bit. `calib` must be what program() was given.
+  /// Gives the programmed crossbars the readout of `cfg` (programs_alike: its ADCs, whether it
+  /// calibrates, device.time_s and compensation) without converting or writing them again: only
+  /// program()'s last steps run again (ADC ranging and calibration, moving to the time), on the
+  /// same inputs, so the layer equals one programmed from scratch with `cfg` and `calib`, bit for bit. `calib` must be what program() was given.
   /// std::invalid_argument when `cfg` does not program alike or nothing is programmed; on any
   /// error the layer keeps its readout.
   void set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& calib);
@@ -117,7 +126,7 @@ class AnalogLayer {
   using RowMat = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
   /// Y (vectors x N) = the crossbar computation of X * W, all stages (double precision).
-  Eigen::MatrixXd forward(const Eigen::MatrixXd& x) const;
+  Eigen::MatrixXd forward(const Eigen::MatrixXd& x, uint64_t image = 0) const;
   /// Recovered, calibrated partial output of crossbar b (vectors x block cols), double.
   Eigen::MatrixXd partial(int b, const Eigen::MatrixXd& x) const;
 
@@ -133,8 +142,10 @@ class AnalogLayer {
   //    the range it is computed in.
   //  A grouped layer's stages read the inputs in group order: arrange_inputs after the DAC.
   /// `quantized`: the inputs are already DAC values (see dac_values), skip the DAC stage.
+  /// `image`: the dataset index of the image the vectors belong to (vector r of x is read r of
+  /// the image): it keys the read noise, so every read draws the same on any thread count.
   template <typename S>
-  void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false) const;
+  void forward(const RowMat<S>& x, Mat<S>& y, bool quantized = false, uint64_t image = 0) const;
   /// "crossbar of rows 144..287, weight columns 0..63 (of 4)", for messages.
   std::string crossbar_name(const Block& blk) const;
   /// DAC quantization of n values in place. Unsigned inputs: 2^bits levels on [0, x_max];
@@ -148,8 +159,9 @@ class AnalogLayer {
   /// group; otherwise nothing to do).
   template <typename S>
   void arrange_inputs(RowMat<S>& x) const;
+  /// Column currents (A); row r of xq is read r of `image` (its read noise).
   template <typename S>
-  void analog(int b, const RowMat<S>& xq, Mat<S>& currents) const;  ///< column currents (A)
+  void analog(int b, const RowMat<S>& xq, Mat<S>& currents, uint64_t image = 0) const;
   template <typename S>
   void adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) const;  ///< ADC quantization
   /// Adds the partial output of crossbar b (shift/differential recovery with sum(X), the
@@ -199,7 +211,8 @@ class AnalogLayer {
   void slice_inputs(const RowMat<S>& xq, Codes& codes) const;
   /// Column currents of crossbar b for the reads of vectors [first, first + vectors) of codes.
   template <typename S>
-  void analog(int b, const Codes& codes, Eigen::Index first, Eigen::Index vectors, ReadCurrents<S>& cur) const;
+  void analog(int b, const Codes& codes, Eigen::Index first, Eigen::Index vectors, ReadCurrents<S>& cur,
+              uint64_t image = 0) const;
   /// ADC quantization of bit-serial reads (the range of read s with converters.adc_range: per_read).
   template <typename S>
   void adc_inplace(int b, ReadCurrents<S>& cur) const;
@@ -220,6 +233,12 @@ class AnalogLayer {
   bool signed_inputs() const { return signed_; }    ///< inputs span [-x_max, x_max]
   const Block& block(int b) const;
   const std::vector<CrossbarReport>& reports() const { return reports_; }
+  /// The time after programming the crossbars are read at (device.time_s).
+  double time_s() const { return time_s_; }
+  /// Reads made for drift compensation at time_s (reference reads per crossbar, summed).
+  long long compensation_reads() const { return compensation_reads_; }
+  /// The conductances crossbar b holds now (S): after programming and time_s.
+  const Eigen::MatrixXd& conductances(int b) const;
   /// A per S per input unit: an isolated cell of conductance G passes alpha * G * x (V per
   /// unit for linear memristors; with pre-distortion h(v_in_max) / x_max, h the memristor I/G).
   double volts_per_unit() const { return alpha_; }
@@ -246,7 +265,25 @@ class AnalogLayer {
   void install(Crossbar& x, const Eigen::MatrixXd& g) const;
   void convert(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
   void convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs& in, CrossbarReport& rep) const;
-  void add_programming_noise(Crossbar& x, int b) const;
+  /// The device writes the conversion's conductances: programming error, stuck cells, spare
+  /// columns; the crossbar then holds its state at t = 0.
+  void write_cells(Crossbar& x, CrossbarReport& rep) const;
+  /// Installs the state at time t after programming (a device that moves).
+  void settle(Crossbar& x, double t) const;
+  /// Per physical column: the reference reads' summed current after the ADC (compensation).
+  Eigen::VectorXd reference_sums(const Crossbar& x, const ProgrammingInputs& in) const;
+  /// Moves every crossbar to device.time_s and compensates (from the t = 0 readout).
+  void move_to_time(const LayerInputs& in);
+  /// Adds one read's device fluctuation and readout noise to the currents of reads whose
+  /// values (input units, reads x crossbar rows) are `values`; read r is read first_read + r of image.
+  template <typename S, typename V>
+  void add_read_noise(const Crossbar& x, const V& values, S* currents, Eigen::Index ld, bool row_major,
+                      Eigen::Index first_read, uint64_t image) const;
+  /// Nonlinear devices with read noise: every read solved with its own fluctuating conductances.
+  Eigen::MatrixXd noisy_solves(const Crossbar& x, const Eigen::MatrixXd& volts, Eigen::Index first_read,
+                               uint64_t image) const;
+  template <typename S>
+  void compensate(const Crossbar& x, S* currents, Eigen::Index reads, Eigen::Index ld, bool row_major) const;
   void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
   void set_full_adc_ranges(Crossbar& x) const;
   void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
@@ -257,7 +294,7 @@ class AnalogLayer {
   /// The readout steps (set_adc_ranges, then calibrate) of a crossbar whose conductances are written.
   void read_out(Crossbar& x, const ProgrammingInputs& in) const;
   template <typename S>
-  void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents) const;
+  void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents, uint64_t image) const;
   template <typename S, typename XQ>
   void adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const;
   template <typename S>
@@ -265,23 +302,25 @@ class AnalogLayer {
                   bool calibrated) const;
   template <typename S>
   void analog_of(const Crossbar& x, const Codes& codes, Eigen::Index first, Eigen::Index vectors,
-                 ReadCurrents<S>& cur) const;
+                 ReadCurrents<S>& cur, uint64_t image) const;
   template <typename S>
   void adc_of(const Crossbar& x, ReadCurrents<S>& cur) const;
   template <typename S>
   void recover_of(const Crossbar& x, const ReadCurrents<S>& cur, Mat<S>& y, int y_col0, bool calibrated) const;
   template <typename S>
-  void forward_serial(const RowMat<S>& xq, Mat<S>& y) const;
+  void forward_serial(const RowMat<S>& xq, Mat<S>& y, uint64_t image) const;
   /// Double-precision helpers used while programming (xq: DAC values, vectors x K).
   Eigen::MatrixXd dac(const Eigen::MatrixXd& x) const;
   /// Column currents of one read per vector (not bit-serial).
-  Eigen::MatrixXd currents_of(const Crossbar& x, const Eigen::MatrixXd& xq) const;
+  Eigen::MatrixXd currents_of(const Crossbar& x, const Eigen::MatrixXd& xq, uint64_t image) const;
   /// Crossbar x's column currents minus the ADC's offset for every read of xq, one row per
   /// read (ReadCurrents order), and the range of ADC reference each read uses.
-  Eigen::MatrixXd offset_currents(const Crossbar& x, const Eigen::MatrixXd& xq, Eigen::VectorXi& range) const;
+  Eigen::MatrixXd offset_currents(const Crossbar& x, const Eigen::MatrixXd& xq, Eigen::VectorXi& range,
+                                  uint64_t image) const;
   /// Crossbar x's recovered output for xq (vectors x its weight columns): converted by the
   /// ADC when `adc`, calibrated when `calibrated`.
-  Eigen::MatrixXd partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated) const;
+  Eigen::MatrixXd partial_of(const Crossbar& x, const Eigen::MatrixXd& xq, bool adc, bool calibrated,
+                             uint64_t image) const;
   /// The mean magnitude of the values the reads of xq apply to each of x's rows.
   Eigen::VectorXd mean_read_values(const Crossbar& x, const Eigen::MatrixXd& xq) const;
 
@@ -298,6 +337,9 @@ class AnalogLayer {
   Eigen::VectorXi order_;
   std::vector<std::unique_ptr<Crossbar>> xbars_;
   std::vector<CrossbarReport> reports_;
+  Device device_;
+  double time_s_ = 0;
+  long long compensation_reads_ = 0;
 };
 
 }  // namespace xbarsim

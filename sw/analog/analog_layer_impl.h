@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sw/analog/analog_layer.h"
+#include "sw/common/seed.h"
 
 namespace xbarsim {
 
@@ -15,8 +16,23 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// programmed (inputs of the whole layer), 0 while programming (inputs of its own rows only,
   /// so that programming a layer costs no more than its crossbars' share of every input).
   int in0 = 0;
+  int index = 0;         ///< the crossbar's index in the layer
+  uint64_t stream = 0;   ///< its device stream: derive_seed(device.seed, {layer salt, index})
   Eigen::VectorXd beta;    ///< per physical column gain of matrix conversion (1 otherwise)
-  Eigen::MatrixXd g_prog;  ///< S, programmed conductances
+  Eigen::MatrixXd g_prog;  ///< S, the conductances the circuit holds now (installed)
+  /// A device that moves after programming: the conductances asked for (after conversion) and
+  /// those written (programming error, faults) at t = 0, from which every later state follows.
+  Eigen::MatrixXd g_asked, g_written;
+  FaultMap faults;         ///< stuck cells (empty without faults)
+  int stuck_cells = 0, spares_used = 0;
+  /// Read noise of linear devices: per cell (alpha dI/dG sigma_read)^2, so that one read's
+  /// column-current variance is the squared inputs times it (first order in dG).
+  Eigen::MatrixXf q_f;
+  AnalogLayer::RowMat<float> q_rows_f;
+  /// Drift compensation: per physical column, the reference reads' summed current at t = 0
+  /// (ref0) and the gain applied after the ADC (comp; empty = 1).
+  Eigen::VectorXd ref0, comp;
+  Eigen::ArrayXf comp_f;
   std::unique_ptr<CrossbarSolver> solver;
   Eigen::MatrixXd geff_d;  ///< alpha * G_eff (A per input unit), linear devices
   Eigen::MatrixXf geff_f;  ///< the same in float for network inference
@@ -53,12 +69,14 @@ struct AnalogLayer::Crossbar : MappedWeights {
 /// What AnalogLayer::set_readout changes.
 struct AnalogLayer::SavedReadout {
   AnalogConfig cfg;
+  double time_s = 0;
   struct Readout {
     Eigen::MatrixXd adc_lo, adc_hi;
     Eigen::VectorXd adc_offset;
     ColumnFit fit;
     Crossbar::AdcTable<float> adc_f;
     Crossbar::AdcTable<double> adc_d;
+    Eigen::VectorXd ref0, comp;
   };
   std::vector<Readout> xbars;
 };
@@ -77,5 +95,39 @@ struct AnalogLayer::ProgrammingInputs {
   Eigen::MatrixXd range_b;        ///< the ADC range-estimation reads (DAC values), this crossbar's rows
   Eigen::MatrixXd ideal_partial;  ///< cal_b * W_block: the partial output calibration aims at
 };
+
+/// The stream of the read noise (derive_seed with the image, the layer's salt and the crossbar).
+constexpr uint64_t kReadNoiseStream = 0x4EAD;
+
+template <typename S>
+void AnalogLayer::compensate(const Crossbar& x, S* cur, Eigen::Index reads, Eigen::Index ld, bool row_major) const {
+  if (!x.comp.size()) return;
+  for (Eigen::Index c = 0; c < x.pcols; ++c) {
+    const S g = static_cast<S>(x.comp(c));
+    for (Eigen::Index r = 0; r < reads; ++r) (row_major ? cur[r * ld + c] : cur[c * ld + r]) *= g;
+  }
+}
+
+template <typename S, typename V>
+void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eigen::Index ld, bool row_major,
+                                 Eigen::Index first_read, uint64_t image) const {
+  const float ro2 = static_cast<float>(cfg_.converters.readout_noise_a * cfg_.converters.readout_noise_a);
+  const bool device = x.q_f.size() > 0;
+  if (!device && !(ro2 > 0)) return;
+  const Eigen::Index reads = values.rows(), cols = x.pcols;
+  thread_local Eigen::MatrixXf var;
+  thread_local std::vector<float> z;
+  if (device) var.noalias() = values.template cast<float>().array().square().matrix() * x.q_f;
+  z.resize(static_cast<size_t>(cols) + 1);
+  const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
+  for (Eigen::Index r = 0; r < reads; ++r) {
+    read_normals(key, static_cast<uint64_t>(first_read + r), cols, z.data());
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      const float sd = std::sqrt((device ? var(r, c) : 0.0f) + ro2);
+      (row_major ? cur[r * ld + c] : cur[c * ld + r]) += static_cast<S>(sd * z[static_cast<size_t>(c)]);
+    }
+  }
+}
+
 
 }  // namespace xbarsim

@@ -41,6 +41,14 @@ void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
       x.geff_rows_d = x.geff_d;
       x.geff_rows_f = x.geff_f;
     }
+    // Read noise, first order in dG: a cell's fluctuation dG moves its column's current by
+    // V dG_eff/dG with dG_eff/dG = (G_eff / G)^2 (the cell in series with the rest of the
+    // network), so one read's column variance is sum_i x_i^2 (alpha (G_eff/G)^2 sigma_i)^2.
+    if (cfg_.device.has_read_noise()) {
+      const Eigen::ArrayXXd sens = (x.geff_d.array() / (alpha_ * g.array())).square();
+      x.q_f = (alpha_ * sens * device_.read_sigma(g).array()).square().cast<float>().matrix();
+      if (slicing_.serial()) x.q_rows_f = x.q_f;
+    }
   }
   x.recover_k = x.sign.array() / (x.beta.array() * x.s.array());
 }
@@ -70,7 +78,8 @@ void AnalogLayer::convert_signal_amplitudes(Crossbar& x, const ProgrammingInputs
     const ConversionResult r = convert_signal(p, x.g_target, volts(xs), alpha_ * xs);
     if (amps.size() > 1) {  // keep the amplitude with the lowest un-calibrated error
       install(x, r.g_prime);
-      const double e = relative_error(partial_of(x, in.cal_b, /*adc=*/false, /*calibrated=*/false), in.ideal_partial)
+      const double e = relative_error(partial_of(x, in.cal_b, /*adc=*/false, /*calibrated=*/false, kConversionReads),
+                                      in.ideal_partial)
                            .mean_relative_error;
       if (!(e < best)) continue;
       best = e;
@@ -111,15 +120,142 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
   }
 }
 
-void AnalogLayer::add_programming_noise(Crossbar& x, int b) const {
-  if (!(cfg_.noise.sigma_s > 0)) return;
-  const CrossbarParams& p = cfg_.xbar;
-  std::mt19937_64 rng(derive_seed(cfg_.noise.seed, {salt_, static_cast<uint64_t>(b)}));
-  std::normal_distribution<double> nd(0.0, cfg_.noise.sigma_s);
-  Eigen::MatrixXd gp = x.g_prog;
-  for (Eigen::Index k = 0; k < gp.size(); ++k)
-    gp.data()[k] = std::min(std::max(gp.data()[k] + nd(rng), p.g_min_s), p.g_max_s);
-  install(x, gp);
+void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
+  const DeviceSpec& d = cfg_.device;
+  if (!d.perturbs_programming() && !d.moves()) return;  // ideal cells hold what conversion asked
+  const Eigen::MatrixXd asked = x.g_prog;
+  Eigen::MatrixXd g = asked;
+  device_.program(g, x.faults, x.stream);
+  if (d.spare_columns > 0 && d.has_faults()) {
+    // Spare columns replace the columns whose stuck cells err most (sum of |G_stuck - G_asked|):
+    // a spare is a fresh column with its own cells (faults and programming error), kept when it
+    // errs less.
+    Eigen::VectorXd err(x.pcols);
+    for (int c = 0; c < x.pcols; ++c)
+      err(c) = (x.faults.col(c) != 0).cast<double>().matrix().dot((g.col(c) - asked.col(c)).cwiseAbs());
+    std::vector<int> order(static_cast<size_t>(x.pcols));
+    for (int c = 0; c < x.pcols; ++c) order[static_cast<size_t>(c)] = c;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return err(a) > err(b); });
+    for (int k = 0; k < std::min(d.spare_columns, x.pcols); ++k) {
+      const int c = order[static_cast<size_t>(k)];
+      if (!(err(c) > 0)) break;
+      Eigen::MatrixXd col = asked.col(c);
+      FaultMap f;
+      device_.program(col, f, derive_seed(x.stream, {0x5BA5E, static_cast<uint64_t>(k)}));
+      const double e = (f.col(0) != 0).cast<double>().matrix().dot((col.col(0) - asked.col(c)).cwiseAbs());
+      if (e < err(c)) {
+        g.col(c) = col;
+        x.faults.col(c) = f.col(0);
+        ++rep.spare_columns_used;
+      }
+    }
+  }
+  rep.stuck_cells = static_cast<int>((x.faults != 0).count());
+  x.stuck_cells = rep.stuck_cells;
+  x.spares_used = rep.spare_columns_used;
+  if (d.moves()) {
+    x.g_asked = asked;
+    x.g_written = g;
+    install(x, device_.at_time(asked, g, x.faults, 0.0, x.stream));
+  } else {
+    install(x, g);
+  }
+}
+
+void AnalogLayer::settle(Crossbar& x, double t) const {
+  if (!cfg_.device.moves()) return;
+  install(x, device_.at_time(x.g_asked, x.g_written, x.faults, t, x.stream));
+}
+
+Eigen::VectorXd AnalogLayer::reference_sums(const Crossbar& x, const ProgrammingInputs& in) const {
+  // The calibration vectors read through the array and the ADC: what the digital side sees.
+  Eigen::VectorXd sums = Eigen::VectorXd::Zero(x.pcols);
+  if (slicing_.serial()) {
+    Codes codes;
+    slice_inputs<double>(in.cal_b, codes);
+    ReadCurrents<double> cur;
+    analog_of<double>(x, codes, 0, in.cal_b.rows(), cur, kReferenceReads);
+    adc_of<double>(x, cur);
+    sums = cur.i.matrix().colwise().sum().transpose();
+  } else {
+    Mat<double> cur = currents_of(x, in.cal_b, kReferenceReads);
+    adc_of<double, Eigen::MatrixXd>(x, cur, in.cal_b);
+    sums = cur.colwise().sum().transpose();
+  }
+  return sums;
+}
+
+void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
+  const DeviceSpec& d = cfg_.device;
+  const double t = d.time_s;
+  compensation_reads_ = 0;
+  const bool references = d.compensation == Compensation::Global || d.compensation == Compensation::Column;
+  for (size_t b = 0; b < xbars_.size(); ++b) {
+    Crossbar& x = *xbars_[b];
+    x.comp.resize(0);
+    x.comp_f.resize(0);
+    x.in0 = 0;
+    const ProgrammingInputs in = crossbar_inputs(layer_in, blocks_[b]);
+    // The reference at t = 0 (the state the readout was set in), then the state at t.
+    if (references && time_s_ != 0) settle(x, 0);
+    x.ref0 = references ? reference_sums(x, in) : Eigen::VectorXd();
+    settle(x, t);
+    if (d.compensation == Compensation::Recalibrate) {
+      read_out(x, in);
+      compensation_reads_ += in.cal_b.rows() + in.range_b.rows();
+    }
+    if (references) {
+      const Eigen::VectorXd now = reference_sums(x, in);
+      compensation_reads_ += in.cal_b.rows();
+      x.comp = now;  // the column sums at t, turned into gains below
+    }
+    x.in0 = blocks_[b].row0;
+  }
+  time_s_ = t;
+  if (!references) return;
+  // global: one gain for the layer, sum of |references at 0| / sum at t; column: per column.
+  double r0 = 0, rt = 0;
+  for (const auto& x : xbars_) {
+    r0 += x->ref0.cwiseAbs().sum();
+    rt += x->comp.cwiseAbs().sum();
+  }
+  for (auto& xp : xbars_) {
+    Crossbar& x = *xp;
+    Eigen::VectorXd gain(x.pcols);
+    for (int c = 0; c < x.pcols; ++c) {
+      const double num = d.compensation == Compensation::Global ? r0 : std::abs(x.ref0(c));
+      const double den = d.compensation == Compensation::Global ? rt : std::abs(x.comp(c));
+      gain(c) = den > 0 && num > 0 ? num / den : 1.0;
+    }
+    x.comp = gain;
+    x.comp_f = gain.cast<float>().array();
+  }
+}
+
+Eigen::MatrixXd AnalogLayer::noisy_solves(const Crossbar& x, const Eigen::MatrixXd& v, Eigen::Index first_read,
+                                          uint64_t image) const {
+  const Eigen::MatrixXd sigma = device_.read_sigma(x.g_prog);
+  const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
+  SolverOptions one = cfg_.solver;
+  one.threads = 1;
+  Eigen::MatrixXd out(v.rows(), x.pcols);
+  const double ro = cfg_.converters.readout_noise_a;
+  std::vector<float> z(static_cast<size_t>(x.pcols) + 1);
+  for (Eigen::Index r = 0; r < v.rows(); ++r) {
+    const uint64_t rk = mix64(key ^ mix64(static_cast<uint64_t>(first_read + r) + 0x6A09E667F3BCC909ull));
+    Eigen::MatrixXd g = x.g_prog;
+    for (Eigen::Index k = 0; k < g.size(); ++k)
+      g.data()[k] = std::max(g.data()[k] + sigma.data()[k] * counter_normal(rk, static_cast<uint64_t>(k)),
+                             Device::kOpenCellS);
+    const std::unique_ptr<CrossbarSolver> s = make_crossbar_solver(cfg_.xbar, one);
+    s->program(g);
+    out.row(r) = s->column_currents(v.row(r));
+    if (ro > 0) {
+      read_normals(key, static_cast<uint64_t>(first_read + r), x.pcols, z.data());
+      for (int c = 0; c < x.pcols; ++c) out(r, c) += ro * z[static_cast<size_t>(c)];
+    }
+  }
+  return out;
 }
 
 void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const {
@@ -141,7 +277,7 @@ void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) co
     // ADC ranges from the (offset-subtracted) currents of the range-estimation reads (per read
     // of a vector with a reference per read).
     Eigen::VectorXi range;
-    const Eigen::MatrixXd cur = offset_currents(x, range_x, range);
+    const Eigen::MatrixXd cur = offset_currents(x, range_x, range, kRangeReads);
     x.adc_lo.setConstant(std::numeric_limits<double>::infinity());
     x.adc_hi.setConstant(-std::numeric_limits<double>::infinity());
     for (int c = 0; c < x.pcols; ++c)
@@ -209,7 +345,8 @@ void AnalogLayer::read_out(Crossbar& x, const ProgrammingInputs& in) const {
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {
   x.fit = identity_fit(x.blk.cols);
   if (!cfg_.mitigation.calibrate()) return;
-  x.fit = fit_columns(partial_of(x, in.cal_b, /*adc=*/true, /*calibrated=*/false), in.ideal_partial, output_steps(x));
+  x.fit = fit_columns(partial_of(x, in.cal_b, /*adc=*/true, /*calibrated=*/false, kCalibrationReads), in.ideal_partial,
+                      output_steps(x));
 }
 
 Eigen::VectorXd AnalogLayer::output_steps(const Crossbar& x) const {

@@ -286,14 +286,14 @@ void recover_vector_avx512(const float* i, Eigen::Index ld, int slices, const fl
 }  // namespace
 
 template <typename S>
-void AnalogLayer::analog(int b, const Codes& codes, Eigen::Index first, Eigen::Index vectors,
-                         ReadCurrents<S>& cur) const {
-  analog_of<S>(*xbars_.at(b), codes, first, vectors, cur);
+void AnalogLayer::analog(int b, const Codes& codes, Eigen::Index first, Eigen::Index vectors, ReadCurrents<S>& cur,
+                         uint64_t image) const {
+  analog_of<S>(*xbars_.at(b), codes, first, vectors, cur, image);
 }
 
 template <typename S>
 void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index first, Eigen::Index vectors,
-                            ReadCurrents<S>& cur) const {
+                            ReadCurrents<S>& cur, uint64_t image) const {
   const int slices = slicing_.slices;
   cur.first = first;
   cur.vectors = vectors;
@@ -321,6 +321,12 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
         cur.sum_x[r] = static_cast<S>(total) * static_cast<S>(slicing_.digit_unit(s));
       }
     }
+    if (x.q_f.size() || cfg_.converters.readout_noise_a > 0) {
+      // Read noise: every read's values (digit x unit per row), squared against the cells' variances.
+      thread_local RowMat<S> values;
+      read_values<S>(codes, first, vectors, x.in0, x.blk.rows, values);
+      add_read_noise<S>(x, values, cur.i.data(), x.pcols, /*row_major=*/true, first * slices, image);
+    }
     return;
   }
   // Nonlinear devices: every read solved, all of them in one batch.
@@ -334,7 +340,12 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
       cur.sum_x[v * slices + s] = static_cast<S>(total) * static_cast<S>(slicing_.digit_unit(s));
     }
   }
+  if (cfg_.device.has_read_noise()) {  // every read solved with its own conductances
+    cur.i.matrix() = noisy_solves(x, volts(values), first * slices, image).template cast<S>();
+    return;
+  }
   cur.i.matrix() = x.solver->column_currents(volts(values)).template cast<S>();
+  add_read_noise<S>(x, values, cur.i.data(), x.pcols, /*row_major=*/true, first * slices, image);
 }
 
 template <typename S>
@@ -344,7 +355,10 @@ void AnalogLayer::adc_inplace(int b, ReadCurrents<S>& cur) const {
 
 template <typename S>
 void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
-  if (cfg_.converters.adc_bits <= 0) return;
+  if (cfg_.converters.adc_bits <= 0) {
+    compensate<S>(x, cur.i.data(), cur.i.rows(), cur.i.cols(), /*row_major=*/true);
+    return;
+  }
   using Row = Eigen::Array<S, Eigen::Dynamic, 1>;
   const Eigen::Index cols = cur.i.cols(), reads = cur.i.rows();
   const int slices = slicing_.slices;
@@ -360,6 +374,7 @@ void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
                   t.step.col(g).data(), t.inv_step.col(g).data(), t.all_on[g] ? nullptr : t.on.col(g).data()};
     for (Eigen::Index r = 0, s = 0; r < reads; ++r, s = s + 1 == slices ? 0 : s + 1)
       adc_read_avx512(cur.i.row(r), cols, cur.sum_x[r], lanes[per_read ? s : 0]);
+    compensate<S>(x, cur.i.data(), reads, cols, /*row_major=*/true);
     return;
   }
 #endif
@@ -371,6 +386,7 @@ void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
     const auto v = row - offset;
     row = (t.on.col(g) > S(0)).select(((v.max(lo).min(hi) - lo) * inv_step + S(0.5)).floor() * step + lo, v) + offset;
   }
+  compensate<S>(x, cur.i.data(), reads, cols, /*row_major=*/true);
 }
 
 template <typename S>
@@ -450,7 +466,7 @@ void AnalogLayer::recover_of(const Crossbar& x, const ReadCurrents<S>& cur, Mat<
 }
 
 template <typename S>
-void AnalogLayer::forward_serial(const RowMat<S>& xq, Mat<S>& y) const {
+void AnalogLayer::forward_serial(const RowMat<S>& xq, Mat<S>& y, uint64_t image) const {
   thread_local Codes codes;
   thread_local ReadCurrents<S> cur;
   slice_inputs<S>(xq, codes);
@@ -462,7 +478,7 @@ void AnalogLayer::forward_serial(const RowMat<S>& xq, Mat<S>& y) const {
     try {
       for (Eigen::Index first = 0; first < n; first += tile) {
         check_cancel();
-        analog<S>(b, codes, first, std::min(tile, n - first), cur);
+        analog<S>(b, codes, first, std::min(tile, n - first), cur, image);
         adc_inplace<S>(b, cur);
         recover_add<S>(b, cur, y);
       }
@@ -472,22 +488,22 @@ void AnalogLayer::forward_serial(const RowMat<S>& xq, Mat<S>& y) const {
   }
 }
 
-Eigen::MatrixXd AnalogLayer::offset_currents(const Crossbar& x, const Eigen::MatrixXd& xq,
-                                             Eigen::VectorXi& range) const {
+Eigen::MatrixXd AnalogLayer::offset_currents(const Crossbar& x, const Eigen::MatrixXd& xq, Eigen::VectorXi& range,
+                                             uint64_t image) const {
   Eigen::MatrixXd cur;
   Eigen::VectorXd sx;
   if (slicing_.serial()) {
     Codes codes;
     slice_inputs<double>(xq, codes);
     ReadCurrents<double> rc;
-    analog_of<double>(x, codes, 0, xq.rows(), rc);
+    analog_of<double>(x, codes, 0, xq.rows(), rc, image);
     cur = rc.i.matrix();
     sx = Eigen::Map<const Eigen::VectorXd>(rc.sum_x.data(), cur.rows());
     range = Eigen::VectorXi::LinSpaced(cur.rows(), 0, static_cast<int>(cur.rows()) - 1).unaryExpr([&](int r) {
       return r % slicing_.slices;
     });
   } else {
-    cur = currents_of(x, xq);
+    cur = currents_of(x, xq, image);
     sx = xq.middleCols(x.in0, x.blk.rows).rowwise().sum();
     range = Eigen::VectorXi::Zero(cur.rows());
   }
@@ -507,14 +523,15 @@ Eigen::VectorXd AnalogLayer::mean_read_values(const Crossbar& x, const Eigen::Ma
 #define XBARSIM_INSTANTIATE(S)                                                                                         \
   template void AnalogLayer::slice_inputs<S>(const RowMat<S>&, Codes&) const;                                          \
   template void AnalogLayer::read_values<S>(const Codes&, Eigen::Index, Eigen::Index, int, int, RowMat<S>&) const;     \
-  template void AnalogLayer::analog<S>(int, const Codes&, Eigen::Index, Eigen::Index, ReadCurrents<S>&) const;         \
-  template void AnalogLayer::analog_of<S>(const Crossbar&, const Codes&, Eigen::Index, Eigen::Index, ReadCurrents<S>&) \
+  template void AnalogLayer::analog<S>(int, const Codes&, Eigen::Index, Eigen::Index, ReadCurrents<S>&, uint64_t)     \
       const;                                                                                                           \
+  template void AnalogLayer::analog_of<S>(const Crossbar&, const Codes&, Eigen::Index, Eigen::Index, ReadCurrents<S>&, \
+                                          uint64_t) const;                                                             \
   template void AnalogLayer::adc_inplace<S>(int, ReadCurrents<S>&) const;                                              \
   template void AnalogLayer::adc_of<S>(const Crossbar&, ReadCurrents<S>&) const;                                       \
   template void AnalogLayer::recover_add<S>(int, const ReadCurrents<S>&, Mat<S>&, bool) const;                         \
   template void AnalogLayer::recover_of<S>(const Crossbar&, const ReadCurrents<S>&, Mat<S>&, int, bool) const;         \
-  template void AnalogLayer::forward_serial<S>(const RowMat<S>&, Mat<S>&) const;
+  template void AnalogLayer::forward_serial<S>(const RowMat<S>&, Mat<S>&, uint64_t) const;
 XBARSIM_INSTANTIATE(float)
 XBARSIM_INSTANTIATE(double)
 #undef XBARSIM_INSTANTIATE

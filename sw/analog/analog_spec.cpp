@@ -143,14 +143,9 @@ ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   c.adc_offset_subtraction = cfg.get_bool("converters.adc_offset_subtraction");
   c.adc_columns_per_adc = cfg.get_int32("converters.adc_columns_per_adc");
   c.dac_predistortion = cfg.get_bool("converters.dac_predistortion");
+  c.readout_noise_a = cfg.get_double("converters.readout_noise_na") * 1e-9;
   return c;
 }
 
-NoiseSpec parse_noise_spec(const ConfigTree& cfg) {
-  NoiseSpec n;
-  n.sigma_s = cfg.get_double("noise.sigma_us") * 1e-6;
-  n.seed = static_cast<uint64_t>(cfg.get_int("noise.seed"));
-  return n;
-}
 
 }  // namespace xbarsim

@@ -1,7 +1,7 @@
 #pragma once
 /// Typed specifications of the analog datapath, parsed once from the configuration and
 /// validated (timeloop style): every key of the sections mapping, mitigation, conversion,
-/// calibration, converters and noise is read here and nowhere else. Names carry units.
+/// calibration and converters is read here (device: sw/device/device.h) and nowhere else. Names carry units.
 #include <cstdint>
 #include <string>
 
@@ -116,18 +116,15 @@ struct ConvertersSpec {
   /// Input pre-distortion: each DAC code goes through a lookup table to V = f^-1(x), so that an
   /// isolated memristor's current is linear in the code (sinh memristors; a no-op for linear ones).
   bool dac_predistortion = false;
+  /// The readout's input-referred noise per read and column (A, Gaussian sigma): thermal and
+  /// kT/C noise of the column and sense circuit, independent of the signal.
+  double readout_noise_a = 0;
 };
 
-/// Section `noise.`.
-struct NoiseSpec {
-  double sigma_s = 0;  ///< programming error (S)
-  uint64_t seed = 11;
-};
 
 MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar);
 ConversionSpec parse_conversion_spec(const ConfigTree& cfg);
 CalibrationSpec parse_calibration_spec(const ConfigTree& cfg);
 ConvertersSpec parse_converters_spec(const ConfigTree& cfg);
-NoiseSpec parse_noise_spec(const ConfigTree& cfg);
 
 }  // namespace xbarsim

@@ -206,6 +206,11 @@ void merge_node(YAML::Node dst, const YAML::Node& def, const YAML::Node& src, co
     const std::string name = it->first.as<std::string>();
     const std::string key = prefix.empty() ? name : prefix + "." + name;
     const YAML::Node d = def[name];
+    if (!d && (key == "noise" || key.rfind("noise.", 0) == 0))
+      throw InputError(origin + ": configuration key '" + key +
+                       "' is gone: the device is a model of its own (section device.): a constant programming "
+                       "error is device.model: constant with device.program_sigma_us (was noise.sigma_us), seeded by "
+                       "device.seed (was noise.seed)");
     if (!d) {
       throw InputError(origin + ": unknown configuration key '" + key + "'" +
                        (def.IsMap() && def.size() ? " (known keys here: " + known_children(def) + ")" : ""));

@@ -13,6 +13,12 @@
 
 namespace xbarsim {
 
+namespace {
+thread_local uint64_t t_image = 0;
+}  // namespace
+
+void CrossbarBackend::set_image(uint64_t image) { t_image = image; }
+
 CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg) : model_(m), cfg_(cfg) {}
 
 void CrossbarBackend::program(const Dataset& calib, int max_samples, const std::function<void(int, int)>& progress) {
@@ -194,20 +200,20 @@ void CrossbarBackend::multiply_activation(int layer, const LinearLayer& L, const
   const AnalogLayer& a = layers_.at(layer);
   if (!a.quantizes_inputs()) {
     im2col(L, chw, scratch);
-    a.forward<float>(scratch, out);
+    a.forward<float>(scratch, out, /*quantized=*/false, t_image);
     return;
   }
   thread_local std::vector<float> q;
   q.assign(chw, chw + L.in.size());
   a.dac_values<float>(q.data(), static_cast<Eigen::Index>(q.size()));
   im2col(L, q.data(), scratch);
-  a.forward<float>(scratch, out, /*quantized=*/true);
+  a.forward<float>(scratch, out, /*quantized=*/true, t_image);
 } catch (const std::exception&) {
   rethrow_with_context("layer " + L.name);
 }
 
 void CrossbarBackend::multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const try {
-  layers_.at(layer).forward<float>(cols, out);
+  layers_.at(layer).forward<float>(cols, out, /*quantized=*/false, t_image);
 } catch (const std::exception&) {
   rethrow_with_context("layer " + model_.linear.at(layer).name);
 }

@@ -41,6 +41,10 @@ class CrossbarBackend : public LinearBackend {
   /// signed where the network can make them negative. multiply() must not be called.
   void structure_only();
 
+  /// The dataset index of the image the calling thread runs next (run_image on this backend):
+  /// it keys the read noise of every read, so each image draws the same on any thread count.
+  static void set_image(uint64_t image);
+
   void multiply(int layer, const RowMatrixXf& cols, Eigen::MatrixXf& out) const override;
   /// Quantizes the activation once (DAC codes; zero padding stays zero), then im2col.
   void multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,

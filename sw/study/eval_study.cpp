@@ -234,6 +234,7 @@ ImageTallies evaluate_images(const Model& model, const CrossbarBackend& xb, cons
         Eigen::Index a, b;
         run_image(model, x.data(), sw, &sw_trace).maxCoeff(&a);
         try {
+          CrossbarBackend::set_image(static_cast<uint64_t>(test.first + k));
           run_image(model, x.data(), xb, &xb_trace).maxCoeff(&b);
         } catch (...) {
           std::lock_guard<std::mutex> lock(mu);
@@ -463,7 +464,10 @@ nlohmann::json EvalResult::to_json() const {
   j["cell_bits"] = bits(ac->mapping.cell_bits);
   j["weight_bits"] = bits(ac->mapping.weight_bits);
   j["adc_range"] = to_string(ac->converters.adc_range);
-  j["sigma_us"] = ac->noise.sigma_s * 1e6;
+  j["device_model"] = ac->device.model;
+  j["device_time_s"] = ac->device.time_s;
+  j["device_compensation"] = to_string(ac->device.compensation);
+  j["program_sigma_us"] = ac->device.program_sigma_s * 1e6;
   j["memristor_model"] = to_string(ac->xbar.memristor.model);
   if (ac->xbar.memristor.model == MemristorModel::Sinh) j["memristor_k_per_v"] = ac->xbar.memristor.k_per_v;
   j["dac_predistortion"] = ac->converters.dac_predistortion;

@@ -209,6 +209,8 @@ const std::vector<std::string>& readout_keys() {
                                                 "converters.adc_margin",
                                                 "converters.adc_offset_subtraction",
                                                 "converters.adc_columns_per_adc",
+                                                "device.time_s",
+                                                "device.compensation",
                                                 "components.",
                                                 "architecture.",
                                                 "platform.",

@@ -62,9 +62,10 @@ TEST(AnalogLayer, ProgrammingNoiseIsSeeded) {
   const Eigen::MatrixXd x = synthetic_inputs(20, 27, 0.5, 1.0, 8);
   AnalogConfig c;
   c.set_method("conversion", "test");
-  c.noise.sigma_s = 1e-6;
+  c.device.kind = DeviceKind::Constant;
+  c.device.program_sigma_s = 1e-6;
   auto run = [&](uint64_t seed) {
-    c.noise.seed = seed;
+    c.device.seed = seed;
     AnalogLayer layer(c, w, 1.0, false);
     layer.program(Eigen::MatrixXd());
     return layer.forward(x);

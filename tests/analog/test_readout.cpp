@@ -28,7 +28,8 @@ AnalogConfig base_config() {
   c.mapping.max_cols = 6;
   c.converters.dac_bits = 6;
   c.converters.adc_bits = 8;
-  c.noise.sigma_s = 2e-7;
+  c.device.kind = DeviceKind::Constant;
+  c.device.program_sigma_s = 2e-7;
   return c;
 }
 
@@ -156,8 +157,11 @@ TEST(Readout, WhatProgramsIsNotAReadout) {
       {"dac_bits", [](AnalogConfig& c) { c.converters.dac_bits = 7; }},
       {"input_bits", [](AnalogConfig& c) { c.converters.input_bits = 8; }},
       {"dac_predistortion", [](AnalogConfig& c) { c.converters.dac_predistortion = true; }},
-      {"noise sigma", [](AnalogConfig& c) { c.noise.sigma_s = 1e-7; }},
-      {"noise seed", [](AnalogConfig& c) { c.noise.seed = 12; }},
+      {"device programming sigma", [](AnalogConfig& c) { c.device.program_sigma_s = 1e-7; }},
+      {"device read sigma", [](AnalogConfig& c) { c.device.read_sigma_s = 1e-7; }},
+      {"device seed", [](AnalogConfig& c) { c.device.seed = 12; }},
+      {"device faults", [](AnalogConfig& c) { c.device.stuck_gmin = 0.01; }},
+      {"readout noise", [](AnalogConfig& c) { c.converters.readout_noise_a = 1e-9; }},
   };
   const Eigen::MatrixXd w = synthetic_kernel("gaussian", 20, 6, 31);
   AnalogLayer layer(a, w, 1.0, false);

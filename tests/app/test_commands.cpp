@@ -130,7 +130,8 @@ TEST(EvalCommand, SameResultOnOneTwoAndThreeThreads) {
   std::string first, out;
   for (int t = 1; t <= 3; ++t) {
     const std::string json = "/tmp/xbarsim_eval_threads" + std::to_string(t) + ".json";
-    ASSERT_EQ(run("eval --model resnet20_cifar10 --images 24 --set noise.sigma_us=0.5 --set solver.threads=" +
+    ASSERT_EQ(run("eval --model resnet20_cifar10 --images 24 --set device.model=rram-wan2022 --set device.time_s=86400 "
+                  "--set converters.readout_noise_na=5 --set solver.threads=" +
                       std::to_string(t) + " --json " + json,
                   &out),
               0)

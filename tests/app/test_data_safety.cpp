@@ -535,7 +535,7 @@ TEST_F(Safety, LargeLayerErrorsAreWarnedAbout) {
   for (const auto& w : j["warnings"]) EXPECT_EQ(w.get<std::string>().find("mean error"), std::string::npos) << w;
   // Programming errors of 50 uS (sigma) on every cell: the first layer's mean error is 0.125,
   // the second's 0.097 (named and not).
-  r = run("eval --model tiny --images 2 --set noise.sigma_us=50 --json " + path("bad.json"));
+  r = run("eval --model tiny --images 2 --set device.model=constant --set device.program_sigma_us=50 --json " + path("bad.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   j = read_json_file(path("bad.json"));
   int warned = 0;

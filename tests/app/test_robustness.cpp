@@ -188,12 +188,12 @@ TEST(Robustness, InputProblemsAreInputErrors) {  // items 12, 14 and 15
 TEST(Robustness, ResourceBombsAreRefusedQuicklyWithTheirSize) {  // item 13
   const std::string bomb = file("bomb.yaml",
                                 "study:\n  rows: &v [1,2,3,4,5,6,7,8,9,10]\n  cols: *v\n  vectors: *v\n  seed: *v\n"
-                                "calibration:\n  samples: *v\n  seed: *v\nnoise:\n  seed: *v\n  sigma_us: *v\n"
+                                "calibration:\n  samples: *v\n  seed: *v\ndevice:\n  seed: *v\n  time_s: *v\n"
                                 "solver:\n  threads: *v\n");
   const auto t0 = std::chrono::steady_clock::now();
   expect_clean_error(run("xbar-study --config " + bomb), 2, "1000000000 points", "item 13 anchors");
   expect_clean_error(
-      run("xbar-study --set 'study.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'noise.seed=[1,2,3,4,5,6,7,8,9,10]'"
+      run("xbar-study --set 'study.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'device.seed=[1,2,3,4,5,6,7,8,9,10]'"
           " --set 'calibration.seed=[1,2,3,4,5,6,7,8,9,10]' --set 'study.vectors=[1,2,3,4,5,6,7,8,9,10]'"
           " --set 'solver.threads=[1,2,3,4,5,6,7,8,9,10]'"),
       2, "100000 points", "item 13 1e5 sweep");
@@ -204,7 +204,8 @@ TEST(Robustness, ResourceBombsAreRefusedQuicklyWithTheirSize) {  // item 13
 TEST(Robustness, RerunsWithNoiseAreByteIdenticalApartFromTiming) {  // determinism
   const std::string args =
       "xbar-study --set study.rows=64 --set study.cols=8 --set study.vectors=50 "
-      "--set noise.sigma_us=0.5 --set crossbar.memristor.model=[linear,sinh]";
+      "--set device.model=constant --set device.program_sigma_us=0.5 --set device.read_sigma_us=0.2 "
+      "--set converters.readout_noise_na=2 --set crossbar.memristor.model=[linear,sinh]";
   ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_a.json").code, 0);
   ASSERT_EQ(run(args + " --json /tmp/xbarsim_rb_b.json --set solver.threads=1").code, 0);
   auto strip = [](const std::string& path) {

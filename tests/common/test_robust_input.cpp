@@ -136,7 +136,7 @@ TEST(ConfigYaml, AnchorBombIsCountedNotExpanded) {
   ConfigTree cfg;
   cfg.merge_yaml_text(
       "study:\n  rows: &v [1,2,3,4,5,6,7,8,9,10]\n  cols: *v\n  vectors: *v\n  seed: *v\n"
-      "calibration:\n  samples: *v\n  seed: *v\nnoise:\n  seed: *v\n  sigma_us: *v\nsolver:\n  threads: *v\n",
+      "calibration:\n  samples: *v\n  seed: *v\ndevice:\n  seed: *v\n  time_s: *v\nsolver:\n  threads: *v\n",
       "bomb.yaml");
   EXPECT_EQ(cfg.sweep_points(), 1000000000ULL);
 }

@@ -258,15 +258,16 @@ TEST(ProgrammingKey, ReadoutKeysShareAKeyProgrammingKeysDoNot) {
        {"converters.adc_bits=4", "converters.adc_bits=none", "converters.adc_margin=0.2",
         "converters.adc_offset_subtraction=false", "converters.adc_columns_per_adc=32", "mitigation.method=conversion",
         "platform.clock_mhz=200", "platform.schedule=pipelined", "architecture.machine=isaac-ce",
-        "components.library=isaac", "solver.threads=3", "study.rows=10"})
+        "components.library=isaac", "solver.threads=3", "study.rows=10", "device.time_s=86400",
+        "device.compensation=global"})
     EXPECT_EQ(key({same}), a) << same;
   EXPECT_EQ(key({"converters.adc_range=per_read", "converters.input_bits=8", "converters.dac_bits=2"}),
             key({"converters.input_bits=8", "converters.dac_bits=2"}));
   for (const char* other :
        {"mitigation.method=calibration", "mitigation.method=matrix-conversion", "mapping.g_headroom=0.1",
         "mapping.max_rows=64", "mapping.weight_bits=6", "crossbar.cell_bits=3", "crossbar.r_wire=2",
-        "converters.dac_bits=6", "converters.input_bits=8", "converters.dac_predistortion=true", "noise.sigma_us=0.1",
-        "noise.seed=3", "calibration.samples=20", "calibration.seed=1", "conversion.amplitude=0.2",
+        "converters.dac_bits=6", "converters.input_bits=8", "converters.dac_predistortion=true", "device.model=constant",
+        "device.seed=3", "device.stuck_at_gmin=0.01", "converters.readout_noise_na=1", "device.model=rram-cmo", "calibration.samples=20", "calibration.seed=1", "conversion.amplitude=0.2",
         "solver.tolerance=1e-10"})
     EXPECT_NE(key({other}), a) << other;
   EXPECT_EQ(key({"mitigation.method=none"}), key({"mitigation.method=calibration"}));
