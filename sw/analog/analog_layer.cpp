@@ -50,7 +50,20 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   return c;
 }
 
-bool programs_alike(const AnalogConfig& a, const AnalogConfig& b) {
+AnalogConfig with_device_range(AnalogConfig c) {
+  DeviceSpec& d = c.device;
+  if (d.fixes_range()) {
+    c.xbar.g_min_s = d.g_min_s = d.stat.g_min_s;
+    c.xbar.g_max_s = d.g_max_s = d.stat.g_max_s;
+  } else {
+    d.g_min_s = c.xbar.g_min_s;
+    d.g_max_s = c.xbar.g_max_s;
+  }
+  return c;
+}
+
+bool programs_alike(const AnalogConfig& a_given, const AnalogConfig& b_given) {
+  const AnalogConfig a = with_device_range(a_given), b = with_device_range(b_given);
   const CrossbarParams &xa = a.xbar, &xb = b.xbar;
   const bool crossbar = xa.r_wire_ohm == xb.r_wire_ohm && xa.r_in_ohm == xb.r_in_ohm && xa.r_out_ohm == xb.r_out_ohm &&
                         xa.g_min_s == xb.g_min_s && xa.g_max_s == xb.g_max_s && xa.v_in_max_v == xb.v_in_max_v &&
@@ -94,17 +107,8 @@ AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, doub
     : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt), device_(cfg.device) {
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
-  // The cells' range: the model's when it fixes one (the crossbar's range follows), else the crossbar's.
-  DeviceSpec dev = cfg.device;
-  if (dev.fixes_range()) {
-    cfg_.xbar.g_min_s = dev.g_min_s = dev.stat.g_min_s;
-    cfg_.xbar.g_max_s = dev.g_max_s = dev.stat.g_max_s;
-  } else {
-    dev.g_min_s = cfg.xbar.g_min_s;
-    dev.g_max_s = cfg.xbar.g_max_s;
-  }
-  cfg_.device = dev;
-  device_ = Device(dev);
+  cfg_ = with_device_range(cfg);
+  device_ = Device(cfg_.device);
   alpha_ = cfg_.xbar.v_in_max_v / x_max;
   // With pre-distortion I/G = h(V(x)) = alpha x, full scale at v_in_max.
   if (cfg.dac_predistorts())
@@ -245,6 +249,7 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       rep.block = blk;
       rep.physical_cols = xb->pcols;
       convert(*xb, in, rep);
+      if (cfg_.device.has_read_noise() && cfg_.xbar.is_linear()) xb->noise_points = read_noise_points(in);
       write_cells(*xb, rep);
       read_out(*xb, in);
       xb->in0 = blk.row0;
@@ -278,7 +283,7 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
                               ca.adc_margin == cb.adc_margin && ca.adc_offset_subtraction == cb.adc_offset_subtraction &&
                               cfg_.mitigation.calibrate() == cfg.mitigation.calibrate() &&
                               cfg_.device.compensation != Compensation::Recalibrate;
-    cfg_ = cfg;
+    cfg_ = with_device_range(cfg);
     cfg_.solver = before->cfg.solver;  // the options the crossbars' solvers were made with
     const LayerInputs layer_in = layer_inputs(calib, /*real_inputs=*/false);  // only conversion reads them
     if (same_readout) {

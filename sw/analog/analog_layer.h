@@ -43,6 +43,10 @@ struct AnalogConfig {
   bool dac_predistorts() const { return converters.dac_predistortion && xbar.memristor.model == MemristorModel::Sinh; }
 };
 
+/// `c` with the cells' conductance range settled: a device model that fixes one (statistical)
+/// gives it to the crossbar; otherwise the device takes crossbar.g_min/g_max.
+AnalogConfig with_device_range(AnalogConfig c);
+
 /// Reads and validates the sections above; the method comes from `method_key`.
 AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& method_key = "mitigation.method");
 
@@ -268,6 +272,12 @@ class AnalogLayer {
   /// The device writes the conversion's conductances: programming error, stuck cells, spare
   /// columns; the crossbar then holds its state at t = 0.
   void write_cells(Crossbar& x, CrossbarReport& rep) const;
+  /// The read-noise model of a linear crossbar at its installed conductances (Crossbar::noise_p1).
+  void fit_read_noise(Crossbar& x) const;
+  /// The reads the read-noise model is fitted at: up to kNoisePoints of the range-estimation
+  /// reads (the values each read applies), evenly spaced.
+  Eigen::MatrixXd read_noise_points(const ProgrammingInputs& in) const;
+  static constexpr int kNoisePoints = 16;
   /// Installs the state at time t after programming (a device that moves).
   void settle(Crossbar& x, double t) const;
   /// Per physical column: the reference reads' summed current after the ADC (compensation).

@@ -25,10 +25,14 @@ struct AnalogLayer::Crossbar : MappedWeights {
   Eigen::MatrixXd g_asked, g_written;
   FaultMap faults;         ///< stuck cells (empty without faults)
   int stuck_cells = 0, spares_used = 0;
-  /// Read noise of linear devices: per cell (alpha dI/dG sigma_read)^2, so that one read's
-  /// column-current variance is the squared inputs times it (first order in dG).
-  Eigen::MatrixXf q_f;
-  AnalogLayer::RowMat<float> q_rows_f;
+  /// Read noise of linear devices, first order in dG: a cell's fluctuation moves its column's
+  /// current by s_ij dG_ij, s_ij = dI_j/dG_ij = V_i A_ij - I_j B_ij (the cell's voltage: its
+  /// row's drive less its column's rise, times the network's transfer to the output; fitted
+  /// per cell to the exact sensitivities at a few reads, see fit_read_noise). One read's column
+  /// variance is then (x^2) p1 - 2 I (x p2) + I^2 p3, in input units x.
+  Eigen::MatrixXf noise_p1, noise_p2;
+  Eigen::RowVectorXf noise_p3;
+  Eigen::MatrixXd noise_points;  ///< the reads the model is fitted at (input units, reads x rows)
   /// Drift compensation: per physical column, the reference reads' summed current at t = 0
   /// (ref0) and the gain applied after the ADC (comp; empty = 1).
   Eigen::VectorXd ref0, comp;
@@ -112,12 +116,20 @@ template <typename S, typename V>
 void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eigen::Index ld, bool row_major,
                                  Eigen::Index first_read, uint64_t image) const {
   const float ro2 = static_cast<float>(cfg_.converters.readout_noise_a * cfg_.converters.readout_noise_a);
-  const bool device = x.q_f.size() > 0;
+  const bool device = x.noise_p1.size() > 0;
   if (!device && !(ro2 > 0)) return;
   const Eigen::Index reads = values.rows(), cols = x.pcols;
-  thread_local Eigen::MatrixXf var;
+  thread_local Eigen::MatrixXf var, cross;
   thread_local std::vector<float> z;
-  if (device) var.noalias() = values.template cast<float>().array().square().matrix() * x.q_f;
+  if (device) {
+    var.noalias() = values.template cast<float>().array().square().matrix() * x.noise_p1;
+    cross.noalias() = values.template cast<float>() * x.noise_p2;
+    for (Eigen::Index c = 0; c < cols; ++c)
+      for (Eigen::Index r = 0; r < reads; ++r) {
+        const float i = static_cast<float>(row_major ? cur[r * ld + c] : cur[c * ld + r]);
+        var(r, c) = std::max(var(r, c) + i * (i * x.noise_p3(c) - 2.0f * cross(r, c)), 0.0f);
+      }
+  }
   z.resize(static_cast<size_t>(cols) + 1);
   const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
   for (Eigen::Index r = 0; r < reads; ++r) {

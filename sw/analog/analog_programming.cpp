@@ -7,6 +7,7 @@
 
 #include "sw/analog/analog_layer_impl.h"
 #include "sw/analog/error_metrics.h"
+#include "sw/circuit/device_models.h"
 #include "sw/common/seed.h"
 #include "sw/mitigation/conversion.h"
 
@@ -41,14 +42,7 @@ void AnalogLayer::install(Crossbar& x, const Eigen::MatrixXd& g) const {
       x.geff_rows_d = x.geff_d;
       x.geff_rows_f = x.geff_f;
     }
-    // Read noise, first order in dG: a cell's fluctuation dG moves its column's current by
-    // V dG_eff/dG with dG_eff/dG = (G_eff / G)^2 (the cell in series with the rest of the
-    // network), so one read's column variance is sum_i x_i^2 (alpha (G_eff/G)^2 sigma_i)^2.
-    if (cfg_.device.has_read_noise()) {
-      const Eigen::ArrayXXd sens = (x.geff_d.array() / (alpha_ * g.array())).square();
-      x.q_f = (alpha_ * sens * device_.read_sigma(g).array()).square().cast<float>().matrix();
-      if (slicing_.serial()) x.q_rows_f = x.q_f;
-    }
+    if (cfg_.device.has_read_noise() && x.noise_points.rows()) fit_read_noise(x);
   }
   x.recover_k = x.sign.array() / (x.beta.array() * x.s.array());
 }
@@ -122,7 +116,10 @@ void AnalogLayer::convert(Crossbar& x, const ProgrammingInputs& in, CrossbarRepo
 
 void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
   const DeviceSpec& d = cfg_.device;
-  if (!d.perturbs_programming() && !d.moves()) return;  // ideal cells hold what conversion asked
+  if (!d.perturbs_programming() && !d.moves()) {  // ideal cells hold what conversion asked
+    if (x.noise_points.rows()) fit_read_noise(x);
+    return;
+  }
   const Eigen::MatrixXd asked = x.g_prog;
   Eigen::MatrixXd g = asked;
   device_.program(g, x.faults, x.stream);
@@ -160,6 +157,90 @@ void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
   } else {
     install(x, g);
   }
+}
+
+Eigen::MatrixXd AnalogLayer::read_noise_points(const ProgrammingInputs& in) const {
+  Eigen::MatrixXd reads;
+  if (slicing_.serial()) {
+    Codes codes;
+    slice_inputs<double>(in.range_b, codes);
+    RowMat<double> v;
+    read_values<double>(codes, 0, in.range_b.rows(), 0, static_cast<int>(in.range_b.cols()), v);
+    reads = v;
+  } else {
+    reads = in.range_b;
+  }
+  std::vector<Eigen::Index> live;
+  for (Eigen::Index r = 0; r < reads.rows(); ++r)
+    if ((reads.row(r).array() != 0).any()) live.push_back(r);
+  const size_t k = std::min<size_t>(live.size(), kNoisePoints);
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(k), reads.cols());
+  for (size_t a = 0; a < k; ++a) out.row(static_cast<Eigen::Index>(a)) = reads.row(live[a * live.size() / k]);
+  return out;
+}
+
+void AnalogLayer::fit_read_noise(Crossbar& x) const {
+  const CrossbarParams& p = cfg_.xbar;
+  const int m = x.blk.rows, n = x.pcols;
+  const Eigen::MatrixXd& g = x.g_prog;
+  // The cells as the network sees them: the memristor in series with a linear access transistor.
+  const bool series = p.transistor.model == TransistorModel::Linear;
+  const Eigen::MatrixXd gc = series ? Eigen::MatrixXd(g.unaryExpr([&](double v) { return linear_cell_conductance(p, v); }))
+                                    : g;
+  SolverOptions one = cfg_.solver;
+  one.threads = 1;
+  // T_ij, the transfer of a current across cell (i, j) to column j's output current. By
+  // reciprocity it is the voltage across the cell when column j's output drives 1 V through
+  // r_out with every row grounded through r_in: the same crossbar transposed and flipped (its
+  // rows are the columns, driven from their output end; its columns the rows, ending in r_in).
+  CrossbarParams q = p;
+  q.r_in_ohm = p.r_out_ohm;
+  q.r_out_ohm = p.r_in_ohm;
+  q.transistor.model = TransistorModel::None;
+  q.memristor.model = MemristorModel::Linear;
+  Eigen::MatrixXd gn(n, m);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < m; ++c) gn(r, c) = gc(m - 1 - c, n - 1 - r);
+  const std::unique_ptr<CrossbarSolver> adjoint = make_crossbar_solver(q, one);
+  adjoint->program(gn);
+  Eigen::MatrixXd t(m, n);
+  for (int j = 0; j < n; ++j) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+    e(n - 1 - j) = 1.0;
+    const CircuitSolution s = adjoint->solve(e);
+    for (int i = 0; i < m; ++i) t(i, j) = s.v_top(n - 1 - j, m - 1 - i) - s.v_bottom(n - 1 - j, m - 1 - i);
+  }
+  if (series) t = t.cwiseProduct(gc.cwiseQuotient(g));  // across the memristor alone
+  // The exact sensitivities s_ij = dV_ij T_ij at the fitting reads, and per cell the least-squares
+  // fit s_ij = V_i A_ij - I_j B_ij (the row's drive, the column's rise with its current).
+  Eigen::ArrayXXd s11 = Eigen::ArrayXXd::Zero(m, n), s12 = s11, s22 = s11, r1 = s11, r2 = s11;
+  for (Eigen::Index k = 0; k < x.noise_points.rows(); ++k) {
+    const Eigen::VectorXd v = alpha_ * x.noise_points.row(k).transpose();
+    const CircuitSolution op = x.solver->solve(v);
+    const Eigen::ArrayXXd s = (op.v_top - op.v_mid).array() * t.array();
+    const Eigen::ArrayXXd a1 = v.array().replicate(1, n);
+    const Eigen::ArrayXXd a2 = -op.column_current.transpose().array().replicate(m, 1);
+    s11 += a1 * a1;
+    s12 += a1 * a2;
+    s22 += a2 * a2;
+    r1 += a1 * s;
+    r2 += a2 * s;
+  }
+  Eigen::ArrayXXd a(m, n), b(m, n);
+  for (Eigen::Index k = 0; k < a.size(); ++k) {
+    const double det = s11(k) * s22(k) - s12(k) * s12(k);
+    if (det > 1e-9 * s11(k) * s22(k) && det > 0) {
+      a(k) = (r1(k) * s22(k) - r2(k) * s12(k)) / det;
+      b(k) = (s11(k) * r2(k) - s12(k) * r1(k)) / det;
+    } else {  // one kind of read (or a row never driven): the row term alone, or the transfer
+      a(k) = s11(k) > 0 ? r1(k) / s11(k) : t(k);
+      b(k) = 0;
+    }
+  }
+  const Eigen::ArrayXXd var = device_.read_sigma(g).array().square();
+  x.noise_p1 = (alpha_ * alpha_ * var * a * a).cast<float>().matrix();
+  x.noise_p2 = (alpha_ * var * a * b).cast<float>().matrix();
+  x.noise_p3 = (var * b * b).colwise().sum().cast<float>().matrix();
 }
 
 void AnalogLayer::settle(Crossbar& x, double t) const {

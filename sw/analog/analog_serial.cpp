@@ -321,7 +321,7 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
         cur.sum_x[r] = static_cast<S>(total) * static_cast<S>(slicing_.digit_unit(s));
       }
     }
-    if (x.q_f.size() || cfg_.converters.readout_noise_a > 0) {
+    if (x.noise_p1.size() || cfg_.converters.readout_noise_a > 0) {
       // Read noise: every read's values (digit x unit per row), squared against the cells' variances.
       thread_local RowMat<S> values;
       read_values<S>(codes, first, vectors, x.in0, x.blk.rows, values);
