@@ -433,10 +433,10 @@ void AnalogLayer::adc_inplace(int b, Mat<S>& currents, const RowMat<S>& xq) cons
 
 template <typename S, typename XQ>
 void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) const {
-  if (cfg_.converters.adc_bits <= 0) {
-    compensate<S>(x, currents.data(), currents.rows(), currents.rows(), /*row_major=*/false);
-    return;
-  }
+  // Drift compensation is the readout's gain: the ADC converts the compensated current, so the
+  // range it was given at programming still fits.
+  compensate<S>(x, currents.data(), currents.rows(), currents.rows(), /*row_major=*/false);
+  if (cfg_.converters.adc_bits <= 0) return;
   using Col = Eigen::Array<S, Eigen::Dynamic, 1>;
   const Col sum_x = input_sums<S>(xq, x.in0, x.blk.rows).array();
   Col offset(currents.rows());
@@ -455,7 +455,6 @@ void AnalogLayer::adc_of(const Crossbar& x, Mat<S>& currents, const XQ& xq) cons
     }
     col = v.template cast<S>() + offset;
   }
-  compensate<S>(x, currents.data(), currents.rows(), currents.rows(), /*row_major=*/false);
 }
 
 template <typename S>

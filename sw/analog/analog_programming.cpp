@@ -249,21 +249,16 @@ void AnalogLayer::settle(Crossbar& x, double t) const {
 }
 
 Eigen::VectorXd AnalogLayer::reference_sums(const Crossbar& x, const ProgrammingInputs& in) const {
-  // The calibration vectors read through the array and the ADC: what the digital side sees.
-  Eigen::VectorXd sums = Eigen::VectorXd::Zero(x.pcols);
+  // The calibration vectors read through the array (with their read noise): each column's summed
+  // current, measured by the readout before its ADC (the gain it sets applies there).
   if (slicing_.serial()) {
     Codes codes;
     slice_inputs<double>(in.cal_b, codes);
     ReadCurrents<double> cur;
     analog_of<double>(x, codes, 0, in.cal_b.rows(), cur, kReferenceReads);
-    adc_of<double>(x, cur);
-    sums = cur.i.matrix().colwise().sum().transpose();
-  } else {
-    Mat<double> cur = currents_of(x, in.cal_b, kReferenceReads);
-    adc_of<double, Eigen::MatrixXd>(x, cur, in.cal_b);
-    sums = cur.colwise().sum().transpose();
+    return cur.i.matrix().colwise().sum().transpose();
   }
-  return sums;
+  return currents_of(x, in.cal_b, kReferenceReads).colwise().sum().transpose();
 }
 
 void AnalogLayer::move_to_time(const LayerInputs& layer_in) {

@@ -355,10 +355,9 @@ void AnalogLayer::adc_inplace(int b, ReadCurrents<S>& cur) const {
 
 template <typename S>
 void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
-  if (cfg_.converters.adc_bits <= 0) {
-    compensate<S>(x, cur.i.data(), cur.i.rows(), cur.i.cols(), /*row_major=*/true);
-    return;
-  }
+  // Drift compensation is the readout's gain, before the ADC (see the other adc_of).
+  compensate<S>(x, cur.i.data(), cur.i.rows(), cur.i.cols(), /*row_major=*/true);
+  if (cfg_.converters.adc_bits <= 0) return;
   using Row = Eigen::Array<S, Eigen::Dynamic, 1>;
   const Eigen::Index cols = cur.i.cols(), reads = cur.i.rows();
   const int slices = slicing_.slices;
@@ -374,7 +373,6 @@ void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
                   t.step.col(g).data(), t.inv_step.col(g).data(), t.all_on[g] ? nullptr : t.on.col(g).data()};
     for (Eigen::Index r = 0, s = 0; r < reads; ++r, s = s + 1 == slices ? 0 : s + 1)
       adc_read_avx512(cur.i.row(r), cols, cur.sum_x[r], lanes[per_read ? s : 0]);
-    compensate<S>(x, cur.i.data(), reads, cols, /*row_major=*/true);
     return;
   }
 #endif
@@ -386,7 +384,6 @@ void AnalogLayer::adc_of(const Crossbar& x, ReadCurrents<S>& cur) const {
     const auto v = row - offset;
     row = (t.on.col(g) > S(0)).select(((v.max(lo).min(hi) - lo) * inv_step + S(0.5)).floor() * step + lo, v) + offset;
   }
-  compensate<S>(x, cur.i.data(), reads, cols, /*row_major=*/true);
 }
 
 template <typename S>
