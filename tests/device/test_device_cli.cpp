@@ -2,7 +2,12 @@
 // with one message naming the key (or the model file's key), never a crash or a silent default.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -156,4 +161,40 @@ TEST(DeviceCli, AModelFileMissingAnyKeyOrWithANegativeSpreadExits2NamingIt) {
                      "relaxation.times_s");
   std::remove(write("edited", "").c_str());
   std::remove(write("missing", "").c_str());
+}
+
+TEST(DeviceCli, DeviceDrawsDoNotDependOnTheThreadCount) {
+  // Programming error, faults, relaxation and read noise on every read, 1 thread against 2: the
+  // same numbers (everything but the wall-clock times).
+  auto run = [](int threads) {
+    const std::string json = "/tmp/xbarsim_devtest_" + std::to_string(getpid()) + "_threads.json";
+    const Result r = xbarsim_test::run_xbarsim(
+        "xbar-study --set study.rows=64 --set study.cols=16 --set study.vectors=300 --set device.model=rram-wan2022 "
+        "--set device.time_s=86400 --set device.stuck_at_gmin=0.01 --set converters.readout_noise_na=5 "
+        "--set solver.threads=" + std::to_string(threads) + " --json " + json);
+    EXPECT_EQ(r.code, 0) << r.out;
+    nlohmann::json j = nlohmann::json::parse(slurp(json), nullptr, false);
+    std::remove(json.c_str());
+    // Drop the wall-clock times (keys ending in _time_s, at any depth).
+    std::function<void(nlohmann::json&)> strip = [&](nlohmann::json& n) {
+      if (n.is_object()) {
+        for (auto it = n.begin(); it != n.end();) {
+          const std::string k = it.key();
+          if (k.size() > 7 && k.compare(k.size() - 7, 7, "_time_s") == 0) {
+            it = n.erase(it);
+          } else {
+            strip(*it);
+            ++it;
+          }
+        }
+      } else if (n.is_array()) {
+        for (auto& e : n) strip(e);
+      }
+    };
+    strip(j);
+    return j;
+  };
+  const nlohmann::json one = run(1), two = run(2);
+  EXPECT_FALSE(one.is_discarded());
+  EXPECT_EQ(one, two);
 }
