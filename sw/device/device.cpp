@@ -38,8 +38,41 @@ void locate(const std::vector<double>& times, double t, size_t& i, double& w) {
 StatisticalModel::LogLinear log_linear(YamlSection& s, const std::string& key) {
   const std::vector<double> v = s.reals(key, 4, 4);
   StatisticalModel::LogLinear l{v[0], v[1], v[2], v[3]};
-  if (!(l.min <= l.max)) throw InputError("device model: '" + key + "' has min above max");
+  if (!(l.min <= l.max)) throw InputError(s.where(key) + " has its min above its max");
   return l;
+}
+
+/// Section `key` of a model file, named `key` in messages (not ".key"); a section left empty is
+/// an empty map, so that the message names its first missing key.
+YamlSection model_section(const YAML::Node& root, const std::string& key, const std::string& origin) {
+  const YAML::Node n = root[key];
+  if (!n) throw InputError(origin + ": missing key '" + key + "'");
+  return YamlSection(n.IsNull() ? YAML::Node(YAML::NodeType::Map) : n, key, origin, true);
+}
+
+/// A top-level word of a model file.
+std::string model_word(const YAML::Node& root, const std::string& key, const std::string& origin) {
+  const YAML::Node n = root[key];
+  if (!n) throw InputError(origin + ": missing key '" + key + "'");
+  if (!n.IsScalar() || n.Scalar().empty()) throw InputError(origin + ": '" + key + "' must be a name");
+  return n.Scalar();
+}
+
+/// A flag: true or false, nothing else (a misspelt flag is not false).
+bool model_flag(const std::string& word, const std::string& where) {
+  if (word != "true" && word != "false") throw InputError(where + " must be true or false, got '" + excerpt(word) + "'");
+  return word == "true";
+}
+
+/// A spread polynomial of x = G / g_max must not be negative on the model's range [x_min, 1]
+/// (checked on a grid fine enough for the polynomials of degree <= 7 the files hold).
+void check_spread(const std::vector<double>& c, double x_min, const std::string& where) {
+  for (int k = 0; k <= 1000; ++k) {
+    const double x = x_min + (1 - x_min) * k / 1000.0;
+    if (poly(c, x) < 0)
+      throw InputError(where + " is a spread: it must not be negative on the model's range, but is " +
+                       std::to_string(poly(c, x)) + " uS at G / g_max = " + std::to_string(x));
+  }
 }
 
 }  // namespace
@@ -144,31 +177,32 @@ StatisticalModel parse_statistical_model(const std::string& text, const std::str
                              "clip_to_range"},
                       origin);
   StatisticalModel m;
-  YamlSection top(root, "", origin, true);
-  m.name = top.word("name");
-  m.source = top.word("source");
+  m.name = model_word(root, "name", origin);
+  m.source = model_word(root, "source", origin);
   {
-    YamlSection r = top.section("range");
+    YamlSection r = model_section(root, "range", origin);
     m.g_min_s = r.number("g_min_us", true) * kUs;
     m.g_max_s = r.number("g_max_us", true) * kUs;
     r.finish();
     if (!(m.g_min_s < m.g_max_s)) throw InputError(origin + ": 'range.g_min_us' must be below 'range.g_max_us'");
   }
   {
-    YamlSection p = top.section("programming");
+    YamlSection p = model_section(root, "programming", origin);
     m.program_sigma_us = p.reals("sigma_us", 1, 8);
     p.finish();
+    check_spread(m.program_sigma_us, m.g_min_s / m.g_max_s, p.where("sigma_us"));
   }
-  if (top.has("drift")) {
-    YamlSection d = top.section("drift");
+  if (root["drift"]) {
+    YamlSection d = model_section(root, "drift", origin);
     m.drifts = true;
     m.drift_t0_s = d.number("t0_s", true);
     m.nu_mean = log_linear(d, "nu_mean");
     m.nu_std = log_linear(d, "nu_std");
+    if (m.nu_std.min < 0) throw InputError(d.where("nu_std") + " is a spread: its min must be >= 0");
     d.finish();
   }
-  if (top.has("relaxation")) {
-    YamlSection r = top.section("relaxation");
+  if (root["relaxation"]) {
+    YamlSection r = model_section(root, "relaxation", origin);
     m.relax_times_s = r.reals("times_s", 1, 64);
     const size_t n = m.relax_times_s.size();
     for (size_t k = 0; k < n; ++k)
@@ -188,14 +222,15 @@ StatisticalModel parse_statistical_model(const std::string& text, const std::str
                            "', not a finite number");
         c.push_back(x);
       }
+      check_spread(c, m.g_min_s / m.g_max_s, origin + ": 'relaxation.sigma_us'");
       m.relax_sigma_us.push_back(c);
     }
     m.relax_shift_us = r.reals("shift_us", n, n);
-    if (r.has("incremental")) m.relax_incremental = r.word("incremental") == "true";
+    if (r.has("incremental")) m.relax_incremental = model_flag(r.word("incremental"), r.where("incremental"));
     r.finish();
   }
-  if (top.has("noise_1f")) {
-    YamlSection f = top.section("noise_1f");
+  if (root["noise_1f"]) {
+    YamlSection f = model_section(root, "noise_1f", origin);
     m.noise_t_read_s = f.number("t_read_s", true);
     m.noise_t_offset_s = f.number("t_offset_s");
     const std::string a = f.word("amplitude");
@@ -211,17 +246,13 @@ StatisticalModel parse_statistical_model(const std::string& text, const std::str
     f.finish();
   }
   {
-    YamlSection r = top.section("read");
+    YamlSection r = model_section(root, "read", origin);
     m.read_relative = r.number("relative");
     m.read_sqrt_relative = r.number("sqrt_relative");
     m.read_sigma_s = r.number("sigma_us") * kUs;
     r.finish();
   }
-  {
-    const std::string c = top.word("clip_to_range");
-    if (c != "true" && c != "false") throw InputError(origin + ": 'clip_to_range' must be true or false");
-    m.clip_to_range = c == "true";
-  }
+  m.clip_to_range = model_flag(model_word(root, "clip_to_range", origin), origin + ": 'clip_to_range'");
   return m;
 }
 
