@@ -253,3 +253,25 @@ def test_crossbar_reports_its_stuck_cells():
     assert abs(stuck - cells * p) < sampling_bound(cells, p)
     g = xb.conductances(0)
     assert np.count_nonzero(g == G_MAX) >= xb.reports()[0]["stuck_cells"]
+
+
+def test_device_read_draws_a_nonlinear_crossbars_reads():
+    # A nonlinear crossbar solves every read with its own fluctuating conductances; Device.read with
+    # the crossbar's salt, image and read gives those conductances. Without converters or mitigation
+    # each output is affine in its column current with one slope for every column and vector, so the
+    # outputs of four images follow the currents xbarsim.solve computes from Device.read's arrays.
+    cfg = {"crossbar.memristor.model": "sinh", "device.model": "constant", "device.read_sigma_us": 3.0,
+           "converters.adc_bits": "none", "converters.dac_bits": "none", "mitigation.method": "none"}
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0, 1, size=(2, 16))
+    xb = xbarsim.Crossbar(rng.uniform(-1, 1, size=(16, 4)), cfg, salt=3)
+    g = xb.conductances(0)
+    config, d = xbarsim.Config(overrides=cfg), xbarsim.Device(cfg)
+    volts = x * config.get("crossbar.v_in_max")  # no DAC, x_max = 1
+    y = np.array([xb.matvec(x, image=i) for i in range(4)])
+    i = np.array([[xbarsim.solve(d.read(g, image=k, read=r, layer=3), volts[r:r + 1], config)[0] for r in range(2)]
+                  for k in range(4)])
+    dy, di = y - y.mean(axis=0), i - i.mean(axis=0)  # each output's and current's change over the reads
+    slope = (dy * di).sum() / (di * di).sum()
+    assert np.ptp(y, axis=0).min() > 0  # the reads did differ
+    assert np.abs(dy - slope * di).max() < 1e-9 * np.abs(dy).max()
