@@ -8,6 +8,8 @@
 
 #include <memory>
 #include <optional>
+#include <mutex>
+#include <shared_mutex>
 
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +24,8 @@
 #include "sw/common/cancel.h"
 #include "sw/common/config.h"
 #include "sw/common/errors.h"
+#include "sw/common/seed.h"
+#include "sw/device/device.h"
 
 namespace py = pybind11;
 using namespace xbarsim;
@@ -192,34 +196,144 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
   });
 }
 
+/// The configuration a call was given: a Config, a dict of {'dotted.key': value} overrides of
+/// the defaults, or None (the defaults).
+ConfigTree config_of(const py::handle& config) {
+  if (config.is_none()) return ConfigTree();
+  if (py::isinstance<ConfigTree>(config)) return config.cast<ConfigTree>();
+  if (py::isinstance<py::dict>(config)) return load_config(py::none(), config);
+  throw InputError("config must be an xbarsim.Config, a dict of {'dotted.key': value} or None, got " +
+                   py::repr(config).cast<std::string>());
+}
+
+/// A weight matrix programmed onto crossbars (AnalogLayer), with what Python needs beside it:
+/// the configuration and calibration vectors it was programmed with (set_time reads out again
+/// from them) and the index of the next image its reads belong to (the read noise's key).
+struct PyCrossbar {
+  std::unique_ptr<AnalogLayer> layer;
+  ConfigTree config;
+  Eigen::MatrixXd calib;  ///< what program() was given (empty: random vectors)
+  uint64_t next_image = 0;
+  /// matvec reads the layer (shared), set_time changes its readout (exclusive); both without the GIL.
+  mutable std::shared_mutex mutex;
+};
+
+/// f() under a shared lock of x, taken without the GIL (set_time holds the lock exclusively
+/// while its cancellation checks take the GIL).
+template <typename F>
+auto reading(const PyCrossbar& x, F&& f) -> decltype(f()) {
+  py::gil_scoped_release release;
+  std::shared_lock lock(x.mutex);
+  return f();
+}
+
+/// The images of the read-noise streams a call may use: those below the reads programming makes.
+constexpr uint64_t kMaxImage = uint64_t{1} << 62;
+
+/// Whether a read's result depends on the image it belongs to (the read noise's key).
+bool reads_are_noisy(const AnalogLayer& layer) {
+  return layer.config().device.has_read_noise() || layer.config().converters.readout_noise_a > 0;
+}
+
 /// X (vectors x inputs) through every stage of the layer, in precision S (float: as eval).
-/// X is read in place (no conversion with the GIL held: a copy of a large X took seconds before
-/// Ctrl-C could act) and run in blocks of vectors, each crossbar's stage over a whole block, so
-/// a block bounds how long Ctrl-C waits (the layer also checks between crossbars). A vector's
-/// result does not depend on the other vectors of its block.
+/// Vector r is read r % R of image first + r / R (R = rows_per_image; the image keys the read
+/// noise, as eval's dataset index does). X is read in place (no conversion with the GIL held: a
+/// copy of a large X took seconds before Ctrl-C could act) and run in blocks, each crossbar's
+/// stage over a whole block, so a block bounds how long Ctrl-C waits (the layer also checks
+/// between crossbars): blocks of whole images when the reads are noisy (an image's reads are
+/// numbered within one forward call), else blocks of 4096 vectors. A vector's result does not
+/// depend on the other vectors of its block.
 template <typename S>
-AnalogLayer::Mat<S> matvec(const AnalogLayer& layer, py::array_t<S, py::array::c_style | py::array::forcecast> a) {
+AnalogLayer::Mat<S> matvec(PyCrossbar& xb, py::array_t<S, py::array::c_style | py::array::forcecast> a,
+                           std::optional<uint64_t> image, std::optional<Eigen::Index> rows_per_image) {
+  const AnalogLayer& layer = *xb.layer;
   if (a.ndim() != 2) throw InputError("X must be a 2-D array (vectors x inputs), got " + std::to_string(a.ndim()) +
                                       " dimensions");
   const Eigen::Index rows = a.shape(0), cols = a.shape(1);
   if (cols != layer.inputs())
     throw InputError("the vectors have " + std::to_string(cols) + " values each, the crossbar " +
                      std::to_string(layer.inputs()) + " inputs");
+  if (rows_per_image && (*rows_per_image < 1 || rows % *rows_per_image != 0))
+    throw InputError("rows_per_image must be >= 1 and divide the " + std::to_string(rows) + " vectors of X, got " +
+                     std::to_string(*rows_per_image));
+  const Eigen::Index per_image = rows_per_image ? *rows_per_image : std::max<Eigen::Index>(rows, 1);
+  const auto images = static_cast<uint64_t>(rows / per_image);
+  const uint64_t first = image ? *image : xb.next_image;
+  if (first >= kMaxImage || images >= kMaxImage - first)
+    throw InputError("image must be below 2**62 (its reads' index), got " + std::to_string(first) +
+                     (images > 1 ? " for " + std::to_string(images) + " images" : std::string()));
+  if (!image) xb.next_image += images;  // the GIL is held: calls from several threads count in turn
   const Eigen::Map<const AnalogLayer::RowMat<S>> x(a.data(), rows, cols);
+  const bool by_image = reads_are_noisy(layer);
   constexpr Eigen::Index kBlock = 4096;
   return interruptible([&] {
+    std::shared_lock lock(xb.mutex);
     AnalogLayer::Mat<S> y(rows, layer.outputs()), yb;
-    AnalogLayer::RowMat<S> xb;
-    for (Eigen::Index first = 0; first < rows; first += kBlock) {
+    AnalogLayer::RowMat<S> xr;
+    const Eigen::Index step = by_image ? per_image : kBlock;
+    for (Eigen::Index at = 0; at < rows; at += step) {
       check_cancel();
-      const Eigen::Index n = std::min(kBlock, rows - first);
-      xb = x.middleRows(first, n);
-      if (!xb.allFinite()) throw InputError("the vectors hold a non-finite value");
-      layer.forward<S>(xb, yb);
-      y.middleRows(first, n) = yb;
+      const Eigen::Index n = std::min(step, rows - at);
+      xr = x.middleRows(at, n);
+      if (!xr.allFinite()) throw InputError("the vectors hold a non-finite value");
+      layer.forward<S>(xr, yb, /*quantized=*/false, first + static_cast<uint64_t>(at / per_image));
+      y.middleRows(at, n) = yb;
     }
     return y;
   });
+}
+
+/// A NumPy array of conductances as a matrix (S): 2-D as it is (a crossbar's rows x columns),
+/// 1-D as one column. `what` names it in messages; `shape` receives its shape.
+Eigen::MatrixXd conductance_matrix(const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
+                                   const std::string& what, std::vector<py::ssize_t>& shape) {
+  if (a.ndim() != 1 && a.ndim() != 2)
+    throw InputError(what + " must be a 1-D or 2-D array of conductances (S), got " + std::to_string(a.ndim()) +
+                     " dimensions");
+  shape.assign(a.shape(), a.shape() + a.ndim());
+  const Eigen::Index rows = a.shape(0), cols = a.ndim() == 2 ? a.shape(1) : 1;
+  const Eigen::MatrixXd g = Eigen::Map<const AnalogLayer::RowMat<double>>(a.data(), rows, cols);
+  if (!g.allFinite()) throw InputError(what + " holds a non-finite value");
+  if (g.size() && g.minCoeff() < 0) throw InputError(what + " holds a negative conductance");
+  return g;
+}
+
+/// A matrix back as an array of `shape` (what conductance_matrix was given).
+template <typename T>
+py::array_t<T> as_array(const Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>& m,
+                        const std::vector<py::ssize_t>& shape) {
+  py::array_t<T> out(shape);
+  Eigen::Map<AnalogLayer::RowMat<T>>(out.mutable_data(), m.rows(), m.cols()) = m;
+  return out;
+}
+
+/// The device model of a configuration on NumPy arrays, with the crossbar's streams: cell k
+/// (column-major: k = column * rows + row) of crossbar `crossbar` of the layer with salt
+/// `layer` draws as AnalogLayer's crossbar does, and the reads count per object.
+struct PyDevice {
+  explicit PyDevice(const DeviceSpec& spec) : device(spec) {}
+  Device device;
+  uint64_t next_read = 0;
+  /// The crossbar's device stream (AnalogLayer: derive_seed(device.seed, {salt, crossbar})).
+  uint64_t stream(uint64_t layer, uint64_t crossbar) const {
+    return derive_seed(device.spec().seed, {layer, crossbar});
+  }
+};
+
+/// The read-noise stream of AnalogLayer's reads (analog_layer_impl.h, kReadNoiseStream), whose
+/// per-cell draws Device.read reproduces (a nonlinear crossbar's reads: AnalogLayer::noisy_solves).
+constexpr uint64_t kReadNoiseStream = 0x4EAD;
+
+FaultMap fault_map(const std::optional<py::array_t<int8_t, py::array::c_style | py::array::forcecast>>& a,
+                   const std::vector<py::ssize_t>& shape, Eigen::Index rows, Eigen::Index cols) {
+  if (!a) return FaultMap();
+  if (std::vector<py::ssize_t>(a->shape(), a->shape() + a->ndim()) != shape)
+    throw InputError("faults must have the shape of G_target");
+  FaultMap f = Eigen::Map<const Eigen::Array<int8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(a->data(),
+                                                                                                       rows, cols);
+  if (f.size() && (f.minCoeff() < -1 || f.maxCoeff() > 1))
+    throw InputError("faults holds a value other than -1 (stuck at g_min), 0 (free) or +1 (stuck at g_max)");
+  return f;
 }
 
 }  // namespace
@@ -287,11 +401,12 @@ PYBIND11_MODULE(_core, m) {
         return "<xbarsim.Config: " + std::to_string(c.sweep_points()) + " point(s)>";
       });
 
-  py::class_<AnalogLayer>(m, "Crossbar",
-                          "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
-                          "mitigation, programming noise, converters (config's sections).")
-      .def(py::init([](const Eigen::MatrixXd& w, const ConfigTree& cfg, double x_max, bool signed_inputs,
+  py::class_<PyCrossbar>(m, "Crossbar",
+                         "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
+                         "mitigation, the device model (device.*), converters (config's sections).")
+      .def(py::init([](const Eigen::MatrixXd& w, const py::object& config, double x_max, bool signed_inputs,
                        const std::optional<Eigen::MatrixXd>& calib, uint64_t salt, int groups, int channels) {
+             const ConfigTree cfg = config_of(config);
              const AnalogConfig ac = parse_analog_config(cfg);
              if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
              if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
@@ -303,33 +418,88 @@ PYBIND11_MODULE(_core, m) {
              if (groups < 1) throw InputError("groups must be >= 1");
              if (groups > 1 && channels < 1)
                throw InputError("a grouped layer (groups > 1) needs channels: its input channels");
-             auto layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt, RowGroups{groups, channels});
-             interruptible([&] { layer->program(calib ? *calib : Eigen::MatrixXd()); });
-             return layer;
+             auto xb = std::make_unique<PyCrossbar>();
+             xb->layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt, RowGroups{groups, channels});
+             xb->config = cfg;
+             if (calib) xb->calib = *calib;
+             interruptible([&] { xb->layer->program(xb->calib); });
+             return xb;
            }),
-           py::arg("W"), py::arg("config") = ConfigTree(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
+           py::arg("W"), py::arg("config") = py::none(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
            py::arg("calibration") = std::nullopt, py::arg("salt") = 0, py::arg("groups") = 1, py::arg("channels") = 0,
-           "Crossbar(W, config, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0): W is "
-           "inputs x outputs; inputs span [0, x_max] ([-x_max, x_max] signed); calibration (vectors x inputs) as "
-           "eval's calibration images (random vectors when None). A grouped convolution (groups > 1) gives its "
-           "block-diagonal W in im2col order (input channel innermost, `channels` of them) and is programmed "
-           "group by group, as eval programs it. Releases the GIL while programming.")
-      .def("matvec", &matvec<double>, py::arg("X"),
-           "X (vectors x inputs) times W through every stage: DACs, the circuit, ADCs, recovery. float64 "
-           "arrays compute in double precision; float32 arrays in single, as eval computes a network.")
-      .def("matvec", &matvec<float>, py::arg("X"))
-      .def_property_readonly("inputs", &AnalogLayer::inputs, "Rows of W: the values of one input vector")
-      .def_property_readonly("outputs", &AnalogLayer::outputs, "Columns of W: the values of one output vector")
-      .def_property_readonly("crossbars", &AnalogLayer::crossbars,
+           "Crossbar(W, config=None, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0): W "
+           "is inputs x outputs; config a Config, a dict of overrides or None (the defaults); inputs span [0, x_max] "
+           "([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration images (random vectors "
+           "when None). A grouped convolution (groups > 1) gives its block-diagonal W in im2col order (input "
+           "channel innermost, `channels` of them) and is programmed group by group, as eval programs it. The "
+           "device (device.*) is programmed with streams of (device.seed, salt, crossbar) and read at "
+           "device.time_s (set_time moves it). Releases the GIL while programming.")
+      .def("matvec", &matvec<double>, py::arg("X"), py::arg("image") = std::nullopt,
+           py::arg("rows_per_image") = std::nullopt,
+           "X (vectors x inputs) times W through every stage: DACs, the circuit (with one read's device and "
+           "readout noise), ADCs, recovery. Vector r is read r % R of image `image` + r // R, R = rows_per_image "
+           "(default: all of X is one image): the image keys the read noise, as eval's dataset index does. "
+           "Without `image` the crossbar's counter next_image gives it and advances by the call's images, so "
+           "every call reads afresh and a new Crossbar of the same config reads the same. float64 arrays "
+           "compute in double precision; float32 arrays in single, as eval computes a network.")
+      .def("matvec", &matvec<float>, py::arg("X"), py::arg("image") = std::nullopt,
+           py::arg("rows_per_image") = std::nullopt)
+      .def_property(
+          "next_image", [](const PyCrossbar& x) { return x.next_image; },
+          [](PyCrossbar& x, uint64_t image) {
+            if (image >= kMaxImage) throw InputError("next_image must be below 2**62");
+            x.next_image = image;
+          },
+          "The image the next matvec without image= reads as (0 after programming); set it to read again")
+      .def(
+          "set_time",
+          [](PyCrossbar& x, double t, const std::optional<std::string>& compensation) {
+            ConfigTree next = x.config;
+            next.set("device.time_s", value_text("device.time_s", py::float_(t)));
+            if (compensation) next.set("device.compensation", *compensation);
+            check_ranges(next);
+            const AnalogConfig ac = parse_analog_config(next);
+            interruptible([&] {
+              std::unique_lock lock(x.mutex);
+              x.layer->set_readout(ac, x.calib);
+            });
+            x.config = next;
+          },
+          py::arg("t"), py::arg("compensation") = std::nullopt,
+          "Reads the crossbars t seconds after programming (device.time_s; and device.compensation when given): "
+          "the state at t and its compensation, without programming again (the same cells, draws and "
+          "calibration at t = 0), as a Crossbar programmed with that device.time_s. Releases the GIL.")
+      .def_property_readonly("time_s", [](const PyCrossbar& x) { return x.layer->time_s(); },
+                             "The time after programming the crossbars are read at (s): device.time_s")
+      .def_property_readonly("config", [](const PyCrossbar& x) { return x.config; },
+                             "The configuration (a copy) the crossbars were programmed with, at time_s")
+      .def_property_readonly("compensation_reads", [](const PyCrossbar& x) { return x.layer->compensation_reads(); },
+                             "Reads made for drift compensation at time_s (reference reads, summed over crossbars)")
+      .def(
+          "conductances",
+          [](const PyCrossbar& x, int b) {
+            if (b < 0 || b >= x.layer->crossbars())
+              throw InputError("crossbar " + std::to_string(b) + " does not exist (the layer has " +
+                               std::to_string(x.layer->crossbars()) + ")");
+            return reading(x, [&] { return Eigen::MatrixXd(x.layer->conductances(b)); });
+          },
+          py::arg("b"),
+          "The conductances (S) crossbar b holds at time_s (rows x physical columns): programmed by the device, "
+          "stuck cells at g_min or g_max, drifted")
+      .def_property_readonly("inputs", [](const PyCrossbar& x) { return x.layer->inputs(); },
+                             "Rows of W: the values of one input vector")
+      .def_property_readonly("outputs", [](const PyCrossbar& x) { return x.layer->outputs(); },
+                             "Columns of W: the values of one output vector")
+      .def_property_readonly("crossbars", [](const PyCrossbar& x) { return x.layer->crossbars(); },
                              "How many physical crossbars hold W (mapping.max_rows x max_cols blocks, with the "
                              "mapping's extra columns)")
-      .def_property_readonly("x_max", &AnalogLayer::x_max,
+      .def_property_readonly("x_max", [](const PyCrossbar& x) { return x.layer->x_max(); },
                              "The inputs' full scale: the DACs span [0, x_max] ([-x_max, x_max] when signed)")
-      .def_property_readonly("signed_inputs", &AnalogLayer::signed_inputs,
+      .def_property_readonly("signed_inputs", [](const PyCrossbar& x) { return x.layer->signed_inputs(); },
                              "True when inputs span [-x_max, x_max] (else [0, x_max])")
-      .def("reports", [](const AnalogLayer& layer) {
+      .def("reports", [](const PyCrossbar& x) {
         py::list out;
-        for (const CrossbarReport& r : layer.reports()) {
+        for (const CrossbarReport& r : reading(x, [&] { return x.layer->reports(); })) {
           py::dict d;
           d["row0"] = r.block.row0;
           d["rows"] = r.block.rows;
@@ -338,11 +508,167 @@ PYBIND11_MODULE(_core, m) {
           d["physical_cols"] = r.physical_cols;
           d["out_of_range_cells"] = r.out_of_range_cells;
           d["min_column_gain"] = r.min_column_gain;
+          d["stuck_cells"] = r.stuck_cells;
+          d["spare_columns_used"] = r.spare_columns_used;
           out.append(d);
         }
         return out;
       }, "Per crossbar, a dict: its block of W (row0, rows, col0, cols), physical_cols, out_of_range_cells "
-         "(cells the conversion wanted outside [g_min, g_max], clipped) and min_column_gain");
+         "(cells the conversion wanted outside [g_min, g_max], clipped), min_column_gain, stuck_cells (cells "
+         "stuck at g_min or g_max, after spare columns) and spare_columns_used");
+
+  using Cells = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  using Faults = std::optional<py::array_t<int8_t, py::array::c_style | py::array::forcecast>>;
+  py::class_<PyDevice>(m, "Device",
+                       "The device model of a configuration's section device. (docs/physics.md, device models) on "
+                       "NumPy arrays of conductances in siemens: programming error and stuck cells, the state t "
+                       "seconds after programming, one read's fluctuation. Every draw is the crossbar's: cell k "
+                       "(column-major) of crossbar `crossbar` of the layer with salt `layer` draws from "
+                       "(device.seed, layer, crossbar, k), as Crossbar and eval program it.")
+      .def(py::init([](const py::object& config) {
+             return std::make_unique<PyDevice>(parse_device_spec(config_of(config)));
+           }),
+           py::arg("config") = py::none(),
+           "Device(config=None): config a Config, a dict of {'dotted.key': value} overrides or None (the "
+           "defaults: device.model ideal). An unknown device.model or a bad device.* value raises ValueError "
+           "naming the key.")
+      .def(
+          "program",
+          [](const PyDevice& d, const Cells& g, bool return_faults, uint64_t layer, uint64_t crossbar) -> py::object {
+            std::vector<py::ssize_t> shape;
+            Eigen::MatrixXd m = conductance_matrix(g, "G", shape);
+            FaultMap faults;
+            d.device.program(m, faults, d.stream(layer, crossbar));
+            if (!return_faults) return as_array<double>(m, shape);
+            return py::make_tuple(as_array<double>(m, shape),
+                                  as_array<int8_t>(Eigen::Matrix<int8_t, Eigen::Dynamic, Eigen::Dynamic>(faults), shape));
+          },
+          py::arg("G"), py::kw_only(), py::arg("return_faults") = false, py::arg("layer") = 0, py::arg("crossbar") = 0,
+          "The conductances (S) cells with targets G (S; a crossbar's rows x columns, or 1-D: one column) hold "
+          "after programming: the programming error, states clipped as the model clips them, stuck cells at "
+          "g_min or g_max. With return_faults=True, (G_programmed, faults): faults int8, -1 stuck at g_min, +1 "
+          "at g_max, 0 free. The same (layer, crossbar) always draws the same.")
+      .def(
+          "faults",
+          [](const PyDevice& d, py::ssize_t rows, py::ssize_t cols, uint64_t layer, uint64_t crossbar) {
+            if (rows < 0 || cols < 0) throw InputError("faults: rows and cols must be >= 0");
+            FaultMap f;
+            d.device.place_faults(f, rows, cols, d.stream(layer, crossbar));
+            return as_array<int8_t>(Eigen::Matrix<int8_t, Eigen::Dynamic, Eigen::Dynamic>(f), {rows, cols});
+          },
+          py::arg("rows"), py::arg("cols"), py::kw_only(), py::arg("layer") = 0, py::arg("crossbar") = 0,
+          "The stuck cells program() places on a rows x cols crossbar (int8: -1 at g_min, +1 at g_max, 0 free): "
+          "each cell stuck at g_min with probability device.stuck_at_gmin, at g_max with stuck_at_gmax")
+      .def(
+          "at_time",
+          [](const PyDevice& d, const Cells& target, const Cells& prog, std::optional<double> t, const Faults& faults,
+             uint64_t layer, uint64_t crossbar) {
+            std::vector<py::ssize_t> shape, shape_prog;
+            const Eigen::MatrixXd gt = conductance_matrix(target, "G_target", shape);
+            const Eigen::MatrixXd gp = conductance_matrix(prog, "G_prog", shape_prog);
+            if (shape != shape_prog) throw InputError("G_target and G_prog differ in shape");
+            const double time = t ? *t : d.device.spec().time_s;
+            if (!std::isfinite(time) || time < 0) throw InputError("t must be a time >= 0 (s), got " + py::repr(py::float_(time)).cast<std::string>());
+            const uint64_t stream = d.stream(layer, crossbar);
+            FaultMap f = fault_map(faults, shape, gt.rows(), gt.cols());
+            if (!faults) d.device.place_faults(f, gt.rows(), gt.cols(), stream);
+            return as_array<double>(d.device.at_time(gt, gp, f, time, stream), shape);
+          },
+          py::arg("G_target"), py::arg("G_prog"), py::arg("t") = std::nullopt, py::kw_only(),
+          py::arg("faults") = std::nullopt, py::arg("layer") = 0, py::arg("crossbar") = 0,
+          "The conductances (S) t seconds after programming (default device.time_s) of cells with targets "
+          "G_target programmed to G_prog (program()'s result): drift with each cell's exponent, relaxation, "
+          "accumulated 1/f noise; stuck cells (faults; default: those program() placed for this layer and "
+          "crossbar) never move. A cell's draws are the same at every t (a coherent trajectory); at t = 0 the "
+          "programmed state, plus the noise the first read has accumulated for models with 1/f noise.")
+      .def(
+          "read",
+          [](PyDevice& d, const Cells& g, std::optional<uint64_t> read, uint64_t image, uint64_t layer,
+             uint64_t crossbar) {
+            std::vector<py::ssize_t> shape;
+            Eigen::MatrixXd m = conductance_matrix(g, "G", shape);
+            const uint64_t r = read ? *read : d.next_read++;
+            const Eigen::MatrixXd sigma = d.device.read_sigma(m);
+            const uint64_t key = derive_seed(d.device.spec().seed, {kReadNoiseStream, image, layer, crossbar});
+            const uint64_t rk = mix64(key ^ mix64(r + 0x6A09E667F3BCC909ull));  // as AnalogLayer::noisy_solves
+            for (Eigen::Index k = 0; k < m.size(); ++k)
+              m.data()[k] = std::max(m.data()[k] + sigma.data()[k] * counter_normal(rk, static_cast<uint64_t>(k)),
+                                     Device::kOpenCellS);
+            return as_array<double>(m, shape);
+          },
+          py::arg("G"), py::kw_only(), py::arg("read") = std::nullopt, py::arg("image") = 0, py::arg("layer") = 0,
+          py::arg("crossbar") = 0,
+          "One read's conductances (S) of cells in state G (S): G + read_sigma(G) z, z standard normal per "
+          "cell, at least 1 nS (an open cell). Read `read` of `image` (default: the device's counter next_read, "
+          "which advances, so every call draws afresh and a new Device of the same config draws the same): the "
+          "cell draws of that read of a nonlinear Crossbar with salt `layer` (its linear reads add the "
+          "column current's fluctuation instead, to first order)")
+      .def_property(
+          "next_read", [](const PyDevice& d) { return d.next_read; },
+          [](PyDevice& d, uint64_t r) { d.next_read = r; }, "The read the next read() without read= is (0 at first)")
+      .def(
+          "read_sigma",
+          [](const PyDevice& d, const Cells& g) {
+            std::vector<py::ssize_t> shape;
+            return as_array<double>(d.device.read_sigma(conductance_matrix(g, "G", shape)), shape);
+          },
+          py::arg("G"), "One read's standard deviation (S) of every cell's conductance at state G (S)")
+      .def(
+          "program_sigma",
+          [](const PyDevice& d, const Cells& g) {
+            std::vector<py::ssize_t> shape;
+            const Eigen::MatrixXd m = conductance_matrix(g, "G_target", shape);
+            return as_array<double>(m.unaryExpr([&](double v) { return d.device.program_sigma_s(v); }).eval(), shape);
+          },
+          py::arg("G_target"), "The model's programming error sigma (S) for targets G_target (S), before clipping")
+      .def(
+          "nu",
+          [](const PyDevice& d, const Cells& g) {
+            std::vector<py::ssize_t> shape;
+            const Eigen::MatrixXd m = conductance_matrix(g, "G_target", shape);
+            const bool drifts = d.device.spec().kind == DeviceKind::Statistical && d.device.spec().stat.drifts;
+            const Eigen::MatrixXd mean = m.unaryExpr([&](double v) { return drifts ? d.device.nu_mean(v) : 0.0; });
+            const Eigen::MatrixXd sd = m.unaryExpr([&](double v) { return drifts ? d.device.nu_std(v) : 0.0; });
+            return py::make_tuple(as_array<double>(mean, shape), as_array<double>(sd, shape));
+          },
+          py::arg("G_target"),
+          "(mean, std) of the drift exponent for targets G_target (S): each cell's nu = |N(mean, std)| (zeros for "
+          "a model without drift)")
+      .def_property_readonly("model", [](const PyDevice& d) { return d.device.spec().model; },
+                             "device.model as written: ideal, constant, a built-in model's name or a model file")
+      .def_property_readonly(
+          "kind",
+          [](const PyDevice& d) -> std::string {
+            switch (d.device.spec().kind) {
+              case DeviceKind::Ideal:
+                return "ideal";
+              case DeviceKind::Constant:
+                return "constant";
+              case DeviceKind::Statistical:
+                return "statistical";
+            }
+            return "?";
+          },
+          "ideal, constant or statistical (a published model as data)")
+      .def_property_readonly("source", [](const PyDevice& d) { return d.device.spec().stat.source; },
+                             "A statistical model's source (its papers), else ''")
+      .def_property_readonly("g_min", [](const PyDevice& d) { return d.device.spec().g_min_s; },
+                             "The cells' lowest conductance (S): the model's, or crossbar.g_min")
+      .def_property_readonly("g_max", [](const PyDevice& d) { return d.device.spec().g_max_s; },
+                             "The cells' highest conductance (S): the model's, or crossbar.g_max")
+      .def_property_readonly("seed", [](const PyDevice& d) { return d.device.spec().seed; }, "device.seed")
+      .def_property_readonly("time_s", [](const PyDevice& d) { return d.device.spec().time_s; },
+                             "device.time_s: at_time's default t (s)")
+      .def_property_readonly("moves", [](const PyDevice& d) { return d.device.spec().moves(); },
+                             "The state changes after programming (at_time is not the identity for t > 0)")
+      .def_property_readonly("has_read_noise", [](const PyDevice& d) { return d.device.spec().has_read_noise(); },
+                             "A cell's read fluctuates (read_sigma > 0 somewhere)")
+      .def("__repr__", [](const PyDevice& d) {
+        std::ostringstream s;
+        s << "<xbarsim.Device " << d.device.spec().model << ": " << d.device.spec().g_min_s * 1e6 << ".."
+          << d.device.spec().g_max_s * 1e6 << " uS>";
+        return s.str();
+      });
 
   m.def(
       "output_errors",

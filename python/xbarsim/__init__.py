@@ -4,6 +4,8 @@
     cfg = xbarsim.Config(overrides={"crossbar.r_wire": 2.5})
     I = xbarsim.solve(G, V, cfg)            # column currents (A), one row per input vector
     r = xbarsim.overhead(preset="resnet20")  # the CLI's JSON as a dict
+    pcm = xbarsim.Device({"device.model": "pcm-joshi2020"})
+    G1 = pcm.at_time(G, pcm.program(G), t=86400)  # programmed, then a day later (S)
 
 Errors in the input raise ValueError with the CLI's message; a solver that does not converge
 raises xbarsim.SolverError. `solve` releases the GIL, so Python threads solve in parallel.
@@ -17,7 +19,7 @@ import sys
 import tempfile
 
 try:
-    from ._core import (Config, Crossbar, SolverError, __version__, calibration_row_picks,  # noqa: F401
+    from ._core import (Config, Crossbar, Device, SolverError, __version__, calibration_row_picks,  # noqa: F401
                         calibration_rows_per_image, layer_output_range, netlist, output_errors, solve)
     from . import _core
 except ImportError as e:
@@ -35,7 +37,7 @@ except ImportError as e:
         f"{sys.executable} (Python {sys.version_info[0]}.{sys.version_info[1]}): run {_PYTHON} instead "
         f"(or rebuild with -DPython3_EXECUTABLE={sys.executable}); the import said: {e}") from e
 
-__all__ = ["Config", "Crossbar", "SolverError", "solve", "netlist", "output_errors", "layer_output_range",
+__all__ = ["Config", "Crossbar", "Device", "SolverError", "solve", "netlist", "output_errors", "layer_output_range",
            "simulate", "explore", "overhead", "run", "__version__"]
 
 

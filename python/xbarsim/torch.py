@@ -16,6 +16,11 @@ them), the same input range [0, x_max] (or signed) and calibration vectors (eval
 the calibration images, by calibration.seed) and the same salt. The
 values cross between torch and xbarsim as NumPy arrays (no libtorch link); any torch model
 works, exportable or not.
+
+The device model (device.* of the config) programs every layer as eval's; each layer counts the
+images it has seen, and image k of that count reads with the read noise of eval's image k
+(`set_image` restarts the count). `set_time(model, t)` reads the model t seconds after
+programming without programming it again.
 """
 import copy
 import warnings
@@ -28,7 +33,7 @@ from . import (Config, Crossbar, calibration_row_picks, calibration_rows_per_ima
                output_errors)
 from . import _core
 
-__all__ = ["convert", "evaluate", "AnalogConv2d", "AnalogLinear"]
+__all__ = ["convert", "evaluate", "set_time", "set_image", "AnalogConv2d", "AnalogLinear"]
 
 
 def _span(module):
@@ -110,10 +115,15 @@ class _Analog(torch.nn.Module):
         self._software_mode = False  # evaluate(): the layer computes in torch, as the reference network
         self._keep = None  # evaluate(): a list the layer appends its output to
 
-    def _matmul(self, cols):
+    def _matmul(self, cols, images):
         # float32 vectors compute in single precision, as eval's network inference; others in double.
+        # The rows are `images` images' input vectors, each image's together: image k of the batch
+        # reads as image crossbar.next_image + k (its read noise, as eval's dataset index), and the
+        # crossbar's counter advances by the batch.
         cols = cols.detach().cpu()
-        y = self.crossbar.matvec((cols if cols.dtype == torch.float32 else cols.double()).numpy())
+        per_image = cols.shape[0] // images if images else 1
+        y = self.crossbar.matvec((cols if cols.dtype == torch.float32 else cols.double()).numpy(),
+                                 rows_per_image=per_image)
         return torch.from_numpy(y)
 
     def _out(self, y):
@@ -131,7 +141,7 @@ class AnalogConv2d(_Analog):
         left, right, top, bottom = _pads(m)
         oh = (h + top + bottom - m.dilation[0] * (m.kernel_size[0] - 1) - 1) // m.stride[0] + 1
         ow = (w + left + right - m.dilation[1] * (m.kernel_size[1] - 1) - 1) // m.stride[1] + 1
-        y = self._matmul(_columns(m, x)).to(x.dtype).reshape(n, oh * ow, -1).transpose(1, 2).reshape(n, -1, oh, ow)
+        y = self._matmul(_columns(m, x), n).to(x.dtype).reshape(n, oh * ow, -1).transpose(1, 2).reshape(n, -1, oh, ow)
         if m.bias is not None:
             y = y + m.bias.detach().reshape(1, -1, 1, 1)
         return self._out(y)
@@ -142,7 +152,7 @@ class AnalogLinear(_Analog):
         m = self.software
         if self._software_mode:
             return self._out(m(x))
-        y = self._matmul(_columns(m, x)).to(x.dtype).reshape(*x.shape[:-1], -1)
+        y = self._matmul(_columns(m, x), x.shape[0] if x.dim() > 1 else 1).to(x.dtype).reshape(*x.shape[:-1], -1)
         if m.bias is not None:
             y = y + m.bias.detach()
         return self._out(y)
@@ -261,6 +271,33 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
     return model
 
 
+def _analog_layers(model):
+    return [(name, m) for name, m in model.named_modules() if isinstance(m, _Analog)]
+
+
+def set_time(model, t, compensation=None):
+    """Reads every analog layer of `model` (a converted one) t seconds after programming
+    (device.time_s; and device.compensation when given) without programming it again: the same
+    cells and draws, as a model converted with that device.time_s (Crossbar.set_time). A sweep
+    over time is a loop over set_time on one converted model."""
+    layers = _analog_layers(model)
+    if not layers:
+        raise ValueError("set_time: the model has no analog layer (convert it first)")
+    for _, m in layers:
+        m.crossbar.set_time(t, compensation)
+    return model
+
+
+def set_image(model, image=0):
+    """The index the next image the model runs reads as (every analog layer's
+    Crossbar.next_image): each image's reads draw their read noise from it, as eval's reads from
+    the image's index in the dataset. Layers count the images they see (the first batch after
+    convert reads as images 0, 1, ...); set it to repeat a run's noise."""
+    for _, m in _analog_layers(model):
+        m.crossbar.next_image = image
+    return model
+
+
 def evaluate(model, loader, reference=None):
     """Accuracy of `model` (a converted one) over (inputs, labels) batches of `loader`; with
     `reference` (the original), its accuracy too and how many predictions agree.
@@ -272,7 +309,7 @@ def evaluate(model, loader, reference=None):
     (xbarsim.output_errors, docs/physics.md). A layer whose mean error passes
     xbarsim._core.layer_error_warning is named in "warnings" (and warned about).
     """
-    analog = [(name, m) for name, m in model.named_modules() if isinstance(m, _Analog)]
+    analog = _analog_layers(model)
     tally = {name: [0.0, 0.0, 0] for name, m in analog if m.output_range is not None}  # sum, worst, count
     correct = ref_correct = agree = total = 0
     with torch.no_grad():

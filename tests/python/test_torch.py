@@ -163,3 +163,46 @@ def test_evaluate_reports_eval_errors_and_warns_about_large_ones():
     big = [n for n, e in r["layer_mean_relative_error"].items() if e > 0.1]
     assert big and len(r["warnings"]) == len(big)
     assert any(f"layer {big[0]}: mean error" in str(w.message) for w in caught)
+
+
+READ_NOISE = {"device.model": "constant", "device.read_sigma_us": 2.0}
+
+
+def test_converted_layers_read_afresh_per_image_and_reproducibly():
+    # Issue 40: each analog layer counts the images it sees; image k reads with its own read noise
+    # (eval's image k), so a batch reads as its images one by one and a rerun reads the same.
+    net = small_net()
+    x = torch.rand(4, 3, 9, 10)
+    with torch.no_grad():
+        net(x)
+    analog = xtorch.convert(net, xbarsim.Config(overrides=READ_NOISE), calibration=x)
+    with torch.no_grad():
+        first, second = analog(x), analog(x)
+        assert not torch.equal(first, second)  # images 4..7 read afresh
+        xtorch.set_image(analog, 0)
+        np.testing.assert_array_equal(analog(x).numpy(), first.numpy())
+        xtorch.set_image(analog, 0)
+        one_by_one = torch.cat([analog(x[k:k + 1]) for k in range(4)])
+    np.testing.assert_array_equal(one_by_one.numpy(), first.numpy())
+    again = xtorch.convert(net, xbarsim.Config(overrides=READ_NOISE), calibration=x)
+    with torch.no_grad():
+        np.testing.assert_array_equal(again(x).numpy(), first.numpy())
+    assert analog[0].crossbar.next_image == 4 and analog[6].crossbar.next_image == 4
+
+
+def test_set_time_moves_a_converted_model_as_converting_at_that_time():
+    net = small_net()
+    x = torch.rand(3, 3, 9, 10)
+    with torch.no_grad():
+        net(x)
+    pcm = {"device.model": "pcm-joshi2020"}
+    analog = xtorch.convert(net, xbarsim.Config(overrides=pcm), calibration=x)
+    later = xtorch.convert(net, xbarsim.Config(overrides=dict(pcm, **{"device.time_s": 86400.0})), calibration=x)
+    with torch.no_grad():
+        y0 = analog(x)
+        xtorch.set_time(analog, 86400.0)
+        np.testing.assert_array_equal(analog(x).numpy(), later(x).numpy())
+        assert not torch.equal(analog(x), y0)
+    assert all(m.crossbar.time_s == 86400.0 for m in analog if isinstance(m, xtorch.AnalogConv2d))
+    with pytest.raises(ValueError, match="no analog layer"):
+        xtorch.set_time(net, 1.0)
