@@ -84,6 +84,7 @@ MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar
         "configuration key 'mapping.weight_bits' (1): differential weights need a sign and at least one magnitude "
         "bit (2 or more), or mapping.negative: shift");
   m.logical_columns_per_crossbar();  // validates max_cols against the column layout
+  m.spare_columns = cfg.get_int32("device.spare_columns");
   return m;
 }
 

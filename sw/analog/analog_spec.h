@@ -28,6 +28,9 @@ struct MappingSpec {
   /// W - w_lo; differential: a sign and weight_bits - 1 magnitude bits per column of the pair);
   /// 0 = unquantized, or cell_bits when cells have levels (one cell per weight).
   int weight_bits = 0;
+  /// device.spare_columns: columns every crossbar holds besides its mapped ones, to replace
+  /// faulty columns (the inventory prices them as crossbar columns with their readout).
+  int spare_columns = 0;
   bool differential() const { return negative == NegativeWeights::Differential; }
   bool analog_sum() const { return sum_x == SumX::Analog; }
   /// Columns of one polarity: 2 (differential pair) or 1 (shift).

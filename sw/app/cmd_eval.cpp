@@ -1,6 +1,7 @@
 // xbarsim eval: argument parsing and rendering of a whole-network evaluation
 // (sw/study/eval_study.h).
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -113,17 +114,24 @@ int cmd_eval(int argc, char** argv) {
                      {"img/s", 9, 1}});
   WarningSummary warnings;
   if (root) table.print_header(stdout);
+  // Crossbars programmed for one point serve the next when it differs only in their readout or
+  // the time they are read at (programs_alike: a sweep over device.time_s programs once).
+  std::unique_ptr<CrossbarBackend> programmed;
   for (size_t run = 0; run < points.size(); ++run) {
     const std::string& label = labels[run];
     ProgressBar prog(static_cast<int>(model.linear.size()), "programming " + label);
     ProgressBar eval_bar((data.test.count() - shard.index + shard.count - 1) / shard.count, "evaluating  " + label);
-    const EvalResult r = run_eval(model, designs[run], spec, data.test, data.calib,
-                                  {[&](int d, int) { prog.update(d); },
-                                   [&](int d, int n) {
-                                     prog.finish();
-                                     eval_bar.update(d, n);
-                                   }},
-                                  shard, journal_file ? &journals[run] : nullptr);
+    const auto t0 = std::chrono::steady_clock::now();
+    if (programmed && programs_alike(programmed->config(), designs[run].ac))
+      programmed->set_readout(designs[run].ac, [&](int d, int) { prog.update(d); });
+    else
+      programmed = std::make_unique<CrossbarBackend>(program_crossbars(
+          model, designs[run], spec, data.calib, [&](int d, int) { prog.update(d); }));
+    prog.finish();
+    const double program_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const EvalResult r = run_eval(model, designs[run], data.test, *programmed, program_s,
+                                  [&](int d, int n) { eval_bar.update(d, n); }, shard,
+                                  journal_file ? &journals[run] : nullptr);
     eval_bar.finish();
     // A later point that shares this one's key (it differs only where an image's outcome cannot,
     // e.g. platform.clock_mhz) reuses the lines just written.

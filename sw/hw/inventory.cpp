@@ -56,8 +56,10 @@ LayerInventory matrix_inventory(long long rows, long long cols, long long iterat
   v.crossbars = mul(v.row_blocks, v.col_blocks);
   // Balanced column blocks: (cols % pc) blocks of cb + 1 weight columns, the rest cb.
   const long long pc = v.col_blocks, big = cols % pc, small = pc - big, cb = cols / pc;
-  const long long phys_big = mapping.physical_columns(static_cast<int>(std::min(cb + 1, cols)));
-  const long long phys_small = cb > 0 ? mapping.physical_columns(static_cast<int>(cb)) : 0;
+  // Every crossbar's mapped columns and its spare columns (device.spare_columns).
+  const long long spares = mapping.spare_columns;
+  const long long phys_big = mapping.physical_columns(static_cast<int>(std::min(cb + 1, cols))) + spares;
+  const long long phys_small = cb > 0 ? mapping.physical_columns(static_cast<int>(cb)) + spares : 0;
   v.physical_cols = add(mul(big, phys_big), mul(small, phys_small));
   const long long adcs_per_row_block = add(mul(big, adcs_for_columns(phys_big, columns_per_adc)),
                                            mul(small, cb > 0 ? adcs_for_columns(phys_small, columns_per_adc) : 0));
@@ -65,7 +67,7 @@ LayerInventory matrix_inventory(long long rows, long long cols, long long iterat
   v.dacs = mul(rows, pc);
   v.accumulators = v.crossbars;
   v.array_rows = mapping.max_rows ? mapping.max_rows : rows;
-  v.array_cols = mapping.max_cols ? mapping.max_cols : v.physical_cols;
+  v.array_cols = mapping.max_cols ? mapping.max_cols + spares : v.physical_cols;
   v.cells_present = mul(mul(v.crossbars, v.array_rows), v.array_cols);
   v.cells_used = mul(rows, v.physical_cols);
   v.sample_holds = mul(v.row_blocks, v.physical_cols);

@@ -385,6 +385,8 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     el.signed_inputs = xb.statistics(l).signed_inputs;
     for (const auto& rep : xb.layer(l).reports()) {
       el.out_of_range_cells += rep.out_of_range_cells;
+      el.stuck_cells += rep.stuck_cells;
+      el.spare_columns_used += rep.spare_columns_used;
       el.cells += static_cast<long long>(rep.block.rows) * rep.physical_cols;
       el.min_column_gain = std::min(el.min_column_gain, rep.min_column_gain);
     }
@@ -495,6 +497,8 @@ nlohmann::json EvalResult::to_json() const {
                            {"input_full_scale", l.input_full_scale},
                            {"signed_inputs", l.signed_inputs},
                            {"out_of_range_cells", l.out_of_range_cells},
+                           {"stuck_cells", l.stuck_cells},
+                           {"spare_columns_used", l.spare_columns_used},
                            {"min_column_gain", l.min_column_gain},
                            {"mean_relative_error", l.mean_relative_error},
                            {"worst_relative_error", l.worst_relative_error}});

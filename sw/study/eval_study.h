@@ -50,6 +50,8 @@ struct EvalLayer {
   double input_full_scale = 0, min_column_gain = 1;
   bool signed_inputs = false;
   long long out_of_range_cells = 0;
+  long long stuck_cells = 0;         ///< cells stuck at g_min or g_max (device.stuck_at_*), after spares
+  long long spare_columns_used = 0;  ///< columns replaced by spare columns (device.spare_columns)
   long long cells = 0;  ///< programmed cells of the layer's crossbars (physical columns included)
 };
 
