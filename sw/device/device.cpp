@@ -256,6 +256,16 @@ StatisticalModel parse_statistical_model(const std::string& text, const std::str
   return m;
 }
 
+std::string device_model_text(const std::string& model) {
+  if (model == "ideal" || model == "constant") return "";
+  if (const char* text = builtin_device_model_yaml(model)) return text;
+  try {
+    return read_input_file(model, "the device model (device.model)", 1 << 20);
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
 bool DeviceSpec::has_read_noise() const {
   switch (kind) {
     case DeviceKind::Ideal:

@@ -60,6 +60,10 @@ struct StatisticalModel {
 StatisticalModel parse_statistical_model(const std::string& yaml_text, const std::string& origin);
 /// The compiled-in model of that name (configs/devices/<name>.yaml), or nullptr.
 const char* builtin_device_model_yaml(const std::string& name);
+/// The text that states model `model` (a device.model value): the compiled-in YAML of a preset,
+/// a model file's contents, "" for ideal and constant (or a file that cannot be read). Results
+/// keyed by the configuration key them by it too, so an edited model file is a new design.
+std::string device_model_text(const std::string& model);
 /// The names of the compiled-in models, comma-separated.
 std::string builtin_device_models();
 

@@ -383,6 +383,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     el.worst_relative_error = sum.worst;
     el.input_full_scale = xb.statistics(l).x_max;
     el.signed_inputs = xb.statistics(l).signed_inputs;
+    el.compensation_reads = xb.layer(l).compensation_reads();
     for (const auto& rep : xb.layer(l).reports()) {
       el.out_of_range_cells += rep.out_of_range_cells;
       el.stuck_cells += rep.stuck_cells;
@@ -499,6 +500,7 @@ nlohmann::json EvalResult::to_json() const {
                            {"out_of_range_cells", l.out_of_range_cells},
                            {"stuck_cells", l.stuck_cells},
                            {"spare_columns_used", l.spare_columns_used},
+                           {"compensation_reads", l.compensation_reads},
                            {"min_column_gain", l.min_column_gain},
                            {"mean_relative_error", l.mean_relative_error},
                            {"worst_relative_error", l.worst_relative_error}});

@@ -52,6 +52,7 @@ struct EvalLayer {
   long long out_of_range_cells = 0;
   long long stuck_cells = 0;         ///< cells stuck at g_min or g_max (device.stuck_at_*), after spares
   long long spare_columns_used = 0;  ///< columns replaced by spare columns (device.spare_columns)
+  long long compensation_reads = 0;  ///< reads drift compensation made at device.time_s (per crossbar, summed)
   long long cells = 0;  ///< programmed cells of the layer's crossbars (physical columns included)
 };
 

@@ -1,4 +1,5 @@
 #include "sw/study/explore.h"
+#include "sw/device/device.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -195,6 +196,9 @@ std::string point_key(const ConfigTree& cfg, const std::vector<std::string>& als
     const std::string value = cfg.get_string(key);
     h.add(key + "=" + (ConfigTree::is_numeric(key) ? canonical_value(value, ConfigTree::is_integer(key)) : value) +
           "\n");
+    // A device model by what it states (an edited model file is another design).
+    if (key == "device.model")
+      if (const std::string text = device_model_text(value); !text.empty()) h.add(text + "\n");
   }
   return h.hex();
 }
