@@ -286,9 +286,12 @@ class AnalogLayer {
   void move_to_time(const LayerInputs& in);
   /// Adds one read's device fluctuation and readout noise to the currents of reads whose
   /// values (input units, reads x crossbar rows) are `values`; read r is read first_read + r of image.
+  /// `pre_var`, `pre_cross` (reads x columns by row, optional): the squared inputs times p1 and
+  /// the inputs times p2, when the caller has them (bit-serial reads of binary digits).
   template <typename S, typename V>
   void add_read_noise(const Crossbar& x, const V& values, S* currents, Eigen::Index ld, bool row_major,
-                      Eigen::Index first_read, uint64_t image) const;
+                      Eigen::Index first_read, uint64_t image, const float* pre_var = nullptr,
+                      const float* pre_cross = nullptr) const;
   /// Nonlinear devices with read noise: every read solved with its own fluctuating conductances.
   Eigen::MatrixXd noisy_solves(const Crossbar& x, const Eigen::MatrixXd& volts, Eigen::Index first_read,
                                uint64_t image) const;

@@ -2,6 +2,7 @@
 /// Private to the analog layer's sources: a programmed crossbar and what programming reads.
 #include <memory>
 #include <type_traits>
+#include <algorithm>
 #include <vector>
 
 #include "sw/analog/analog_layer.h"
@@ -30,7 +31,7 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// row's drive less its column's rise, times the network's transfer to the output; fitted
   /// per cell to the exact sensitivities at a few reads, see fit_read_noise). One read's column
   /// variance is then (x^2) p1 - 2 I (x p2) + I^2 p3, in input units x.
-  Eigen::MatrixXf noise_p1, noise_p2;
+  AnalogLayer::RowMat<float> noise_p1, noise_p2;  ///< by rows: bit-serial reads add the rows of their digits
   Eigen::RowVectorXf noise_p3;
   Eigen::MatrixXd noise_points;  ///< the reads the model is fitted at (input units, reads x rows)
   /// Drift compensation: per physical column, the reference reads' summed current at t = 0
@@ -114,32 +115,53 @@ void AnalogLayer::compensate(const Crossbar& x, S* cur, Eigen::Index reads, Eige
 
 template <typename S, typename V>
 void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eigen::Index ld, bool row_major,
-                                 Eigen::Index first_read, uint64_t image) const {
+                                 Eigen::Index first_read, uint64_t image, const float* pre_var,
+                                 const float* pre_cross) const {
   const float ro2 = static_cast<float>(cfg_.converters.readout_noise_a * cfg_.converters.readout_noise_a);
   const bool device = x.noise_p1.size() > 0;
   if (!device && !(ro2 > 0)) return;
   const Eigen::Index reads = values.rows(), cols = x.pcols;
-  thread_local Eigen::MatrixXf var, cross;
-  thread_local std::vector<float> z;
-  if (device) {
-    var.noalias() = values.template cast<float>().array().square().matrix() * x.noise_p1;
-    cross.noalias() = values.template cast<float>() * x.noise_p2;
-    for (Eigen::Index c = 0; c < cols; ++c)
-      for (Eigen::Index r = 0; r < reads; ++r) {
-        const float i = static_cast<float>(row_major ? cur[r * ld + c] : cur[c * ld + r]);
-        var(r, c) = std::max(var(r, c) + i * (i * x.noise_p3(c) - 2.0f * cross(r, c)), 0.0f);
-      }
-  }
-  z.resize(static_cast<size_t>(cols) + 1);
   const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
-  for (Eigen::Index r = 0; r < reads; ++r) {
-    read_normals(key, static_cast<uint64_t>(first_read + r), cols, z.data());
-    for (Eigen::Index c = 0; c < cols; ++c) {
-      const float sd = std::sqrt((device ? var(r, c) : 0.0f) + ro2);
-      (row_major ? cur[r * ld + c] : cur[c * ld + r]) += static_cast<S>(sd * z[static_cast<size_t>(c)]);
+  // Everything in the currents' own layout (reads x columns, by row for bit-serial reads, by
+  // column otherwise), so that every pass is contiguous.
+  auto run = [&](auto order) {
+    constexpr int Order = decltype(order)::value;
+    using MF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Order>;
+    using MS = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic, Order>;
+    Eigen::Map<MS, 0, Eigen::OuterStride<>> i(cur, reads, cols, Eigen::OuterStride<>(ld));
+    thread_local MF var, cross, z;
+    thread_local std::vector<uint32_t> rk;
+    // Read r's draw for column c: read_normals(key, first_read + r, ...)[c], in either layout.
+    z.resize(reads, cols);
+    rk.resize(static_cast<size_t>(reads));
+    for (Eigen::Index r = 0; r < reads; ++r) rk[static_cast<size_t>(r)] = read_stream(key, static_cast<uint64_t>(first_read + r));
+    if constexpr (Order == Eigen::RowMajor) {
+      for (Eigen::Index r = 0; r < reads; ++r) normals_of_read(rk[static_cast<size_t>(r)], cols, z.row(r).data());
+    } else {
+      for (Eigen::Index c = 0; c < cols; ++c) normals_of_column(rk.data(), reads, static_cast<uint32_t>(c), z.col(c).data());
     }
-  }
+    if (device) {
+      if (pre_var) {  // the caller's sums (bit-serial reads: the rows of their digits)
+        using RowF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+        var = Eigen::Map<const RowF>(pre_var, reads, cols);
+        cross = Eigen::Map<const RowF>(pre_cross, reads, cols);
+      } else {
+        var.noalias() = values.template cast<float>().array().square().matrix() * x.noise_p1;
+        cross.noalias() = values.template cast<float>() * x.noise_p2;
+      }
+      // var + I (I p3 - 2 cross), at least 0, plus the readout's; then sigma times the draw.
+      const auto fi = i.template cast<float>().array();
+      z.array() *= ((var.array() + fi * (fi.rowwise() * x.noise_p3.array() - 2.0f * cross.array())).max(0.0f) + ro2)
+                       .sqrt();
+    } else {
+      z *= std::sqrt(ro2);
+    }
+    i += z.template cast<S>();
+  };
+  if (row_major)
+    run(std::integral_constant<int, Eigen::RowMajor>{});
+  else
+    run(std::integral_constant<int, Eigen::ColMajor>{});
 }
-
 
 }  // namespace xbarsim

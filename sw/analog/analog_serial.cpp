@@ -322,9 +322,42 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
       }
     }
     if (x.noise_p1.size() || cfg_.converters.readout_noise_a > 0) {
-      // Read noise: every read's values (digit x unit per row), squared against the cells' variances.
       thread_local RowMat<S> values;
-      read_values<S>(codes, first, vectors, x.in0, x.blk.rows, values);
+#if defined(__AVX512F__)
+      // Binary digits (1-bit DACs): a read's squared values are its |digits| x unit^2 and every
+      // digit of a read has one sign, so its sums against the variance rows are the same sparse
+      // row sums as the read itself (|unit sum d p1| x |unit|, unit sum d p2).
+      if constexpr (std::is_same_v<S, float>) {
+        if (x.noise_p1.size() && slicing_.digit_max() == 1 && x.noise_p1.size() < (1LL << 31)) {
+          thread_local Rows<float> v1, v2;
+          thread_local std::vector<float> sums;
+          const Eigen::Index reads = vectors * slices;
+          v1.resize(reads, x.pcols);
+          v2.resize(reads, x.pcols);
+          sums.resize(static_cast<size_t>(slices));
+          for (Eigen::Index v = 0; v < vectors; ++v) {
+            const int32_t* code = codes.row(first + v) + x.in0;
+            read_vector_avx512(x.noise_p1, code, slicing_, v1.row(v * slices), sums.data());
+            read_vector_avx512(x.noise_p2, code, slicing_, v2.row(v * slices), sums.data());
+          }
+          for (Eigen::Index r = 0; r < reads; ++r) {
+            const float unit = static_cast<float>(std::abs(slicing_.digit_unit(static_cast<int>(r % slices))));
+            Eigen::Map<Eigen::ArrayXf> row(v1.row(r), x.pcols);
+            row = row.abs() * unit;
+          }
+          values.resize(reads, 0);  // unused: the sums are given
+          add_read_noise<S>(x, values, cur.i.data(), x.pcols, /*row_major=*/true, first * slices, image, v1.data(),
+                            v2.data());
+          return;
+        }
+      }
+#endif
+      // Read noise: every read's values (digit x unit per row), squared against the cells' variances
+      // (the readout's noise alone needs no values).
+      if (x.noise_p1.size())
+        read_values<S>(codes, first, vectors, x.in0, x.blk.rows, values);
+      else
+        values.resize(vectors * slices, 0);
       add_read_noise<S>(x, values, cur.i.data(), x.pcols, /*row_major=*/true, first * slices, image);
     }
     return;

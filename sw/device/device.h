@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "sw/common/config.h"
+#include "sw/common/seed.h"
 
 namespace xbarsim {
 
@@ -145,8 +146,29 @@ double counter_normal(uint64_t key, uint64_t index);
 /// A uniform deviate in [0, 1) of (key, index).
 double counter_uniform(uint64_t key, uint64_t index);
 /// n standard normal deviates (float) of read `read` of stream `key`: the same values for the same
-/// (key, read) in any order or batch; each one of 2^16 equiprobable quantiles of the normal
-/// distribution (unit variance, tails cut at 4.4 sigma).
+/// (key, read) in any order or batch; each one of 2^13 equiprobable quantiles of the normal
+/// distribution (unit variance, tails cut at 3.8 sigma), picked by a 32-bit hash of the read's
+/// stream and the deviate's index.
 void read_normals(uint64_t key, uint64_t read, Eigen::Index n, float* out);
+/// Its parts, for callers filling draws in another order: read r's 32-bit stream, and deviate c
+/// of it, the table entry at the top bits of a 32-bit hash of (stream, c) (vectorises: a
+/// multiply-xorshift hash per deviate and a gather from a table in the first-level cache).
+uint32_t read_stream(uint64_t key, uint64_t read);
+constexpr int kNormalTableBits = 13;
+inline uint32_t read_hash(uint32_t stream, uint32_t c) {
+  uint32_t h = stream + c * 0x9E3779B9u;
+  h ^= h >> 16;
+  h *= 0x85EBCA6Bu;
+  h ^= h >> 13;
+  h *= 0xC2B2AE35u;
+  h ^= h >> 16;
+  return h >> (32 - kNormalTableBits);
+}
+/// The 2^13 deviates (unit variance).
+const float* normal_table();
+/// Deviates 0 .. n-1 of the read whose stream is `stream` (a row of draws).
+void normals_of_read(uint32_t stream, Eigen::Index n, float* out);
+/// Deviate c of each of n reads (their streams), a column of draws.
+void normals_of_column(const uint32_t* streams, Eigen::Index n, uint32_t c, float* out);
 
 }  // namespace xbarsim

@@ -133,3 +133,30 @@ TEST(ReadNoise, NonlinearDevicesSolveEveryReadWithItsNoisyConductances) {
   const Comparison r = compare(c, sigma, 300, 300);
   EXPECT_NEAR(r.mean_ratio, 1.0, 0.05);
 }
+
+TEST(ReadNoise, BitSerialReadsOfBinaryDigitsAddTheSameNoiseAsTheDenseProduct) {
+  // 1-bit DACs, 8-bit signed inputs, 2-bit cells: float sums each read's digit rows of the
+  // variance model (sparse), double multiplies the squared read values (dense). The draws are the
+  // same; the two may differ only by float rounding, far below the noise itself.
+  AnalogConfig c = config(1.0, 1e-6, false);
+  c.mapping.cell_bits = 2;
+  c.mapping.weight_bits = 8;
+  c.converters.input_bits = 8;
+  c.converters.dac_bits = 1;
+  c.converters.readout_noise_a = 1e-8;
+  const Eigen::MatrixXd w = synthetic_kernel("gaussian", kRows, 8, 5);
+  AnalogLayer layer(c, w, 1.0, true);
+  layer.program(Eigen::MatrixXd());
+  Eigen::MatrixXd xs = synthetic_inputs(6, kRows, 0.3, 1.0, 9);
+  xs.bottomRows(3) *= -1;  // signed: the sign slice's digits are negative
+  const AnalogLayer::RowMat<double> xd = xs;
+  const AnalogLayer::RowMat<float> xf = xs.cast<float>();
+  AnalogLayer::Mat<double> yd, other;
+  AnalogLayer::Mat<float> yf;
+  layer.forward<double>(xd, yd, false, 5);
+  layer.forward<double>(xd, other, false, 6);
+  layer.forward<float>(xf, yf, false, 5);
+  const double noise = std::sqrt((yd - other).squaredNorm() / yd.size());
+  EXPECT_GT(noise, 0.0);
+  EXPECT_LT((yf.cast<double>() - yd).cwiseAbs().maxCoeff(), 0.01 * noise);
+}
