@@ -272,10 +272,15 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
     x.comp_f.resize(0);
     x.in0 = 0;
     const ProgrammingInputs in = crossbar_inputs(layer_in, blocks_[b]);
-    // The reference at t = 0 (the state the readout was set in), then the state at t.
-    if (references && time_s_ != 0) settle(x, 0);
+    // The reference at t = 0 (the state the readout was set in), then the state at t (each
+    // installed only when the crossbar is not already in it: a new G_eff is a solve per column).
+    double state = time_s_;
+    if (references && state != 0) {
+      settle(x, 0);
+      state = 0;
+    }
     x.ref0 = references ? reference_sums(x, in) : Eigen::VectorXd();
-    settle(x, t);
+    if (state != t) settle(x, t);
     if (d.compensation == Compensation::Recalibrate) {
       read_out(x, in);
       compensation_reads_ += in.cal_b.rows() + in.range_b.rows();
