@@ -131,15 +131,7 @@ void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eig
     Eigen::Map<MS, 0, Eigen::OuterStride<>> i(cur, reads, cols, Eigen::OuterStride<>(ld));
     thread_local MF var, cross, z;
     thread_local std::vector<uint32_t> rk;
-    // Read r's draw for column c: read_normals(key, first_read + r, ...)[c], in either layout.
-    z.resize(reads, cols);
-    rk.resize(static_cast<size_t>(reads));
-    for (Eigen::Index r = 0; r < reads; ++r) rk[static_cast<size_t>(r)] = read_stream(key, static_cast<uint64_t>(first_read + r));
-    if constexpr (Order == Eigen::RowMajor) {
-      for (Eigen::Index r = 0; r < reads; ++r) normals_of_read(rk[static_cast<size_t>(r)], cols, z.row(r).data());
-    } else {
-      for (Eigen::Index c = 0; c < cols; ++c) normals_of_column(rk.data(), reads, static_cast<uint32_t>(c), z.col(c).data());
-    }
+    // Per read and column: sigma, from the cells (var + I (I p3 - 2 cross), at least 0) and the readout.
     if (device) {
       if (pre_var) {  // the caller's sums (bit-serial reads: the rows of their digits)
         using RowF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -149,14 +141,27 @@ void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eig
         var.noalias() = values.template cast<float>().array().square().matrix() * x.noise_p1;
         cross.noalias() = values.template cast<float>() * x.noise_p2;
       }
-      // var + I (I p3 - 2 cross), at least 0, plus the readout's; then sigma times the draw.
       const auto fi = i.template cast<float>().array();
-      z.array() *= ((var.array() + fi * (fi.rowwise() * x.noise_p3.array() - 2.0f * cross.array())).max(0.0f) + ro2)
-                       .sqrt();
+      var = ((var.array() + fi * (fi.rowwise() * x.noise_p3.array() - 2.0f * cross.array())).max(0.0f) + ro2).sqrt();
     } else {
-      z *= std::sqrt(ro2);
+      var.setConstant(reads, cols, std::sqrt(ro2));
     }
-    i += z.template cast<S>();
+    // Read r's draw for column c: read_normals(key, first_read + r, ...)[c], in either layout.
+    z.resize(reads, cols);
+    rk.resize(static_cast<size_t>(reads));
+    for (Eigen::Index r = 0; r < reads; ++r) rk[static_cast<size_t>(r)] = read_stream(key, static_cast<uint64_t>(first_read + r));
+    if constexpr (Order == Eigen::RowMajor) {
+      // A read that moves no charge (no digit on this crossbar's rows, no readout noise) has no
+      // fluctuation either: its draws are not needed (bit-serial reads: high bit planes are often empty).
+      for (Eigen::Index r = 0; r < reads; ++r) {
+        if (ro2 == 0 && device && !(var.row(r).maxCoeff() > 0)) continue;
+        normals_of_read(rk[static_cast<size_t>(r)], cols, z.row(r).data());
+        i.row(r) += (var.row(r).array() * z.row(r).array()).matrix().template cast<S>();
+      }
+    } else {
+      for (Eigen::Index c = 0; c < cols; ++c) normals_of_column(rk.data(), reads, static_cast<uint32_t>(c), z.col(c).data());
+      i += (var.array() * z.array()).matrix().template cast<S>();
+    }
   };
   if (row_major)
     run(std::integral_constant<int, Eigen::RowMajor>{});
