@@ -354,11 +354,16 @@ void AnalogLayer::analog_of(const Crossbar& x, const Codes& codes, Eigen::Index 
 #endif
       // Read noise: every read's values (digit x unit per row), squared against the cells' variances
       // (the readout's noise alone needs no values).
-      if (x.noise_p1.size())
-        read_values<S>(codes, first, vectors, x.in0, x.blk.rows, values);
-      else
-        values.resize(vectors * slices, 0);
-      add_read_noise<S>(x, values, cur.i.data(), x.pcols, /*row_major=*/true, first * slices, image);
+      // In blocks of vectors, so that programming's thousands of reads need no copy of them all.
+      constexpr Eigen::Index kVectors = 64;
+      for (Eigen::Index v0 = 0; v0 < vectors; v0 += kVectors) {
+        const Eigen::Index nv = std::min(kVectors, vectors - v0);
+        if (x.noise_p1.size())
+          read_values<S>(codes, first + v0, nv, x.in0, x.blk.rows, values);
+        else
+          values.resize(nv * slices, 0);
+        add_read_noise<S>(x, values, cur.i.row(v0 * slices), x.pcols, /*row_major=*/true, (first + v0) * slices, image);
+      }
     }
     return;
   }
