@@ -320,10 +320,6 @@ struct PyDevice {
   }
 };
 
-/// The read-noise stream of AnalogLayer's reads (analog_layer_impl.h, kReadNoiseStream), whose
-/// per-cell draws Device.read reproduces (a nonlinear crossbar's reads: AnalogLayer::noisy_solves).
-constexpr uint64_t kReadNoiseStream = 0x4EAD;
-
 FaultMap fault_map(const std::optional<py::array_t<int8_t, py::array::c_style | py::array::forcecast>>& a,
                    const std::vector<py::ssize_t>& shape, Eigen::Index rows, Eigen::Index cols) {
   if (!a) return FaultMap();
@@ -588,13 +584,8 @@ PYBIND11_MODULE(_core, m) {
             std::vector<py::ssize_t> shape;
             Eigen::MatrixXd m = conductance_matrix(g, "G", shape);
             const uint64_t r = read ? *read : d.next_read++;
-            const Eigen::MatrixXd sigma = d.device.read_sigma(m);
-            const uint64_t key = derive_seed(d.device.spec().seed, {kReadNoiseStream, image, layer, crossbar});
-            const uint64_t rk = mix64(key ^ mix64(r + 0x6A09E667F3BCC909ull));  // as AnalogLayer::noisy_solves
-            for (Eigen::Index k = 0; k < m.size(); ++k)
-              m.data()[k] = std::max(m.data()[k] + sigma.data()[k] * counter_normal(rk, static_cast<uint64_t>(k)),
-                                     Device::kOpenCellS);
-            return as_array<double>(m, shape);
+            // The draws a nonlinear crossbar's read r of that image solves with (AnalogLayer::noisy_solves).
+            return as_array<double>(d.device.read(m, d.device.read_noise_key(image, layer, crossbar), r), shape);
           },
           py::arg("G"), py::kw_only(), py::arg("read") = std::nullopt, py::arg("image") = 0, py::arg("layer") = 0,
           py::arg("crossbar") = 0,

@@ -29,9 +29,7 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
   c.device = parse_device_spec(cfg);
-  // One key per physical quantity: a model with its own conductance range sets the crossbar's.
-  c.xbar.g_min_s = c.device.g_min_s;
-  c.xbar.g_max_s = c.device.g_max_s;
+  c = with_device_range(c);  // one key per physical quantity: a model's own range sets the crossbar's
   if (c.converters.adc_range == AdcRange::Full) {
     const char* missing = c.mapping.cell_bits == 0              ? "crossbar.cell_bits (a level to count)"
                           : c.converters.activation_bits() == 0 ? "converters.dac_bits or input_bits (a read step)"
@@ -104,11 +102,9 @@ bool programs_alike(const AnalogConfig& a_given, const AnalogConfig& b_given) {
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
                          uint64_t salt, const RowGroups& groups)
-    : cfg_(cfg), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt), device_(cfg.device) {
+    : cfg_(with_device_range(cfg)), w_(w), x_max_(x_max), signed_(signed_inputs), salt_(salt), device_(cfg_.device) {
   if (w.rows() < 1 || w.cols() < 1) throw InputError("analog layer: empty weight matrix");
   if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("analog layer: input full scale must be > 0");
-  cfg_ = with_device_range(cfg);
-  device_ = Device(cfg_.device);
   alpha_ = cfg_.xbar.v_in_max_v / x_max;
   // With pre-distortion I/G = h(V(x)) = alpha x, full scale at v_in_max.
   if (cfg.dac_predistorts())
@@ -337,7 +333,6 @@ void AnalogLayer::restore_readout(const SavedReadout& saved) {
     x.adc_d = r.adc_d;
     x.ref0 = r.ref0;
     x.comp = r.comp;
-    x.comp_f = r.comp.cast<float>().array();
     if (time_s_ != saved.time_s) settle(x, saved.time_s);
   }
   time_s_ = saved.time_s;

@@ -25,7 +25,6 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// those written (programming error, faults) at t = 0, from which every later state follows.
   Eigen::MatrixXd g_asked, g_written;
   FaultMap faults;         ///< stuck cells (empty without faults)
-  int stuck_cells = 0, spares_used = 0;
   /// Read noise of linear devices, first order in dG: a cell's fluctuation moves its column's
   /// current by s_ij dG_ij, s_ij = dI_j/dG_ij = V_i A_ij - I_j B_ij (the cell's voltage: its
   /// row's drive less its column's rise, times the network's transfer to the output; fitted
@@ -37,7 +36,6 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// Drift compensation: per physical column, the reference reads' summed current at t = 0
   /// (ref0) and the gain applied after the ADC (comp; empty = 1).
   Eigen::VectorXd ref0, comp;
-  Eigen::ArrayXf comp_f;
   std::unique_ptr<CrossbarSolver> solver;
   Eigen::MatrixXd geff_d;  ///< alpha * G_eff (A per input unit), linear devices
   Eigen::MatrixXf geff_f;  ///< the same in float for network inference
@@ -101,9 +99,6 @@ struct AnalogLayer::ProgrammingInputs {
   Eigen::MatrixXd ideal_partial;  ///< cal_b * W_block: the partial output calibration aims at
 };
 
-/// The stream of the read noise (derive_seed with the image, the layer's salt and the crossbar).
-constexpr uint64_t kReadNoiseStream = 0x4EAD;
-
 template <typename S>
 void AnalogLayer::compensate(const Crossbar& x, S* cur, Eigen::Index reads, Eigen::Index ld, bool row_major) const {
   if (!x.comp.size()) return;
@@ -121,7 +116,7 @@ void AnalogLayer::add_read_noise(const Crossbar& x, const V& values, S* cur, Eig
   const bool device = x.noise_p1.size() > 0;
   if (!device && !(ro2 > 0)) return;
   const Eigen::Index reads = values.rows(), cols = x.pcols;
-  const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
+  const uint64_t key = device_.read_noise_key(image, salt_, static_cast<uint64_t>(x.index));
   // Everything in the currents' own layout (reads x columns, by row for bit-serial reads, by
   // column otherwise), so that every pass is contiguous.
   auto run = [&](auto order) {

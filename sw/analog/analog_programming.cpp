@@ -127,9 +127,11 @@ void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
     // Spare columns replace the columns whose stuck cells err most (sum of |G_stuck - G_asked|):
     // a spare is a fresh column with its own cells (faults and programming error), kept when it
     // errs less.
+    const auto fault_error = [](const auto& stuck, const auto& written, const auto& wanted) {
+      return (stuck != 0).template cast<double>().matrix().dot((written - wanted).cwiseAbs());
+    };
     Eigen::VectorXd err(x.pcols);
-    for (int c = 0; c < x.pcols; ++c)
-      err(c) = (x.faults.col(c) != 0).cast<double>().matrix().dot((g.col(c) - asked.col(c)).cwiseAbs());
+    for (int c = 0; c < x.pcols; ++c) err(c) = fault_error(x.faults.col(c), g.col(c), asked.col(c));
     std::vector<int> order(static_cast<size_t>(x.pcols));
     for (int c = 0; c < x.pcols; ++c) order[static_cast<size_t>(c)] = c;
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return err(a) > err(b); });
@@ -139,7 +141,7 @@ void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
       Eigen::MatrixXd col = asked.col(c);
       FaultMap f;
       device_.program(col, f, derive_seed(x.stream, {0x5BA5E, static_cast<uint64_t>(k)}));
-      const double e = (f.col(0) != 0).cast<double>().matrix().dot((col.col(0) - asked.col(c)).cwiseAbs());
+      const double e = fault_error(f.col(0), col.col(0), asked.col(c));
       if (e < err(c)) {
         g.col(c) = col;
         x.faults.col(c) = f.col(0);
@@ -148,8 +150,6 @@ void AnalogLayer::write_cells(Crossbar& x, CrossbarReport& rep) const {
     }
   }
   rep.stuck_cells = static_cast<int>((x.faults != 0).count());
-  x.stuck_cells = rep.stuck_cells;
-  x.spares_used = rep.spare_columns_used;
   if (d.moves()) {
     x.g_asked = asked;
     x.g_written = g;
@@ -269,7 +269,6 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
   for (size_t b = 0; b < xbars_.size(); ++b) {
     Crossbar& x = *xbars_[b];
     x.comp.resize(0);
-    x.comp_f.resize(0);
     x.in0 = 0;
     const ProgrammingInputs in = crossbar_inputs(layer_in, blocks_[b]);
     // The reference at t = 0 (the state the readout was set in), then the state at t (each
@@ -309,27 +308,20 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
       gain(c) = den > 0 && num > 0 ? num / den : 1.0;
     }
     x.comp = gain;
-    x.comp_f = gain.cast<float>().array();
   }
 }
 
 Eigen::MatrixXd AnalogLayer::noisy_solves(const Crossbar& x, const Eigen::MatrixXd& v, Eigen::Index first_read,
                                           uint64_t image) const {
-  const Eigen::MatrixXd sigma = device_.read_sigma(x.g_prog);
-  const uint64_t key = derive_seed(cfg_.device.seed, {kReadNoiseStream, image, salt_, static_cast<uint64_t>(x.index)});
+  const uint64_t key = device_.read_noise_key(image, salt_, static_cast<uint64_t>(x.index));
   SolverOptions one = cfg_.solver;
   one.threads = 1;
   Eigen::MatrixXd out(v.rows(), x.pcols);
   const double ro = cfg_.converters.readout_noise_a;
   std::vector<float> z(static_cast<size_t>(x.pcols) + 1);
   for (Eigen::Index r = 0; r < v.rows(); ++r) {
-    const uint64_t rk = mix64(key ^ mix64(static_cast<uint64_t>(first_read + r) + 0x6A09E667F3BCC909ull));
-    Eigen::MatrixXd g = x.g_prog;
-    for (Eigen::Index k = 0; k < g.size(); ++k)
-      g.data()[k] = std::max(g.data()[k] + sigma.data()[k] * counter_normal(rk, static_cast<uint64_t>(k)),
-                             Device::kOpenCellS);
     const std::unique_ptr<CrossbarSolver> s = make_crossbar_solver(cfg_.xbar, one);
-    s->program(g);
+    s->program(device_.read(x.g_prog, key, static_cast<uint64_t>(first_read + r)));
     out.row(r) = s->column_currents(v.row(r));
     if (ro > 0) {
       read_normals(key, static_cast<uint64_t>(first_read + r), x.pcols, z.data());

@@ -162,9 +162,28 @@ const std::vector<float>& quantile_table() {
 
 const float* normal_table() { return quantile_table().data(); }
 
+namespace {
+/// Read `read`'s 64-bit stream of `key`.
+uint64_t read_key(uint64_t key, uint64_t read) { return mix64(key ^ mix64(read + 0x6A09E667F3BCC909ull)); }
+}  // namespace
+
 uint32_t read_stream(uint64_t key, uint64_t read) {
-  const uint64_t s = mix64(key ^ mix64(read + 0x6A09E667F3BCC909ull));
+  const uint64_t s = read_key(key, read);
   return static_cast<uint32_t>(s ^ (s >> 32));
+}
+
+uint64_t Device::read_noise_key(uint64_t image, uint64_t layer, uint64_t crossbar) const {
+  constexpr uint64_t kReadNoiseStream = 0x4EAD;
+  return derive_seed(spec_.seed, {kReadNoiseStream, image, layer, crossbar});
+}
+
+Eigen::MatrixXd Device::read(const Eigen::MatrixXd& g, uint64_t key, uint64_t read) const {
+  const Eigen::MatrixXd sigma = read_sigma(g);
+  const uint64_t rk = read_key(key, read);
+  Eigen::MatrixXd out = g;
+  for (Eigen::Index k = 0; k < out.size(); ++k)
+    out.data()[k] = std::max(out.data()[k] + sigma.data()[k] * counter_normal(rk, static_cast<uint64_t>(k)), kOpenCellS);
+  return out;
 }
 
 // One table entry per deviate at a hash of (read, index): Box-Muller's log and cosine cost as much

@@ -121,6 +121,11 @@ class Device {
                           double t, uint64_t stream) const;
   /// One read's standard deviation of every cell's conductance (S), at state `g`.
   Eigen::MatrixXd read_sigma(const Eigen::MatrixXd& g) const;
+  /// The stream of the reads image `image` makes of crossbar `crossbar` of layer `layer` (its salt).
+  uint64_t read_noise_key(uint64_t image, uint64_t layer, uint64_t crossbar) const;
+  /// The conductances one read sees: g plus read_sigma(g) times read `read`'s draws of stream
+  /// `key` (cell k draws index k), at least an open cell. Nonlinear devices solve with them.
+  Eigen::MatrixXd read(const Eigen::MatrixXd& g, uint64_t key, uint64_t read) const;
   /// The lowest conductance a draw may reach (an open cell): 1 nS.
   static constexpr double kOpenCellS = 1e-9;
 
