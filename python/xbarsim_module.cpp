@@ -696,6 +696,37 @@ PYBIND11_MODULE(_core, m) {
       py::arg("seed"), py::arg("image"), py::arg("layer"), py::arg("rows"), py::arg("count"),
       "Which of a calibration image's `rows` input vectors eval samples for linear layer `layer` (its "
       "place among the network's Conv/Gemm layers): `count` indices from calibration.seed's stream");
+  m.def(
+      "weight_cells",
+      [](const Eigen::MatrixXd& w, const py::object& config) {
+        const AnalogConfig ac = parse_analog_config(config_of(config));
+        if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
+        if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
+        py::list out;
+        for (const Block& blk : crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), ac.mapping)) {
+          const MappedWeights m = map_weights(w.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, ac.mapping, ac.xbar);
+          const int weight_cols = blk.cols * m.per_weight;  // the sum(X) column, if any, follows them
+          py::dict d;
+          d["r0"] = blk.row0;
+          d["rows"] = blk.rows;
+          d["c0"] = blk.col0;
+          d["cols"] = blk.cols;
+          d["per_weight"] = m.per_weight;
+          d["g"] = Eigen::MatrixXd(m.g_target.leftCols(weight_cols));
+          d["s"] = Eigen::VectorXd(m.s.head(weight_cols));
+          d["sign"] = Eigen::VectorXd(m.sign.head(weight_cols));
+          d["w_lo"] = m.w_lo;
+          out.append(d);
+        }
+        return out;
+      },
+      py::arg("W"), py::arg("config") = py::none(),
+      "The cells a weight matrix (inputs x outputs) is written to, as eval maps a layer before conversion: per "
+      "crossbar (mapping.max_rows/max_cols) a dict of its block (r0, rows, c0, cols), its target conductances g "
+      "(rows x cols * per_weight, S; weight column j, polarity p, slice t in column (j * polarities + p) * slices "
+      "+ t; the sum(X) column left out), per column the scale s (S per weight unit) and sign, and the shift "
+      "w_lo: weight (r, j) = w_lo + sum over its columns c of sign[c] (g[r, c] - g_min) / s[c]. With "
+      "mapping.weight_bits or crossbar.cell_bits these are the quantized weights.");
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
         "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
         "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "

@@ -84,3 +84,55 @@ def test_converted_predictions_agree_with_eval(case, tmp_path):
     print(f"{case}: {agree} of {images} predictions agree with eval's (eval {result['crossbar_accuracy']:.3f}, "
           f"converted {(ours == labels).mean():.3f})")
     assert agree >= images - 1, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"
+
+
+def test_fine_tuned_export_agrees_with_eval(tmp_path):
+    """Issue 41: a ResNet-20 fine-tuned by xbarsim.nn (a few HWA steps under rram-wan2022) and
+    exported by xbarsim.onnx: its software logits are the torch model's, and eval on the file
+    predicts as xbarsim.inference on the torch model, image by image, with the device's
+    programming error and read noise on."""
+    import xbarsim.data as xdata
+    import xbarsim.inference as inference
+    import xbarsim.nn as xnn
+    import xbarsim.onnx as xonnx
+    data = shared_dir()
+    model_path = data.parent / "models" / "resnet20_cifar10.onnx"
+    train_file = data / "cifar10" / "data_batch_1.bin"
+    if not model_path.exists() or not train_file.exists():
+        pytest.skip("the shared ResNet-20 or data_batch_1.bin not found; test skipped")
+    overrides = {"device.model": "rram-wan2022", "mapping.negative": "differential"}
+    net = xonnx.load(model_path)
+    train = xdata.Cifar10(files=[train_file], preprocessing=net.preprocessing, limit=256)
+    hw = xnn.Hardware(overrides)
+    analog = xnn.convert(net, hw, calibration=train.preprocess(train.images[:64]))
+    opt = torch.optim.SGD(analog.parameters(), lr=1e-3, momentum=0.9)
+    for x, y in train.batches(64):
+        hw.new_batch()
+        loss = torch.nn.functional.cross_entropy(analog(x), y)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    tuned = xnn.to_software(analog).eval()
+    out = tmp_path / "tuned.onnx"
+    xonnx.export(tuned, out)
+    images = 500
+    x, labels = cifar10(data / "cifar10" / "test_batch.bin", images)
+    x = preprocess(x, net.metadata)
+    reread = xonnx.load(out)
+    with torch.no_grad():
+        want, got = tuned(x[:100]), reread(x[:100])
+    assert torch.allclose(got, want, rtol=1e-4, atol=1e-4 * float(want.abs().max()))
+    assert not torch.equal(reread.layers[0].weight, net.layers[0].weight)
+
+    journal = tmp_path / "journal.jsonl"
+    result = xbarsim.eval(str(out), dataset="cifar10", images=images, journal=str(journal), overrides=overrides)
+    rows = sorted((json.loads(line) for line in journal.read_text().splitlines()), key=lambda r: r["image"])
+    eval_classes = np.array([r["xb_class"] for r in rows])
+    cx = preprocess(cifar10(data / "cifar10" / "calib_batch.bin", 200)[0], net.metadata)
+    exact = inference.convert(reread.eval(), xbarsim.Config(overrides=overrides),
+                              calibration=torch.utils.data.DataLoader(cx, batch_size=100))
+    with torch.no_grad():
+        ours = torch.cat([exact(x[i:i + 100]).argmax(1) for i in range(0, images, 100)]).numpy()
+    agree = int((ours == eval_classes).sum())
+    print(f"fine-tuned: {agree} of {images} predictions agree with eval's (eval {result['crossbar_accuracy']:.3f})")
+    assert agree >= images - 2, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"

@@ -1,0 +1,529 @@
+"""Analog layers for hardware-aware training (HWA): torch modules whose forward injects the
+non-idealities of an xbarsim configuration and whose backward is straight-through.
+
+    import xbarsim, xbarsim.nn
+    hw = xbarsim.nn.Hardware(xbarsim.Config(overrides={"device.model": "rram-wan2022",
+                                                        "mapping.negative": "differential"}))
+    model = xbarsim.nn.convert(model, hw, calibration=images)   # Conv2d/Linear -> analog layers (a copy)
+    for x, y in loader:
+        hw.new_batch()                  # fresh programming error, faults (and drift) for this step
+        loss = F.cross_entropy(model(x), y); loss.backward(); ...
+    model = xbarsim.nn.to_software(model)   # plain Conv2d/Linear with the trained weights
+
+This is the *fast training path*: the weights as the configuration maps them (per crossbar:
+scale, shift or differential pairs, weight codes and cell slices -- `xbarsim._core.weight_cells`,
+the same mapping eval uses), the cells' programming error, stuck cells and drift drawn by the same
+device model (`xbarsim.Device`), one read's noise per forward (the device's read sigma, first
+order in dG as eval's linear path, and the readout noise), DAC and ADC quantization and clipping
+at calibrated ranges. It does not solve the wired circuit and has no conversion or calibration:
+the exact evaluation is `xbarsim eval` on the exported model (xbarsim.onnx.export) or
+`xbarsim.inference.convert`. docs/python.md, "Hardware-aware training", says what each part
+models and where it approximates.
+
+The backward is straight-through: the gradient of the layer with respect to its weight and input
+is that of the same torch layer computing with the quantized input and the noisy weight
+(quantization, noise and ADC clipping pass the gradient unchanged; the DAC's clipping passes none
+outside its range).
+"""
+import copy
+import math
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from . import Config, Device, _core
+
+__all__ = ["Hardware", "AnalogConv2d", "AnalogLinear", "convert", "calibrate", "to_software", "analog_layers"]
+
+
+def _bits(config, key):
+    v = config.get(key)
+    return None if v is None or v == "none" else int(v)
+
+
+class Hardware:
+    """What the training forward injects, read once from an xbarsim configuration.
+
+    `config`: a Config, a dict of {"dotted.key": value} or None (the defaults). From it:
+    mapping.* (crossbar size, shift/differential, weight_bits, g_headroom), crossbar.cell_bits,
+    the device model (device.*: programming error, stuck cells, drift at device.time_s with
+    device.compensation, read noise), converters.* (DAC/input bits, ADC bits and margin, the
+    readout noise). Switches: `device` (draw the device's non-idealities), `converters` (DAC and
+    ADC quantization), `read_noise`. `weight_noise`: NeuRRAM's training noise, Gaussian with a
+    standard deviation of this fraction of each layer's largest |weight|, drawn per batch (0:
+    none). `time_s`: the time after programming each batch reads at: None (device.time_s), a
+    number, or a pair (t0, t1): drawn log-uniformly per batch. `seed`: every draw's stream, with
+    the batch counter and the layer.
+    """
+
+    def __init__(self, config=None, weight_noise=0.0, device=True, converters=True, read_noise=True, time_s=None,
+                 seed=0, exact_adc=False):
+        self.exact_adc = bool(exact_adc)
+        self.config = config if isinstance(config, Config) else Config(overrides=config or {})
+        cfg = self.config
+        self._device_overrides = {k: cfg.get(k) for k in (
+            "device.model", "device.program_sigma_us", "device.read_sigma_us", "device.stuck_at_gmin",
+            "device.stuck_at_gmax", "crossbar.g_min", "crossbar.g_max")}
+        self.device_model = Device(cfg)  # validates device.*; its range is the cells'
+        self.g_min = self.device_model.g_min
+        self.negative = cfg.get("mapping.negative")
+        self.compensation = cfg.get("device.compensation")
+        self.use_device = bool(device) and (self.device_model.kind != "ideal" or
+                                            cfg.get("device.stuck_at_gmin") > 0 or cfg.get("device.stuck_at_gmax") > 0)
+        self.use_read_noise = bool(read_noise) and (self.device_model.has_read_noise or
+                                                    cfg.get("converters.readout_noise_na") > 0)
+        self.readout_noise_a = cfg.get("converters.readout_noise_na") * 1e-9
+        self.v_in_max = cfg.get("crossbar.v_in_max")
+        self.converters = bool(converters)
+        self.dac_bits = _bits(cfg, "converters.input_bits") or _bits(cfg, "converters.dac_bits")
+        self.adc_bits = _bits(cfg, "converters.adc_bits")
+        self.adc_margin = cfg.get("converters.adc_margin")
+        self.calibrates = "calibration" in cfg.get("mitigation.method")
+        self.calibration_samples = int(cfg.get("calibration.samples"))
+        if not weight_noise >= 0 or not math.isfinite(weight_noise):
+            raise ValueError(f"weight_noise must be a number >= 0, got {weight_noise}")
+        self.weight_noise = float(weight_noise)
+        if time_s is None:
+            time_s = cfg.get("device.time_s")
+        times = tuple(time_s) if isinstance(time_s, (tuple, list)) else (time_s, time_s)
+        if len(times) != 2 or not all(math.isfinite(t) and t >= 0 for t in times) or times[0] > times[1]:
+            raise ValueError(f"time_s must be a time >= 0 (s) or a pair t0 <= t1, got {time_s}")
+        if times[0] != times[1] and times[0] <= 0:
+            raise ValueError("time_s: a range of times is drawn log-uniformly, so it must start above 0 s")
+        self.times = times
+        self.seed = int(seed)
+        self.step = 0
+        self.enabled = True
+
+    def __deepcopy__(self, memo):
+        return self  # a model's copy shares its hardware (a description, and its step counter)
+
+    def new_batch(self):
+        """The next training step: every layer draws its programming error, faults, drift and
+        weight noise afresh (read noise is fresh on every forward anyway)."""
+        self.step += 1
+
+    def time_of_step(self):
+        t0, t1 = self.times
+        if t0 == t1:
+            return t0
+        u = np.random.default_rng([self.seed, self.step, 0x7]).random()
+        return math.exp(math.log(t0) + u * (math.log(t1) - math.log(t0)))
+
+    def device_of_step(self):
+        """The device model drawing this step's cells: the configuration's, its seed from the
+        training seed and the step (each step programs afresh)."""
+        seed = (self.seed * 1000003 + self.step) % (2 ** 62)
+        return Device({**self._device_overrides, "device.seed": seed})
+
+    @property
+    def active(self):
+        return self.enabled and (self.use_device or self.use_read_noise or self.weight_noise > 0 or
+                                 (self.converters and (self.dac_bits or self.adc_bits)) or self._quantizes)
+
+    @property
+    def _quantizes(self):
+        return _bits(self.config, "mapping.weight_bits") is not None or _bits(self.config, "crossbar.cell_bits") is not None
+
+
+def _quantize(v, lo, hi, levels):
+    """v clamped to [lo, hi] and rounded to `levels` evenly spaced values (lo, hi tensors that
+    broadcast)."""
+    step = (hi - lo) / (levels - 1)
+    step = torch.where(step > 0, step, torch.ones_like(step))
+    return torch.round((v.clamp(min=lo, max=hi) - lo) / step) * step + lo
+
+
+class _AnalogMixin:
+    """What the analog Conv2d and Linear share: the weight as a matrix in eval's row order, the
+    per-step noise drawn through the mapping and the device model, DAC and readout."""
+
+    def _setup(self, hw, index):
+        self.hw = hw
+        self.index = index  # the layer's place among the model's Conv2d/Linear: its stream and salt
+        self.register_buffer("x_max", torch.ones(()))
+        self.register_buffer("signed_inputs", torch.zeros((), dtype=torch.bool))
+        self._adc = None  # per crossbar block: (lo, hi) per column of its partial sums
+        self._delta_step = None
+        self._delta = None
+        self._sigma2 = None
+        self._blocks = None
+        self._ro_var = None
+        self._reads = 0  # forwards so far: each reads with noise of its own
+        self._offset = None
+        self._calib_rows = None  # calibration vectors (eval's row order), float64 NumPy
+        self._adc_lohi = None  # one block of rows: (lo, hi) per output column
+        self._adc_var = None  # several: the quantization's variance per output column, summed over blocks
+
+    # --- the weight as eval's matrix (inputs x outputs) and back --------------------------------
+    def _to_matrix(self, w):
+        if isinstance(self, torch.nn.Linear):
+            return w.t()
+        o, c, kh, kw = w.shape
+        return w.permute(3, 2, 1, 0).reshape(kw * kh * c, o)  # rows: kernel column, kernel row, channel
+
+    def _from_matrix(self, m):
+        if isinstance(self, torch.nn.Linear):
+            return m.t()
+        o, c, kh, kw = self.weight.shape
+        return m.reshape(kw, kh, c, o).permute(3, 2, 1, 0)
+
+    # --- per-step weight noise --------------------------------------------------------------
+    def _draw(self):
+        """This step's weight as the cells hold it, less the weight (delta, weight units) and
+        the variance of one read's weight per weight (sigma2), both in eval's matrix layout."""
+        hw = self.hw
+        w = self._to_matrix(self.weight.detach()).double().cpu().numpy()
+        cells = _core.weight_cells(w, hw.config)
+        device = hw.device_of_step() if hw.use_device else None
+        t = hw.time_of_step() if hw.use_device else 0.0
+        g_min = hw.g_min
+        held = []
+        for b, c in enumerate(cells):
+            h = c["g"]
+            if device is not None:
+                h = device.program(c["g"], layer=self.index + 1, crossbar=b)
+                if t > 0:
+                    h = device.at_time(c["g"], h, t=t, layer=self.index + 1, crossbar=b)
+            held.append(h)
+        gains = self._compensation_gains(cells, held, g_min) if t > 0 else [1.0] * len(cells)
+        delta = np.zeros_like(w)
+        sigma2 = np.zeros_like(w) if hw.use_read_noise else None
+        ro_var = torch.zeros(w.shape[1], dtype=torch.float64)  # the readout noise per output column, all blocks
+        offset = np.zeros(w.shape[1])  # calibration's offsets per output column, all blocks
+        blocks = []
+        for c, h, gain in zip(cells, held, gains):
+            r0, rows, c0, cols, per = c["r0"], c["rows"], c["c0"], c["cols"], c["per_weight"]
+            # weight units per siemens, per column, times the readout's compensation gain
+            scale = c["sign"] / c["s"] * gain
+            w_cells = c["w_lo"] + ((h - g_min) * scale).reshape(rows, cols, per).sum(axis=2)
+            w_block = w[r0:r0 + rows, c0:c0 + cols]
+            if hw.calibrates and self._calib_rows is not None:
+                gain_c, offset_c = self._calibration_fit(self._calib_rows[:, r0:r0 + rows], w_block, w_cells)
+                w_cells = w_cells * gain_c
+                scale = scale * np.repeat(gain_c, per)
+                offset[c0:c0 + cols] += offset_c
+            delta[r0:r0 + rows, c0:c0 + cols] = w_cells - w_block
+            ro = None
+            if sigma2 is not None:
+                var = hw.device_model.read_sigma(h) ** 2 if hw.device_model.has_read_noise else np.zeros_like(h)
+                sigma2[r0:r0 + rows, c0:c0 + cols] = (var * scale ** 2).reshape(rows, cols, per).sum(axis=2)
+                # the readout's current noise per physical column in output units (x_max = 1; the
+                # forward scales it): I = V G with V = x v_in_max / x_max reads as i x_max / (v_in_max s)
+                if hw.readout_noise_a:
+                    ro = torch.from_numpy(((hw.readout_noise_a * scale / hw.v_in_max) ** 2).reshape(cols, per).sum(axis=1))
+                    ro_var[c0:c0 + cols] += ro
+            blocks.append((r0, rows, c0, cols, ro))
+        if hw.weight_noise > 0:
+            rng = np.random.default_rng([hw.seed, hw.step, self.index, 0x4e])
+            delta += hw.weight_noise * np.abs(w).max() * rng.standard_normal(w.shape)
+        dev = self.weight.device
+        self._delta = self._from_matrix(torch.from_numpy(delta).to(dev, self.weight.dtype))
+        self._sigma2 = None if sigma2 is None else torch.from_numpy(sigma2).to(dev, self.weight.dtype)
+        self._blocks = blocks
+        self._ro_var = ro_var if hw.readout_noise_a and sigma2 is not None else None
+        self._offset = torch.from_numpy(offset).to(dev, self.weight.dtype) if offset.any() else None
+        self._delta_step = hw.step
+
+    @staticmethod
+    def _calibration_fit(x, w_ideal, w_cells):
+        """eval's calibration of one crossbar (docs/physics.md, calibration): per column the gain
+        and offset that map the crossbar's outputs on the calibration vectors `x` to the ideal
+        ones (least squares); a column whose outputs do not vary gets its offset only."""
+        ideal, measured = x @ w_ideal, x @ w_cells
+        m_mean, i_mean = measured.mean(axis=0), ideal.mean(axis=0)
+        dm = measured - m_mean
+        var = (dm * dm).sum(axis=0)
+        cov = (dm * (ideal - i_mean)).sum(axis=0)
+        scale = np.abs(measured).max(axis=0)
+        gain = np.where(var > 1e-24 * np.maximum(scale, 1e-300) ** 2 * len(x), cov / np.where(var > 0, var, 1), 1.0)
+        return gain, i_mean - gain * m_mean
+
+    def _compensation_gains(self, cells, held, g_min):
+        """device.compensation at training time, a gain of the readout per crossbar column: the
+        programmed conductance above g_min over the drifted one, summed over the layer (global)
+        or per column (column, recalibrate); none: 1."""
+        mode = self.hw.compensation
+        if mode == "none":
+            return [1.0] * len(cells)
+        if mode == "global":
+            want = sum(float((c["g"] - g_min).sum()) for c in cells)
+            have = sum(float((h - g_min).sum()) for h in held)
+            gain = want / have if have > 0 else 1.0
+            return [gain] * len(cells)
+        out = []
+        for c, h in zip(cells, held):
+            want, have = (c["g"] - g_min).sum(axis=0), (h - g_min).sum(axis=0)
+            out.append(np.where(have > 0, want / np.where(have > 0, have, 1.0), 1.0))
+        return out
+
+    # --- the forward --------------------------------------------------------------------------
+    def _dac(self, x):
+        hw = self.hw
+        hi = self.x_max.to(x.dtype)
+        lo = -hi if bool(self.signed_inputs) else torch.zeros_like(hi)
+        xc = torch.maximum(torch.minimum(x, hi), lo)  # clipping: no gradient outside the range
+        if not (hw.converters and hw.dac_bits):
+            return xc
+        # eval's input codes: unsigned 0 .. 2^B - 1 over [0, x_max]; signed a sign and B - 1 magnitude
+        # bits, -(2^m - 1) .. 2^m - 1 over [-x_max, x_max] (sw/analog/input_slicing.h)
+        m = max(hw.dac_bits - 1, 1)
+        levels = 2 * (2 ** m - 1) + 1 if bool(self.signed_inputs) else 2 ** hw.dac_bits
+        return xc + (_quantize(xc.detach(), lo, hi, levels) - xc.detach())
+
+    def _needs_readout(self):
+        hw = self.hw
+        return (hw.use_read_noise and self._sigma2 is not None) or (hw.converters and hw.adc_bits and self._adc)
+
+    def _analog_forward(self, x):
+        hw = self.hw
+        if not hw.active:
+            return self._plain(x, self.weight)
+        if self._delta_step != hw.step or self._delta is None:
+            self._draw()
+        xq = self._dac(x)
+        y = self._plain(xq, self.weight + self._delta, bias=False)
+        if self._needs_readout():
+            with torch.no_grad():
+                correction = self._readout(xq.detach(), y.detach()) - y.detach()
+            y = y + correction  # straight through: the correction carries no gradient
+        if self._offset is not None:
+            y = y + self._offset.reshape((1, -1) + (1,) * (y.dim() - 2))
+        if self.bias is not None:
+            y = y + (self.bias.reshape(1, -1, 1, 1) if y.dim() == 4 and not isinstance(self, torch.nn.Linear)
+                     else self.bias)
+        return y
+
+    def _readout(self, xq, y):
+        """The crossbars' outputs summed over the row blocks, with one read's noise (the device's
+        and the readout's, fresh per forward), through the ADCs at their calibrated ranges.
+
+        One block of rows (the layer's output is the crossbars' partial sums): each column's ADC
+        quantizes and clips exactly. Several: each block's quantization is added as its
+        statistical equivalent, uniform noise of variance step^2 / 12 per column (summed over the
+        blocks; no clipping), unless Hardware(exact_adc=True), which forms every block's partial
+        sums (slower: an unfolded matrix product per block)."""
+        hw = self.hw
+        noisy = hw.use_read_noise and self._sigma2 is not None
+        adc = hw.converters and hw.adc_bits and self._adc is not None
+        single = len({b[0] for b in self._blocks}) == 1
+        # one read's noise: fresh on every forward, from (seed, step, layer, forward)
+        self._reads += 1
+        gen = torch.Generator().manual_seed(int(np.random.SeedSequence(
+            [hw.seed, hw.step, self.index, self._reads]).generate_state(1, np.uint64)[0]) >> 1)
+        shape = (1, -1) + (1,) * (y.dim() - 2)
+        if single or not hw.exact_adc:
+            var = None
+            if noisy:
+                var = self._plain(xq * xq, self._from_matrix(self._sigma2), bias=False).clamp(min=0)
+                if self._ro_var is not None:
+                    var = var + (self._ro_var * float(self.x_max) ** 2).to(y.dtype).reshape(shape)
+            if adc and not single:
+                q = self._adc_var.to(y.dtype).reshape(shape)
+                var = q if var is None else var + q
+            part = y if var is None else y + var.sqrt() * torch.randn(y.shape, generator=gen, dtype=y.dtype)
+            if adc and single:
+                lo, hi = (v.to(y.dtype).reshape(shape) for v in self._adc_lohi)
+                part = _quantize(part, lo, hi, 2 ** hw.adc_bits)
+            return part
+        rows = self._rows(xq)  # (vectors, K), eval's row order
+        w = self._to_matrix(self.weight.detach() + self._delta)
+        out = torch.zeros_like(y)
+        for k, (r0, nr, c0, nc, ro) in enumerate(self._blocks):
+            x_b = rows[:, r0:r0 + nr]
+            part = self._to_layout(x_b @ w[r0:r0 + nr, c0:c0 + nc], y)
+            if noisy:
+                var = self._to_layout((x_b * x_b) @ self._sigma2[r0:r0 + nr, c0:c0 + nc], y).clamp(min=0)
+                if ro is not None:
+                    var = var + (ro * float(self.x_max) ** 2).to(y.dtype).reshape(shape)
+                part = part + var.sqrt() * torch.randn(var.shape, generator=gen, dtype=y.dtype)
+            if adc:
+                lo, hi = (v.to(y.dtype).reshape(shape) for v in self._adc[k])
+                part = _quantize(part, lo, hi, 2 ** hw.adc_bits)
+            out.narrow(1, c0, nc).add_(part)
+        return out
+
+
+class AnalogConv2d(_AnalogMixin, torch.nn.Conv2d):
+    """A Conv2d whose forward injects Hardware's non-idealities (module docstring)."""
+
+    @classmethod
+    def from_module(cls, m, hw, index):
+        if m.groups != 1:
+            raise ValueError("xbarsim.nn: a grouped convolution (groups > 1) is not supported for training")
+        if m.padding_mode != "zeros" or isinstance(m.padding, str):
+            raise ValueError("xbarsim.nn: a convolution with padding_mode other than zeros or string padding "
+                             "is not supported for training")
+        a = cls(m.in_channels, m.out_channels, m.kernel_size, stride=m.stride, padding=m.padding,
+                dilation=m.dilation, bias=m.bias is not None)
+        a.weight = torch.nn.Parameter(m.weight.detach().clone())
+        if m.bias is not None:
+            a.bias = torch.nn.Parameter(m.bias.detach().clone())
+        a._setup(hw, index)
+        return a
+
+    def _plain(self, x, w, bias=True):
+        return F.conv2d(x, w, self.bias if bias else None, self.stride, self.padding, self.dilation)
+
+    def _rows(self, x):
+        """The input vectors (one per image and output position) in eval's row order."""
+        cols = F.unfold(x, self.kernel_size, dilation=self.dilation, padding=self.padding, stride=self.stride)
+        n, _, positions = cols.shape
+        c, (kh, kw) = self.in_channels, self.kernel_size
+        # torch's rows: channel, kernel row, kernel column; eval's: kernel column, kernel row, channel
+        return cols.reshape(n, c, kh, kw, positions).permute(0, 4, 3, 2, 1).reshape(n * positions, kw * kh * c)
+
+    def _to_layout(self, v, y):
+        """(vectors, columns) -> N x columns x H x W, as y."""
+        n, _, h, wd = y.shape
+        return v.reshape(n, h * wd, -1).transpose(1, 2).reshape(n, -1, h, wd)
+
+    def forward(self, x):
+        return self._analog_forward(x)
+
+
+class AnalogLinear(_AnalogMixin, torch.nn.Linear):
+    """A Linear whose forward injects Hardware's non-idealities (module docstring)."""
+
+    @classmethod
+    def from_module(cls, m, hw, index):
+        a = cls(m.in_features, m.out_features, bias=m.bias is not None)
+        a.weight = torch.nn.Parameter(m.weight.detach().clone())
+        if m.bias is not None:
+            a.bias = torch.nn.Parameter(m.bias.detach().clone())
+        a._setup(hw, index)
+        return a
+
+    def _plain(self, x, w, bias=True):
+        return F.linear(x, w, self.bias if bias else None)
+
+    def _rows(self, x):
+        return x.reshape(-1, x.shape[-1])
+
+    def _to_layout(self, v, y):
+        return v.reshape(*y.shape[:-1], -1)
+
+    def forward(self, x):
+        return self._analog_forward(x)
+
+
+def analog_layers(model):
+    """The model's analog layers (AnalogConv2d, AnalogLinear), in named_modules() order."""
+    return [m for m in model.modules() if isinstance(m, _AnalogMixin)]
+
+
+def _replace(model, make):
+    layers = [(name, m) for name, m in model.named_modules()
+              if isinstance(m, (torch.nn.Conv2d, torch.nn.Linear)) and not isinstance(m, _AnalogMixin)]
+    for l, (name, m) in enumerate(layers):
+        new = make(m, l)
+        if not name:  # the model is the layer itself
+            return new
+        parent = model
+        *path, last = name.split(".")
+        for part in path:
+            parent = getattr(parent, part)
+        setattr(parent, last, new)
+    return model
+
+
+def convert(model, hardware, calibration=None):
+    """A copy of `model` whose Conv2d and Linear layers are analog layers injecting `hardware`
+    (a Hardware). Layers count in named_modules() order (eval's Conv/Gemm order for a model
+    read by xbarsim.onnx.load); the l-th draws with layer index l. `calibration` (a batch of
+    inputs, preprocessed as the model's) sets each layer's DAC range (the largest |input|, signed
+    when an input is negative, as eval) and ADC ranges; required when the configuration has
+    converters or read noise (calibrate() sets them again later)."""
+    if not isinstance(hardware, Hardware):
+        raise TypeError("convert needs a xbarsim.nn.Hardware")
+    model = copy.deepcopy(model)
+    model = _replace(model, lambda m, l: (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)
+                     .from_module(m, hardware, l))
+    if calibration is not None:
+        calibrate(model, calibration)
+    elif hardware.converters and (hardware.dac_bits or hardware.adc_bits):
+        raise ValueError("convert needs calibration= (a batch of inputs) when the configuration has DAC or ADC "
+                         "bits: their ranges come from it")
+    return model
+
+
+def calibrate(model, inputs, adc=True):
+    """Sets every analog layer's DAC range (largest |input|, signed when an input is negative) and
+    ADC ranges (each crossbar column's partial sums over `inputs`, widened by
+    converters.adc_margin of their span on each side, as eval) from one forward of `inputs` with
+    noise off."""
+    layers = analog_layers(model)
+    if not layers:
+        raise ValueError("calibrate: the model has no analog layer (xbarsim.nn.convert it first)")
+    hw = layers[0].hw
+    seen = {}
+    hooks = [m.register_forward_pre_hook(lambda mod, args: seen.setdefault(id(mod), args[0].detach())) for m in layers]
+    was_enabled, was_training = hw.enabled, model.training
+    hw.enabled = False
+    try:
+        with torch.no_grad():
+            model.eval()
+            model(inputs)
+    finally:
+        for h in hooks:
+            h.remove()
+        hw.enabled = was_enabled
+        model.train(was_training)
+    for m in layers:
+        x = seen.get(id(m))
+        if x is None:
+            continue
+        m.x_max.fill_(float(x.abs().max()) or 1.0)
+        m.signed_inputs.fill_(bool((x < 0).any()))
+        m._adc = None
+        with torch.no_grad():
+            rows = m._rows(x).double()
+            pick = np.random.default_rng([hw.seed, m.index, 0xca1]).choice(
+                rows.shape[0], size=min(hw.calibration_samples, rows.shape[0]), replace=False)
+            m._calib_rows = rows[torch.as_tensor(np.sort(pick))].numpy()
+        m._delta_step = None  # the next forward draws (and calibrates) afresh
+        if adc and hw.converters and hw.adc_bits:
+            with torch.no_grad():
+                w = m._to_matrix(m.weight.detach())
+                rows = m._rows(m._dac(x))
+                ranges = []
+                for c in _core.weight_cells(w.double().cpu().numpy(), hw.config):
+                    r0, nr, c0, nc = c["r0"], c["rows"], c["c0"], c["cols"]
+                    part = (rows[:, r0:r0 + nr].double() @ w[r0:r0 + nr, c0:c0 + nc].double()).t()
+                    lo, hi = part.min(dim=1).values, part.max(dim=1).values
+                    span = (hi - lo).clamp(min=1e-12)
+                    ranges.append((c0, nc, lo - hw.adc_margin * span, hi + hw.adc_margin * span))
+                m._adc = [(lo, hi) for _, _, lo, hi in ranges]
+                n_out = w.shape[1]
+                lo_all = torch.zeros(n_out, dtype=torch.float64)
+                hi_all = torch.zeros(n_out, dtype=torch.float64)
+                var = torch.zeros(n_out, dtype=torch.float64)
+                for c0, nc, lo, hi in ranges:
+                    lo_all[c0:c0 + nc], hi_all[c0:c0 + nc] = lo, hi
+                    var[c0:c0 + nc] += ((hi - lo) / (2 ** hw.adc_bits - 1)) ** 2 / 12
+                m._adc_lohi, m._adc_var = (lo_all, hi_all), var
+    return model
+
+
+def to_software(model):
+    """A copy of `model` with every analog layer back to a plain Conv2d / Linear of its weights."""
+    model = copy.deepcopy(model)
+    layers = [(name, m) for name, m in model.named_modules() if isinstance(m, _AnalogMixin)]
+    for name, m in layers:
+        if isinstance(m, torch.nn.Linear):
+            plain = torch.nn.Linear(m.in_features, m.out_features, bias=m.bias is not None)
+        else:
+            plain = torch.nn.Conv2d(m.in_channels, m.out_channels, m.kernel_size, stride=m.stride, padding=m.padding,
+                                    dilation=m.dilation, bias=m.bias is not None)
+        plain.weight = torch.nn.Parameter(m.weight.detach().clone())
+        if m.bias is not None:
+            plain.bias = torch.nn.Parameter(m.bias.detach().clone())
+        parent = model
+        *path, last = name.split(".")
+        for part in path:
+            parent = getattr(parent, part)
+        if not name:
+            return plain
+        setattr(parent, last, plain)
+    return model
