@@ -32,11 +32,27 @@ def _clock(seconds):
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
-def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=0.001, momentum=0.9, weight_decay=0.0,
-              calibration=None, progress=None, seed=0):
+def clip_weights(model, sigmas):
+    """Clamps every Conv2d/Linear weight of `model` to +-sigmas x the standard deviation of its
+    layer's weights (aihwkit's layer-Gaussian clipping): a crossbar's conductance scale is set by
+    its largest |weight|, so an outlier squeezes every other weight into a sliver of the range and
+    under the device's noise (docs/python.md). 0: no clipping."""
+    if sigmas <= 0:
+        return
+    with torch.no_grad():
+        for m in model.modules():
+            if isinstance(m, (torch.nn.Conv2d, torch.nn.Linear)):
+                bound = float(sigmas * m.weight.std())
+                m.weight.clamp_(-bound, bound)
+
+
+def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimizer="adam", momentum=0.9,
+              weight_decay=0.0, clip_sigma=3.0, calibration=None, progress=None, seed=0):
     """Fine-tunes `model` (a module with xbarsim.nn analog layers, or a plain one: trained in
-    software) on `train` (an xbarsim.data.Cifar10 set) for `epochs` epochs: SGD with momentum,
-    the learning rate `lr` decayed to 0 over the run by a cosine, cross-entropy loss. Every batch
+    software) on `train` (an xbarsim.data.Cifar10 set) for `epochs` epochs: Adam (or SGD with
+    momentum), the learning rate `lr` decayed to 0 over the run by a cosine, cross-entropy loss,
+    the weights clipped to +-clip_sigma standard deviations of their layer before training and
+    after every step (clip_weights; 0: none). Every batch
     draws the hardware's programming error, faults, drift (hardware.new_batch()); every epoch
     starts by calibrating the DAC and ADC ranges on `calibration` (a batch of inputs; default the
     first 200 training images, not augmented). `progress(text)` gets a line about every 10 % of
@@ -44,7 +60,13 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=0.001, moment
     torch.manual_seed(seed)
     analog = _nn.analog_layers(model)
     params = [p for p in model.parameters() if p.requires_grad]
-    opt = torch.optim.SGD(params, lr=lr, momentum=momentum, weight_decay=weight_decay)
+    if optimizer == "adam":
+        opt = torch.optim.Adam(params, lr=lr, weight_decay=weight_decay)
+    elif optimizer == "sgd":
+        opt = torch.optim.SGD(params, lr=lr, momentum=momentum, weight_decay=weight_decay)
+    else:
+        raise ValueError(f"optimizer must be adam or sgd, got {optimizer}")
+    clip_weights(model, clip_sigma)
     steps_per_epoch = math.ceil(len(train) / batch_size)
     total = epochs * steps_per_epoch
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda k: 0.5 * (1 + math.cos(math.pi * k / total)))
@@ -68,6 +90,7 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=0.001, moment
             loss.backward()
             opt.step()
             sched.step()
+            clip_weights(model, clip_sigma)
             step += 1
             seen += len(y)
             correct += int((out.detach().argmax(1) == y).sum())
@@ -110,12 +133,22 @@ def _parser():
     p.add_argument("--weight-noise", type=float, default=0.0, metavar="F",
                    help="NeuRRAM's training noise: Gaussian weight noise of F x each layer's largest |weight|, "
                         "drawn per batch, on top of the device model (default 0)")
+    p.add_argument("--noise-scale", type=float, default=1.0, metavar="F",
+                   help="train with the device's deviations (programming error, drift, read noise) times F "
+                        "(default 1)")
     p.add_argument("--time", metavar="T|T0,T1",
                    help="seconds after programming each batch reads at: T, or T0,T1 drawn log-uniformly per batch "
                         "(default device.time_s)")
     p.add_argument("--batch-size", type=int, default=128, metavar="B", help="images per batch (default 128)")
-    p.add_argument("--lr", type=float, default=0.001, help="initial learning rate, cosine-decayed to 0 (default 0.001: the shared models have their batch norms folded, and 0.01 diverges)")
+    p.add_argument("--optimizer", choices=("adam", "sgd"), default="adam", help="adam (default) or sgd (with momentum)")
+    p.add_argument("--lr", type=float, default=1e-4,
+                   help="initial learning rate, cosine-decayed to 0 (default 1e-4, for Adam; the shared models have "
+                        "their batch norms folded, and SGD above 1e-3 diverges)")
     p.add_argument("--momentum", type=float, default=0.9, help="SGD momentum (default 0.9)")
+    p.add_argument("--clip-sigma", type=float, default=3.0, metavar="C",
+                   help="clip every layer's weights to +-C standard deviations of the layer before and after every "
+                        "step (default 3; 0: none): a crossbar's scale is its largest |weight|, so outliers cost "
+                        "every other weight range and noise margin")
     p.add_argument("--weight-decay", type=float, default=0.0, help="SGD weight decay (default 0)")
     p.add_argument("--images", type=int, metavar="N", help="use only the first N training images")
     p.add_argument("--seed", type=int, default=0, help="seed of the shuffling, augmentation and every draw (default 0)")
@@ -181,7 +214,8 @@ def _run(args, say):
             calib = _data.Cifar10(files=[calib_file], train=False, preprocessing=preprocessing, limit=200)
             calibration = calib.preprocess(calib.images)
         hardware = None if args.software else _nn.Hardware(cfg, weight_noise=args.weight_noise,
-                                                             time_s=_times(args.time), seed=args.seed)
+                                                             time_s=_times(args.time), seed=args.seed,
+                                                             noise_scale=args.noise_scale)
     except ValueError as e:
         raise _Usage(str(e)) from None
     if calibration is None:
@@ -192,8 +226,11 @@ def _run(args, say):
         (" in software" if hardware is None else f": device {cfg.get('device.model')}, "
          f"{cfg.get('mapping.negative')} mapping, weight noise {args.weight_noise}"))
     start = time.monotonic()
+    if not (args.clip_sigma >= 0 and math.isfinite(args.clip_sigma)):
+        raise _Usage(f"--clip-sigma must be a number >= 0, got {args.clip_sigma}")
     history = fine_tune(net, hardware, train, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
-                        momentum=args.momentum, weight_decay=args.weight_decay, calibration=calibration,
+                        optimizer=args.optimizer, momentum=args.momentum, weight_decay=args.weight_decay,
+                        clip_sigma=args.clip_sigma, calibration=calibration,
                         progress=None if args.quiet else say, seed=args.seed)
     trained = net if hardware is None else _nn.to_software(net)
     _onnx.export(trained, args.out, metadata={

@@ -54,18 +54,26 @@ class Hardware:
     standard deviation of this fraction of each layer's largest |weight|, drawn per batch (0:
     none). `time_s`: the time after programming each batch reads at: None (device.time_s), a
     number, or a pair (t0, t1): drawn log-uniformly per batch. `seed`: every draw's stream, with
-    the batch counter and the layer.
+    the batch counter and the layer. `noise_scale`: the held weights' deviation from the trained
+    ones (programming error, drift, calibration's residue, read noise) times this in training (1:
+    as the device; more trains for a noisier device). `exact_adc`: see _readout.
     """
 
     def __init__(self, config=None, weight_noise=0.0, device=True, converters=True, read_noise=True, time_s=None,
-                 seed=0, exact_adc=False):
+                 seed=0, exact_adc=False, noise_scale=1.0):
         self.exact_adc = bool(exact_adc)
+        if not (noise_scale >= 0 and math.isfinite(noise_scale)):
+            raise ValueError(f"noise_scale must be a number >= 0, got {noise_scale}")
+        self.noise_scale = float(noise_scale)
         self.config = config if isinstance(config, Config) else Config(overrides=config or {})
         cfg = self.config
         self._device_overrides = {k: cfg.get(k) for k in (
             "device.model", "device.program_sigma_us", "device.read_sigma_us", "device.stuck_at_gmin",
             "device.stuck_at_gmax", "crossbar.g_min", "crossbar.g_max")}
         self.device_model = Device(cfg)  # validates device.*; its range is the cells'
+        # the training's draws: the configuration's device model, its seed mixed with the training seed
+        self._train_device = Device({**self._device_overrides,
+                                     "device.seed": (cfg.get("device.seed") * 1000003 + int(seed)) % (2 ** 62)})
         self.g_min = self.device_model.g_min
         self.negative = cfg.get("mapping.negative")
         self.compensation = cfg.get("device.compensation")
@@ -111,11 +119,10 @@ class Hardware:
         u = np.random.default_rng([self.seed, self.step, 0x7]).random()
         return math.exp(math.log(t0) + u * (math.log(t1) - math.log(t0)))
 
-    def device_of_step(self):
-        """The device model drawing this step's cells: the configuration's, its seed from the
-        training seed and the step (each step programs afresh)."""
-        seed = (self.seed * 1000003 + self.step) % (2 ** 62)
-        return Device({**self._device_overrides, "device.seed": seed})
+    def device_key(self, layer_index, crossbar):
+        """(layer, crossbar) keys of this step's draws for crossbar `crossbar` of a layer: the
+        step in the crossbar key's high bits, so each step programs afresh."""
+        return layer_index + 1, (self.step << 20) + crossbar
 
     @property
     def active(self):
@@ -129,10 +136,29 @@ class Hardware:
 
 def _quantize(v, lo, hi, levels):
     """v clamped to [lo, hi] and rounded to `levels` evenly spaced values (lo, hi tensors that
-    broadcast)."""
+    broadcast; v is not changed)."""
     step = (hi - lo) / (levels - 1)
     step = torch.where(step > 0, step, torch.ones_like(step))
-    return torch.round((v.clamp(min=lo, max=hi) - lo) / step) * step + lo
+    return torch.maximum(torch.minimum(v, hi), lo).sub_(lo).div_(step).round_().mul_(step).add_(lo)
+
+
+class _Dac(torch.autograd.Function):
+    """Clip to [lo, hi] and round to lo + k step (step None: no rounding); the backward passes the
+    gradient where the input was inside the range (one fused mask, not max/min's backward)."""
+
+    @staticmethod
+    def forward(ctx, x, lo, hi, step):
+        inside = (x >= lo) & (x <= hi)
+        ctx.save_for_backward(inside)
+        q = x.clamp(lo, hi)
+        if step is not None:
+            q = q.sub_(lo).div_(step).round_().mul_(step).add_(lo)
+        return q
+
+    @staticmethod
+    def backward(ctx, grad):
+        inside, = ctx.saved_tensors
+        return grad * inside, None, None, None
 
 
 class _AnalogMixin:
@@ -176,16 +202,17 @@ class _AnalogMixin:
         hw = self.hw
         w = self._to_matrix(self.weight.detach()).double().cpu().numpy()
         cells = _core.weight_cells(w, hw.config)
-        device = hw.device_of_step() if hw.use_device else None
+        device = hw._train_device if hw.use_device else None
         t = hw.time_of_step() if hw.use_device else 0.0
         g_min = hw.g_min
         held = []
         for b, c in enumerate(cells):
             h = c["g"]
             if device is not None:
-                h = device.program(c["g"], layer=self.index + 1, crossbar=b)
+                layer, key = hw.device_key(self.index, b)
+                h = device.program(c["g"], layer=layer, crossbar=key)
                 if t > 0:
-                    h = device.at_time(c["g"], h, t=t, layer=self.index + 1, crossbar=b)
+                    h = device.at_time(c["g"], h, t=t, layer=layer, crossbar=key)
             held.append(h)
         gains = self._compensation_gains(cells, held, g_min) if t > 0 else [1.0] * len(cells)
         delta = np.zeros_like(w)
@@ -215,6 +242,10 @@ class _AnalogMixin:
                     ro = torch.from_numpy(((hw.readout_noise_a * scale / hw.v_in_max) ** 2).reshape(cols, per).sum(axis=1))
                     ro_var[c0:c0 + cols] += ro
             blocks.append((r0, rows, c0, cols, ro))
+        if hw.noise_scale != 1:
+            delta *= hw.noise_scale
+            if sigma2 is not None:
+                sigma2 *= hw.noise_scale ** 2
         if hw.weight_noise > 0:
             rng = np.random.default_rng([hw.seed, hw.step, self.index, 0x4e])
             delta += hw.weight_noise * np.abs(w).max() * rng.standard_normal(w.shape)
@@ -260,21 +291,24 @@ class _AnalogMixin:
 
     # --- the forward --------------------------------------------------------------------------
     def _dac(self, x):
+        """eval's input codes: unsigned 0 .. 2^B - 1 over [0, x_max]; signed a sign and B - 1
+        magnitude bits, -(2^m - 1) .. 2^m - 1 over [-x_max, x_max] (sw/analog/input_slicing.h).
+        Straight through inside the range, no gradient where it clips."""
         hw = self.hw
-        hi = self.x_max.to(x.dtype)
-        lo = -hi if bool(self.signed_inputs) else torch.zeros_like(hi)
-        xc = torch.maximum(torch.minimum(x, hi), lo)  # clipping: no gradient outside the range
-        if not (hw.converters and hw.dac_bits):
-            return xc
-        # eval's input codes: unsigned 0 .. 2^B - 1 over [0, x_max]; signed a sign and B - 1 magnitude
-        # bits, -(2^m - 1) .. 2^m - 1 over [-x_max, x_max] (sw/analog/input_slicing.h)
-        m = max(hw.dac_bits - 1, 1)
-        levels = 2 * (2 ** m - 1) + 1 if bool(self.signed_inputs) else 2 ** hw.dac_bits
-        return xc + (_quantize(xc.detach(), lo, hi, levels) - xc.detach())
+        hi = float(self.x_max)
+        signed = bool(self.signed_inputs)
+        lo = -hi if signed else 0.0
+        step = None
+        if hw.converters and hw.dac_bits:
+            step = hi / (2 ** max(hw.dac_bits - 1, 1) - 1) if signed else hi / (2 ** hw.dac_bits - 1)
+        return _Dac.apply(x, lo, hi, step)
 
     def _needs_readout(self):
         hw = self.hw
-        return (hw.use_read_noise and self._sigma2 is not None) or (hw.converters and hw.adc_bits and self._adc)
+        noisy = hw.use_read_noise and self._sigma2 is not None
+        exact_blocks = hw.exact_adc and len({b[0] for b in self._blocks}) > 1
+        return (noisy and (self._ro_var is not None or exact_blocks)) or bool(hw.converters and hw.adc_bits and
+                                                                              self._adc)
 
     def _analog_forward(self, x):
         hw = self.hw
@@ -283,10 +317,20 @@ class _AnalogMixin:
         if self._delta_step != hw.step or self._delta is None:
             self._draw()
         xq = self._dac(x)
-        y = self._plain(xq, self.weight + self._delta, bias=False)
+        # one read's noise: fresh on every forward, from (seed, step, layer, forward)
+        self._reads += 1
+        gen = torch.Generator().manual_seed(int(np.random.SeedSequence(
+            [hw.seed, hw.step, self.index, self._reads]).generate_state(1, np.uint64)[0]) >> 1)
+        w = self.weight + self._delta
+        if hw.use_read_noise and self._sigma2 is not None:
+            # the cells' read fluctuation as the weights' (aihwkit's forward noise): one draw per
+            # forward, shared by the batch's vectors (eval draws one per vector)
+            w = w + self._from_matrix(self._sigma2.sqrt() * torch.randn(self._sigma2.shape, generator=gen,
+                                                                        dtype=self._sigma2.dtype))
+        y = self._plain(xq, w, bias=False)
         if self._needs_readout():
             with torch.no_grad():
-                correction = self._readout(xq.detach(), y.detach()) - y.detach()
+                correction = self._readout(xq.detach(), y.detach(), gen) - y.detach()
             y = y + correction  # straight through: the correction carries no gradient
         if self._offset is not None:
             y = y + self._offset.reshape((1, -1) + (1,) * (y.dim() - 2))
@@ -295,7 +339,7 @@ class _AnalogMixin:
                      else self.bias)
         return y
 
-    def _readout(self, xq, y):
+    def _readout(self, xq, y, gen):
         """The crossbars' outputs summed over the row blocks, with one read's noise (the device's
         and the readout's, fresh per forward), through the ADCs at their calibrated ranges.
 
@@ -308,17 +352,11 @@ class _AnalogMixin:
         noisy = hw.use_read_noise and self._sigma2 is not None
         adc = hw.converters and hw.adc_bits and self._adc is not None
         single = len({b[0] for b in self._blocks}) == 1
-        # one read's noise: fresh on every forward, from (seed, step, layer, forward)
-        self._reads += 1
-        gen = torch.Generator().manual_seed(int(np.random.SeedSequence(
-            [hw.seed, hw.step, self.index, self._reads]).generate_state(1, np.uint64)[0]) >> 1)
         shape = (1, -1) + (1,) * (y.dim() - 2)
         if single or not hw.exact_adc:
             var = None
-            if noisy:
-                var = self._plain(xq * xq, self._from_matrix(self._sigma2), bias=False).clamp(min=0)
-                if self._ro_var is not None:
-                    var = var + (self._ro_var * float(self.x_max) ** 2).to(y.dtype).reshape(shape)
+            if noisy and self._ro_var is not None:
+                var = (self._ro_var * float(self.x_max) ** 2).to(y.dtype).reshape(shape)
             if adc and not single:
                 q = self._adc_var.to(y.dtype).reshape(shape)
                 var = q if var is None else var + q
