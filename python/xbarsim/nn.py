@@ -67,15 +67,13 @@ class Hardware:
         self.noise_scale = float(noise_scale)
         self.config = config if isinstance(config, Config) else Config(overrides=config or {})
         cfg = self.config
-        self._device_overrides = {k: cfg.get(k) for k in (
-            "device.model", "device.program_sigma_us", "device.read_sigma_us", "device.stuck_at_gmin",
-            "device.stuck_at_gmax", "crossbar.g_min", "crossbar.g_max")}
         self.device_model = Device(cfg)  # validates device.*; its range is the cells'
         # the training's draws: the configuration's device model, its seed mixed with the training seed
-        self._train_device = Device({**self._device_overrides,
-                                     "device.seed": (cfg.get("device.seed") * 1000003 + int(seed)) % (2 ** 62)})
+        device_keys = {f"device.{k}": v for k, v in cfg.to_dict()["device"].items()}
+        device_keys.update({k: cfg.get(k) for k in ("crossbar.g_min", "crossbar.g_max")})
+        device_keys["device.seed"] = (cfg.get("device.seed") * 1000003 + int(seed)) % (2 ** 62)
+        self._train_device = Device(device_keys)
         self.g_min = self.device_model.g_min
-        self.negative = cfg.get("mapping.negative")
         self.compensation = cfg.get("device.compensation")
         self.use_device = bool(device) and (self.device_model.kind != "ideal" or
                                             cfg.get("device.stuck_at_gmin") > 0 or cfg.get("device.stuck_at_gmax") > 0)
@@ -103,6 +101,8 @@ class Hardware:
         self.seed = int(seed)
         self.step = 0
         self.enabled = True
+        self._quantizes = (_bits(cfg, "mapping.weight_bits") is not None or
+                           _bits(cfg, "crossbar.cell_bits") is not None)
 
     def __deepcopy__(self, memo):
         return self  # a model's copy shares its hardware (a description, and its step counter)
@@ -128,10 +128,6 @@ class Hardware:
     def active(self):
         return self.enabled and (self.use_device or self.use_read_noise or self.weight_noise > 0 or
                                  (self.converters and (self.dac_bits or self.adc_bits)) or self._quantizes)
-
-    @property
-    def _quantizes(self):
-        return _bits(self.config, "mapping.weight_bits") is not None or _bits(self.config, "crossbar.cell_bits") is not None
 
 
 def _quantize(v, lo, hi, levels):
@@ -164,6 +160,14 @@ class _Dac(torch.autograd.Function):
 class _AnalogMixin:
     """What the analog Conv2d and Linear share: the weight as a matrix in eval's row order, the
     per-step noise drawn through the mapping and the device model, DAC and readout."""
+
+    def _take(self, m, hw, index):
+        """This layer with `m`'s weight and bias (copies), injecting `hw` as layer `index`."""
+        self.weight = torch.nn.Parameter(m.weight.detach().clone())
+        if m.bias is not None:
+            self.bias = torch.nn.Parameter(m.bias.detach().clone())
+        self._setup(hw, index)
+        return self
 
     def _setup(self, hw, index):
         self.hw = hw
@@ -393,13 +397,10 @@ class AnalogConv2d(_AnalogMixin, torch.nn.Conv2d):
         if m.padding_mode != "zeros" or isinstance(m.padding, str):
             raise ValueError("xbarsim.nn: a convolution with padding_mode other than zeros or string padding "
                              "is not supported for training")
-        a = cls(m.in_channels, m.out_channels, m.kernel_size, stride=m.stride, padding=m.padding,
-                dilation=m.dilation, bias=m.bias is not None)
-        a.weight = torch.nn.Parameter(m.weight.detach().clone())
-        if m.bias is not None:
-            a.bias = torch.nn.Parameter(m.bias.detach().clone())
-        a._setup(hw, index)
-        return a
+        if tuple(m.dilation) != (1, 1):
+            raise ValueError("xbarsim.nn: a dilated convolution is not supported for training")
+        return cls(m.in_channels, m.out_channels, m.kernel_size, stride=m.stride, padding=m.padding,
+                   bias=m.bias is not None)._take(m, hw, index)
 
     def _plain(self, x, w, bias=True):
         return F.conv2d(x, w, self.bias if bias else None, self.stride, self.padding, self.dilation)
@@ -426,12 +427,7 @@ class AnalogLinear(_AnalogMixin, torch.nn.Linear):
 
     @classmethod
     def from_module(cls, m, hw, index):
-        a = cls(m.in_features, m.out_features, bias=m.bias is not None)
-        a.weight = torch.nn.Parameter(m.weight.detach().clone())
-        if m.bias is not None:
-            a.bias = torch.nn.Parameter(m.bias.detach().clone())
-        a._setup(hw, index)
-        return a
+        return cls(m.in_features, m.out_features, bias=m.bias is not None)._take(m, hw, index)
 
     def _plain(self, x, w, bias=True):
         return F.linear(x, w, self.bias if bias else None)
