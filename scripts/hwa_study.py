@@ -83,9 +83,10 @@ class Study:
         hwa = self.train("rram_b1", "train1", "--set", "device.model=rram-wan2022", *DIFF)
         soft = self.train("software_b1", "train1", "--software")
         rows = []
-        for label, model in (("original", self.original), ("HWA, 1 epoch on data_batch_1", hwa),
-                             ("control: the same epoch in software (clipped, no noise)", soft)):
-            r = self.eval("b1_" + label.split(",")[0].replace(" ", "_"), model, 1000, *DIFF,
+        for tag, label, model in (("original", "original", self.original),
+                                  ("hwa", "HWA, 1 epoch on data_batch_1", hwa),
+                                  ("software", "control: the same epoch in software (clipped, no noise)", soft)):
+            r = self.eval("b1_" + tag, model, 1000, *DIFF,
                           "--set", "device.model=rram-wan2022", "--set", "device.time_s=1")[0]
             rows.append((label, r["software_accuracy"], r["crossbar_accuracy"]))
         o_sw, o_xb = rows[0][1], rows[0][2]
@@ -104,21 +105,23 @@ class Study:
             "pcm-joshi2020": self.train("pcm", "train", "--set", "device.model=pcm-joshi2020", *DIFF,
                                         "--set", "device.compensation=global", "--time", "1,3.156e7"),
         }
+        control = self.train("software", "train", "--software")
         for device, hwa in models.items():
             extra = ["--set", "device.compensation=global"]
             print(f"\n## {device}, differential, global compensation ({self.images} test images)\n")
             print("| model | software | 1 s | 1 day | 1 year |\n|---|---:|---:|---:|---:|")
-            for label, model in (("original", self.original), ("HWA", hwa)):
+            for label, model in (("original", self.original), ("HWA", hwa), ("control", control)):
                 runs = self.eval(f"dev_{device}_{label}", model, self.images, *DIFF, "--set", f"device.model={device}",
                                  "--set", "device.time_s=[1,86400,3.156e7]", *extra)
                 cells = " | ".join(f"{100 * r['crossbar_accuracy']:.1f}" for r in runs)
                 print(f"| {label} | {100 * runs[0]['software_accuracy']:.1f} | {cells} |")
-        print(f"\ntraining (1 epoch, 20 000 images): rram-wan2022 {self.times['rram']:.0f} s, "
-              f"pcm-joshi2020 {self.times['pcm']:.0f} s")
+        print(f"\ncontrol: the same epoch in software (clipped, no noise). Training (1 epoch, 20 000 images): "
+              f"rram-wan2022 {self.times['rram']:.0f} s, pcm-joshi2020 {self.times['pcm']:.0f} s, software "
+              f"{self.times['software']:.0f} s")
 
     def grid(self):
         noises = [0.0, 0.05, 0.10, 0.15]
-        models = {"0 (original)": self.original}
+        models = {"0 (original)": self.original, "0 (fine-tuned, clipped)": self.train("software", "train", "--software")}
         for f in (0.1, 0.2):
             models[str(f)] = self.train(f"neurram_{f}", "train", "--weight-noise", str(f), *DIFF)
         span_us = 70 * 0.8 - 20  # g_max (1 - g_headroom) - g_min: weights map to 20..56 uS
@@ -130,7 +133,8 @@ class Study:
             cells = []
             for n in noises:
                 device = self.noise_model(n * span_us / 2 ** 0.5)
-                r = self.eval(f"grid_{label.split()[0]}_{n}", model, self.images, *DIFF,
+                tag = label.split()[0] + ("c" if "clipped" in label else "")
+                r = self.eval(f"grid_{tag}_{n}", model, self.images, *DIFF,
                               "--set", f"device.model={device}")[0]
                 cells.append(f"{100 * r['crossbar_accuracy']:.1f}")
             print(f"| {label} | " + " | ".join(cells) + " |")

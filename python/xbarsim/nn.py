@@ -22,8 +22,7 @@ models and where it approximates.
 
 The backward is straight-through: the gradient of the layer with respect to its weight and input
 is that of the same torch layer computing with the quantized input and the noisy weight
-(quantization, noise and ADC clipping pass the gradient unchanged; the DAC's clipping passes none
-outside its range).
+(quantization, noise and clipping pass the gradient unchanged).
 """
 import copy
 import math
@@ -87,6 +86,7 @@ class Hardware:
         self.adc_margin = cfg.get("converters.adc_margin")
         self.calibrates = "calibration" in cfg.get("mitigation.method")
         self.calibration_samples = int(cfg.get("calibration.samples"))
+        self.ranging_samples = max(int(cfg.get("eval.calibration_samples")), self.calibration_samples)
         if not weight_noise >= 0 or not math.isfinite(weight_noise):
             raise ValueError(f"weight_noise must be a number >= 0, got {weight_noise}")
         self.weight_noise = float(weight_noise)
@@ -138,23 +138,53 @@ def _quantize(v, lo, hi, levels):
     return torch.maximum(torch.minimum(v, hi), lo).sub_(lo).div_(step).round_().mul_(step).add_(lo)
 
 
+_UNIFORM = {}
+
+
+def _uniform(shape, gen, dtype):
+    """Uniform values on [-1/2, 1/2) of `shape`: a window, at an offset drawn from `gen`, of a table
+    of 2^22 drawn once (a fresh draw per element cost more than the rest of the ADC's model)."""
+    n = math.prod(shape)
+    size = max(1 << 22, 2 * n)
+    table = _UNIFORM.get(dtype)
+    if table is None or table.numel() < size:
+        table = torch.rand(size, generator=torch.Generator().manual_seed(0x5eed), dtype=dtype).sub_(0.5)
+        _UNIFORM[dtype] = table
+    offset = int(torch.randint(0, table.numel() - n + 1, (1,), generator=gen))
+    return table[offset:offset + n].view(shape)
+
+
 class _Dac(torch.autograd.Function):
-    """Clip to [lo, hi] and round to lo + k step (step None: no rounding); the backward passes the
-    gradient where the input was inside the range (one fused mask, not max/min's backward)."""
+    """Clip to [lo, hi] and round to lo + k step (step None: no rounding); the backward is
+    straight through, clipping included (no mask to form or keep)."""
 
     @staticmethod
     def forward(ctx, x, lo, hi, step):
-        inside = (x >= lo) & (x <= hi)
-        ctx.save_for_backward(inside)
         q = x.clamp(lo, hi)
         if step is not None:
-            q = q.sub_(lo).div_(step).round_().mul_(step).add_(lo)
+            if lo:
+                q.sub_(lo)
+            q.div_(step).round_().mul_(step)
+            if lo:
+                q.add_(lo)
         return q
 
     @staticmethod
     def backward(ctx, grad):
-        inside, = ctx.saved_tensors
-        return grad * inside, None, None, None
+        return grad, None, None, None
+
+
+class _Replace(torch.autograd.Function):
+    """The value of `value` with the gradient of `through`: the readout's output (noise, ADC)
+    passed straight through to the layer's product."""
+
+    @staticmethod
+    def forward(ctx, through, value):
+        return value
+
+    @staticmethod
+    def backward(ctx, grad):
+        return grad, None
 
 
 class _AnalogMixin:
@@ -297,7 +327,7 @@ class _AnalogMixin:
     def _dac(self, x):
         """eval's input codes: unsigned 0 .. 2^B - 1 over [0, x_max]; signed a sign and B - 1
         magnitude bits, -(2^m - 1) .. 2^m - 1 over [-x_max, x_max] (sw/analog/input_slicing.h).
-        Straight through inside the range, no gradient where it clips."""
+        Straight through, clipping included."""
         hw = self.hw
         hi = float(self.x_max)
         signed = bool(self.signed_inputs)
@@ -334,13 +364,13 @@ class _AnalogMixin:
         y = self._plain(xq, w, bias=False)
         if self._needs_readout():
             with torch.no_grad():
-                correction = self._readout(xq.detach(), y.detach(), gen) - y.detach()
-            y = y + correction  # straight through: the correction carries no gradient
+                out = self._readout(xq.detach(), y.detach(), gen)
+            y = _Replace.apply(y, out)  # straight through: the readout passes the gradient unchanged
+        shift = self.bias
         if self._offset is not None:
-            y = y + self._offset.reshape((1, -1) + (1,) * (y.dim() - 2))
-        if self.bias is not None:
-            y = y + (self.bias.reshape(1, -1, 1, 1) if y.dim() == 4 and not isinstance(self, torch.nn.Linear)
-                     else self.bias)
+            shift = self._offset if shift is None else shift + self._offset
+        if shift is not None:
+            y = y + shift.reshape((1, -1) + (1,) * (y.dim() - 2))
         return y
 
     def _readout(self, xq, y, gen):
@@ -348,9 +378,9 @@ class _AnalogMixin:
         and the readout's, fresh per forward), through the ADCs at their calibrated ranges.
 
         One block of rows (the layer's output is the crossbars' partial sums): each column's ADC
-        quantizes and clips exactly. Several: each block's quantization is added as its
-        statistical equivalent, uniform noise of variance step^2 / 12 per column (summed over the
-        blocks; no clipping), unless Hardware(exact_adc=True), which forms every block's partial
+        quantizes and clips exactly. Several: the blocks' quantization errors are added as their
+        statistical equivalent, a uniform error of their summed variance (step^2 / 12 per block
+        and column; no clipping), unless Hardware(exact_adc=True), which forms every block's partial
         sums (slower: an unfolded matrix product per block)."""
         hw = self.hw
         noisy = hw.use_read_noise and self._sigma2 is not None
@@ -361,10 +391,11 @@ class _AnalogMixin:
             var = None
             if noisy and self._ro_var is not None:
                 var = (self._ro_var * float(self.x_max) ** 2).to(y.dtype).reshape(shape)
-            if adc and not single:
-                q = self._adc_var.to(y.dtype).reshape(shape)
-                var = q if var is None else var + q
             part = y if var is None else y + var.sqrt() * torch.randn(y.shape, generator=gen, dtype=y.dtype)
+            if adc and not single:
+                # the crossbars' quantization errors as one uniform error of their summed variance
+                width = (12 * self._adc_var).sqrt().to(y.dtype).reshape(shape)
+                part = part + _uniform(y.shape, gen, y.dtype).mul(width)
             if adc and single:
                 lo, hi = (v.to(y.dtype).reshape(shape) for v in self._adc_lohi)
                 part = _quantize(part, lo, hi, 2 ** hw.adc_bits)
@@ -483,10 +514,10 @@ def convert(model, hardware, calibration=None):
 
 
 def calibrate(model, inputs, adc=True):
-    """Sets every analog layer's DAC range (largest |input|, signed when an input is negative) and
-    ADC ranges (each crossbar column's partial sums over `inputs`, widened by
-    converters.adc_margin of their span on each side, as eval) from one forward of `inputs` with
-    noise off."""
+    """Sets every analog layer's DAC range (largest |input|, signed when an input is negative),
+    calibration vectors and ADC ranges (each crossbar column's partial sums over
+    eval.calibration_samples of the layer's input vectors, widened by converters.adc_margin of
+    their span on each side, as eval) from one forward of `inputs` with noise off."""
     layers = analog_layers(model)
     if not layers:
         raise ValueError("calibrate: the model has no analog layer (xbarsim.nn.convert it first)")
@@ -512,19 +543,20 @@ def calibrate(model, inputs, adc=True):
         m.signed_inputs.fill_(bool((x < 0).any()))
         m._adc = None
         with torch.no_grad():
-            rows = m._rows(x).double()
-            pick = np.random.default_rng([hw.seed, m.index, 0xca1]).choice(
-                rows.shape[0], size=min(hw.calibration_samples, rows.shape[0]), replace=False)
-            m._calib_rows = rows[torch.as_tensor(np.sort(pick))].numpy()
+            # eval keeps eval.calibration_samples input vectors of a layer for its ADC ranges and
+            # picks calibration.samples of them for the calibration fit
+            rows = m._rows(m._dac(x))
+            keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(rows.shape[0])[:hw.ranging_samples]
+            rows = rows[torch.as_tensor(keep)].double()
+            m._calib_rows = rows[:hw.calibration_samples].numpy()
         m._delta_step = None  # the next forward draws (and calibrates) afresh
         if adc and hw.converters and hw.adc_bits:
             with torch.no_grad():
-                w = m._to_matrix(m.weight.detach())
-                rows = m._rows(m._dac(x))
+                w = m._to_matrix(m.weight.detach()).double()
                 ranges = []
-                for c in _core.weight_cells(w.double().cpu().numpy(), hw.config):
+                for c in _core.weight_cells(w.cpu().numpy(), hw.config):
                     r0, nr, c0, nc = c["r0"], c["rows"], c["c0"], c["cols"]
-                    part = (rows[:, r0:r0 + nr].double() @ w[r0:r0 + nr, c0:c0 + nc].double()).t()
+                    part = (rows[:, r0:r0 + nr] @ w[r0:r0 + nr, c0:c0 + nc]).t()
                     lo, hi = part.min(dim=1).values, part.max(dim=1).values
                     span = (hi - lo).clamp(min=1e-12)
                     ranges.append((c0, nc, lo - hw.adc_margin * span, hi + hw.adc_margin * span))

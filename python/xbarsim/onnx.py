@@ -103,7 +103,7 @@ class OnnxModule(torch.nn.Module):
             if text is None:
                 return default
             try:
-                return [float(eval_fraction(v)) for v in text.split(",")]
+                return [_fraction(v) for v in text.split(",")]
             except ValueError:
                 raise ValueError(f"{self.path}: metadata '{key}' = '{text}' is not a list of numbers") from None
         scale = numbers("input_scale", [1 / 255])[0]
@@ -156,7 +156,7 @@ class OnnxModule(torch.nn.Module):
         return env[self.output_name]
 
 
-def eval_fraction(text):
+def _fraction(text):
     """'1/255' or '0.5' as a float."""
     text = text.strip()
     if "/" in text:
