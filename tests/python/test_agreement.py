@@ -87,11 +87,12 @@ def test_converted_predictions_agree_with_eval(case, tmp_path):
 
 
 def test_fine_tuned_export_agrees_with_eval(tmp_path):
-    """Issue 41: a ResNet-20 fine-tuned by xbarsim.nn (a few HWA steps under rram-wan2022) and
+    """Issue 41: a ResNet-20 fine-tuned by xbarsim.hwa (16 HWA steps under rram-wan2022) and
     exported by xbarsim.onnx: its software logits are the torch model's, and eval on the file
     predicts as xbarsim.inference on the torch model, image by image, with the device's
     programming error and read noise on."""
     import xbarsim.data as xdata
+    import xbarsim.hwa as hwa
     import xbarsim.inference as inference
     import xbarsim.nn as xnn
     import xbarsim.onnx as xonnx
@@ -102,16 +103,11 @@ def test_fine_tuned_export_agrees_with_eval(tmp_path):
         pytest.skip("the shared ResNet-20 or data_batch_1.bin not found; test skipped")
     overrides = {"device.model": "rram-wan2022", "mapping.negative": "differential"}
     net = xonnx.load(model_path)
-    train = xdata.Cifar10(files=[train_file], preprocessing=net.preprocessing, limit=256)
+    train = xdata.Cifar10(files=[train_file], preprocessing=net.preprocessing, limit=2048)
     hw = xnn.Hardware(overrides)
-    analog = xnn.convert(net, hw, calibration=train.preprocess(train.images[:64]))
-    opt = torch.optim.SGD(analog.parameters(), lr=1e-3, momentum=0.9)
-    for x, y in train.batches(64):
-        hw.new_batch()
-        loss = torch.nn.functional.cross_entropy(analog(x), y)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
+    calibration = train.preprocess(train.images[:200])
+    analog = xnn.convert(net, hw, calibration=calibration)
+    hwa.fine_tune(analog, hw, train, epochs=1, calibration=calibration)  # 16 steps: clipped, adapting
     tuned = xnn.to_software(analog).eval()
     out = tmp_path / "tuned.onnx"
     xonnx.export(tuned, out)
@@ -135,4 +131,7 @@ def test_fine_tuned_export_agrees_with_eval(tmp_path):
         ours = torch.cat([exact(x[i:i + 100]).argmax(1) for i in range(0, images, 100)]).numpy()
     agree = int((ours == eval_classes).sum())
     print(f"fine-tuned: {agree} of {images} predictions agree with eval's (eval {result['crossbar_accuracy']:.3f})")
-    assert agree >= images - 2, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"
+    # float rounding moves a few DAC/ADC codes, as for the shared models above; under the device's
+    # noise more predictions sit near a tie (measured: this model 498 of 500, the study's one-epoch
+    # HWA model 499, the original ResNet-20 under rram-wan2022 492)
+    assert agree >= images - 3, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"
