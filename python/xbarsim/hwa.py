@@ -22,7 +22,7 @@ from . import data as _data
 from . import nn as _nn
 from . import onnx as _onnx
 
-__all__ = ["fine_tune", "main"]
+__all__ = ["fine_tune", "clip_weights", "main"]
 
 
 def _clock(seconds):
@@ -59,6 +59,8 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
     an epoch. Returns a list of per-epoch (loss, training accuracy)."""
     torch.manual_seed(seed)
     analog = _nn.analog_layers(model)
+    if hardware is None and analog:
+        hardware = analog[0].hw
     params = [p for p in model.parameters() if p.requires_grad]
     if optimizer == "adam":
         opt = torch.optim.Adam(params, lr=lr, weight_decay=weight_decay)
@@ -82,8 +84,8 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
         seen, correct, loss_sum = 0, 0, 0.0
         next_report = 0.1
         for x, y in train.batches(batch_size, epoch=epoch):
-            if analog:
-                analog[0].hw.new_batch()
+            if hardware is not None:
+                hardware.new_batch()
             out = model(x)
             loss = F.cross_entropy(out, y)
             opt.zero_grad(set_to_none=True)
