@@ -377,7 +377,8 @@ def test_hwa_help_documents_every_option():
         assert option in r.stdout
 
 
-@pytest.mark.parametrize("case", ["missing data", "unknown key", "bad model", "bad value", "sweep"])
+@pytest.mark.parametrize("case", ["missing data", "unknown key", "bad model", "bad value", "sweep", "out is model",
+                                  "out dir missing"])
 def test_hwa_refuses_bad_input(tiny_setup, case):
     tmp, data = tiny_setup
     args = {"model": tmp / "tiny.onnx", "train": data, "set": "device.model=rram-wan2022"}
@@ -390,15 +391,21 @@ def test_hwa_refuses_bad_input(tiny_setup, case):
         args["model"] = tmp / "junk.onnx"
     elif case == "bad value":
         args["set"] = "device.program_sigma_us=-1"
-    else:
+    elif case == "sweep":
         args["set"] = "device.time_s=[1,10]"
-    r = _hwa("--model", args["model"], "--train", args["train"], "--epochs", 1, "--set", args["set"],
-             "--out", tmp / "out.onnx")
+    out = tmp / "out.onnx"
+    if case == "out is model":
+        out = args["model"]
+    elif case == "out dir missing":
+        out = tmp / "nowhere" / "out.onnx"
+    before = (tmp / "tiny.onnx").read_bytes()
+    r = _hwa("--model", args["model"], "--train", args["train"], "--epochs", 1, "--set", args["set"], "--out", out)
     assert r.returncode == 2
     lines = [l for l in r.stderr.splitlines() if l.strip()]
     assert len(lines) == 1 and lines[0].startswith("xbarsim.hwa: error: "), r.stderr
     assert "Traceback" not in r.stderr
     assert not (tmp / "out.onnx").exists()
+    assert (tmp / "tiny.onnx").read_bytes() == before  # the input model is never changed
 
 
 def test_hwa_ctrl_c_leaves_no_output(tiny_setup):
