@@ -66,12 +66,12 @@ class Hardware:
         self.noise_scale = float(noise_scale)
         self.config = config if isinstance(config, Config) else Config(overrides=config or {})
         cfg = self.config
-        self.device_model = Device(cfg)  # validates device.*; its range is the cells'
-        # the training's draws: the configuration's device model, its seed mixed with the training seed
+        # the configuration's device model (validating device.*; its range is the cells'), its seed
+        # mixed with the training seed: the training's draws are its own
         device_keys = {f"device.{k}": v for k, v in cfg.to_dict()["device"].items()}
         device_keys.update({k: cfg.get(k) for k in ("crossbar.g_min", "crossbar.g_max")})
         device_keys["device.seed"] = (cfg.get("device.seed") * 1000003 + int(seed)) % (2 ** 62)
-        self._train_device = Device(device_keys)
+        self.device_model = Device(device_keys)
         self.g_min = self.device_model.g_min
         self.compensation = cfg.get("device.compensation")
         self.use_device = bool(device) and (self.device_model.kind != "ideal" or
@@ -209,6 +209,7 @@ class _AnalogMixin:
         self._delta = None
         self._sigma2 = None
         self._blocks = None
+        self._single_row_block = True
         self._ro_var = None
         self._reads = 0  # forwards so far: each reads with noise of its own
         self._offset = None
@@ -236,7 +237,7 @@ class _AnalogMixin:
         hw = self.hw
         w = self._to_matrix(self.weight.detach()).double().cpu().numpy()
         cells = _core.weight_cells(w, hw.config)
-        device = hw._train_device if hw.use_device else None
+        device = hw.device_model if hw.use_device else None
         t = hw.time_of_step() if hw.use_device else 0.0
         g_min = hw.g_min
         held = []
@@ -287,6 +288,7 @@ class _AnalogMixin:
         self._delta = self._from_matrix(torch.from_numpy(delta).to(dev, self.weight.dtype))
         self._sigma2 = None if sigma2 is None else torch.from_numpy(sigma2).to(dev, self.weight.dtype)
         self._blocks = blocks
+        self._single_row_block = len({b[0] for b in blocks}) == 1  # the layer's output is its crossbars' sums
         self._ro_var = ro_var if hw.readout_noise_a and sigma2 is not None else None
         self._offset = torch.from_numpy(offset).to(dev, self.weight.dtype) if offset.any() else None
         self._delta_step = hw.step
@@ -340,7 +342,7 @@ class _AnalogMixin:
     def _needs_readout(self):
         hw = self.hw
         noisy = hw.use_read_noise and self._sigma2 is not None
-        exact_blocks = hw.exact_adc and len({b[0] for b in self._blocks}) > 1
+        exact_blocks = hw.exact_adc and not self._single_row_block
         return (noisy and (self._ro_var is not None or exact_blocks)) or bool(hw.converters and hw.adc_bits and
                                                                               self._adc)
 
@@ -385,7 +387,7 @@ class _AnalogMixin:
         hw = self.hw
         noisy = hw.use_read_noise and self._sigma2 is not None
         adc = hw.converters and hw.adc_bits and self._adc is not None
-        single = len({b[0] for b in self._blocks}) == 1
+        single = self._single_row_block
         shape = (1, -1) + (1,) * (y.dim() - 2)
         if single or not hw.exact_adc:
             var = None
