@@ -200,6 +200,8 @@ def _run(args, say):
         raise _Usage(f"--images must be >= 1, got {args.images}")
     if not (args.lr > 0 and math.isfinite(args.lr)):
         raise _Usage(f"--lr must be a number > 0, got {args.lr}")
+    if not (args.clip_sigma >= 0 and math.isfinite(args.clip_sigma)):
+        raise _Usage(f"--clip-sigma must be a number >= 0, got {args.clip_sigma}")
     out_dir = os.path.dirname(os.path.abspath(args.out))
     if not os.path.isdir(out_dir):
         raise _Usage(f"--out {args.out}: the directory {out_dir} does not exist")
@@ -228,8 +230,6 @@ def _run(args, say):
         (" in software" if hardware is None else f": device {cfg.get('device.model')}, "
          f"{cfg.get('mapping.negative')} mapping, weight noise {args.weight_noise}"))
     start = time.monotonic()
-    if not (args.clip_sigma >= 0 and math.isfinite(args.clip_sigma)):
-        raise _Usage(f"--clip-sigma must be a number >= 0, got {args.clip_sigma}")
     history = fine_tune(net, hardware, train, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
                         optimizer=args.optimizer, momentum=args.momentum, weight_decay=args.weight_decay,
                         clip_sigma=args.clip_sigma, calibration=calibration,
