@@ -9,6 +9,7 @@
 #include "sw/app/table.h"
 #include "sw/common/input_file.h"
 #include "sw/common/quantity_text.h"
+#include "sw/study/chip_peak.h"
 #include "sw/study/hardware.h"
 #include "sw/study/sweep.h"
 
@@ -70,6 +71,50 @@ void csv_figures(std::ostream& os, const SimulationReport& r) {
   os << "\n";
 }
 
+/// Without a model: the machine's peak figures at each point's precision (a machine of neuron
+/// cores: counts x named components and solved physics, sw/study/chip_peak.h).
+int simulate_peak(const CliArgs& args, const ConfigTree& base, const std::vector<SweepPoint>& points) {
+  for (const char* opt : {"--dataset", "--images", "--vcd", "--vcd-images", "--timing"})
+    if (args.has(opt))
+      throw InputError(std::string(opt) + " needs a network (--model or --preset); without one simulate reports the "
+                       "machine's peak figures");
+  check_outputs(args, {"--json", "--csv", "--report"}, {});
+  std::vector<ChipPeak> peaks;
+  for (const SweepPoint& p : points) {
+    const ConfigTree cfg = sweep_config(base, p);
+    const AnalogConfig ac = parse_analog_config(cfg);
+    peaks.push_back(chip_peak(make_hardware_context(cfg, ac), ac));
+  }
+  SweepOutputs out(args, points.front(), "input_bits,output_bits,peak_tops,peak_tops_per_w,area_mm2");
+  out.set_report("simulate", base, "the peak figures of " + peaks.front().architecture);
+  std::printf("%s: %lld cores, peak figures (every core reading back to back)\n", peaks.front().architecture.c_str(),
+              peaks.front().cores);
+  std::printf("%4s %4s %7s %9s %9s %9s %10s %10s %10s %9s\n", "in", "out", "phases", "read_us", "TOPS", "TOPS/W",
+              "WL_fJ/op", "neuron", "pulses", "area_mm2");
+  for (size_t k = 0; k < points.size(); ++k) {
+    const ChipPeak& c = peaks[k];
+    auto part = [&](const char* name) {
+      const auto it = c.fj_per_op.find(name);
+      return it == c.fj_per_op.end() ? 0.0 : it->second;
+    };
+    std::printf("%4d %4d %7d %9.3f %9.4f %9.3f %10.3f %10.3f %10.3f %9.2f\n", c.input_bits, c.output_bits,
+                c.steps.phases, c.steps.time_ns * 1e-3, c.tops, c.tops_per_w, part("wordline"), part("neuron"),
+                part("input_pulses"), c.core_area_mm2 * static_cast<double>(c.cores));
+    if (out.csv().enabled())
+      out.csv().row(static_cast<int>(k), points[k])
+          << "," << c.input_bits << "," << c.output_bits << "," << nlohmann::json(c.tops).dump() << ","
+          << nlohmann::json(c.tops_per_w).dump() << "," << nlohmann::json(c.core_area_mm2 * c.cores).dump() << "\n";
+    out.add(c.to_json(), points[k]);
+  }
+  const ChipPeak& c = peaks.front();
+  std::printf("core %.4f mm2:", c.core_area_mm2);
+  for (const auto& [part, share] : c.area_share) std::printf(" %s %.1f %%", part.c_str(), 100 * share);
+  std::printf("\n(energy per operation by part: WL = word-line switching, neuron = its components and leakage, "
+              "pulses = the solved input pulses; 2 operations per MAC)\n");
+  out.finish();
+  return 0;
+}
+
 int cmd_simulate(int argc, char** argv) {
   const CliArgs args(argc, argv, 0,
                      {"--model", "--preset", "--dataset", "--images", "--timing", "--vcd", "--vcd-images", "--report"},
@@ -82,6 +127,7 @@ int cmd_simulate(int argc, char** argv) {
   if (args.has("--timing-only")) sets.push_back("platform.timing_only=true");
   const ConfigTree base = ConfigTree::load(args.get("--config"), sets);
   const auto points = sweep_points(base);
+  if (!args.has("--model") && !args.has("--preset")) return simulate_peak(args, base, points);
   check_sweep<HardwareContext>(base, points, [](const ConfigTree& cfg) {  // every point before any runs
     return make_hardware_context(cfg, parse_analog_config(cfg));
   });

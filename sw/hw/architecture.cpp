@@ -22,11 +22,13 @@ UnitUse unit_use(YamlSection& s, const char* rate_key) {
   return u;
 }
 
+bool chip_has_router(const YAML::Node& root) { return root["chip"] && root["chip"].IsMap() && root["chip"]["router"]; }
+
 }  // namespace
 
 Architecture parse_architecture(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml_map(text, origin, "an architecture");
-  check_yaml_sections(root, {"name", "crossbar", "ima", "tile", "chip"}, origin);
+  check_yaml_sections(root, {"name", "crossbar", "ima", "tile", "chip", "input", "readout"}, origin);
   Architecture a;
   a.machine = true;
   a.source = origin;
@@ -42,10 +44,54 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
   YamlSection ima(root, "ima", origin);
   a.ima.crossbars = ima.integer("crossbars");
   a.ima.adcs = ima.integer("adcs");
-  a.ima.read_ns = ima.number("read_ns", true);
+  if (root["input"]) {
+    YamlSection in(root, "input", origin);
+    a.input = parse_input_spec(in);
+  }
+  if (root["readout"]) {
+    YamlSection out(root, "readout", origin);
+    a.readout = parse_readout_spec(out);
+  }
+  if (a.neuron_cores()) {
+    if (ima.has("read_ns"))
+      throw InputError(ima.where("read_ns") + ": a neuron readout's read time follows from its steps at each "
+                       "precision (readout.integrate_ns, adc_step_ns, phase_ns); leave it out");
+    if (a.input.kind != InputEncoding::SignMagnitude)
+      throw InputError(origin + ": 'readout.kind: neuron' integrates sign-magnitude pulses: set 'input.kind: "
+                       "sign_magnitude'");
+  } else {
+    a.ima.read_ns = ima.number("read_ns", true);
+  }
   a.ima.input_register_bytes = ima.integer("input_register_bytes");
   a.ima.output_register_bytes = ima.integer("output_register_bytes");
+  if (ima.has("components")) {
+    YamlSection comps = ima.section("components");
+    for (const std::string& name : comps.keys()) {
+      YamlSection c = comps.section(name);
+      Instance i;
+      i.name = name;
+      i.component = c.word("component");
+      i.part = c.word("part");
+      i.count = c.integer("count");
+      if (c.has("params")) {
+        YamlSection p = c.section("params");
+        for (const std::string& k : p.keys()) i.params[k] = p.number(k);
+        p.finish();
+      }
+      c.finish();
+      a.ima.components.push_back(i);
+    }
+    comps.finish();
+  }
   ima.finish();
+  if (a.neuron_cores()) {  // the parts count actions of instances the core must have
+    for (const std::string* role : {&a.readout.adc, &a.readout.integrator, &a.readout.sample, &a.readout.shift_add,
+                                    &a.input.wordline})
+      if (std::none_of(a.ima.components.begin(), a.ima.components.end(),
+                       [&](const Instance& i) { return i.name == *role; }))
+        throw InputError(origin + ": the readout and input name instance '" + *role +
+                         "', which 'ima.components' does not have");
+  }
   const long long ima_columns = static_cast<long long>(a.ima.crossbars) * a.crossbar.cols;
   if (ima_columns > Architecture::kMaxImaColumns)
     throw InputError(origin + ": an IMA's columns ('ima.crossbars' x 'crossbar.cols') = " + std::to_string(ima_columns) +
@@ -57,17 +103,20 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
 
   YamlSection tile(root, "tile", origin);
   a.tile.imas = tile.integer("imas");
-  {
+  if (tile.has("edram")) {  // optional: cores without a buffer of their own
     YamlSection e = tile.section("edram");
     a.tile.edram_bytes = static_cast<long long>(e.integer("kib")) * 1024;
     a.tile.edram_bytes_per_ns = e.number("bytes_per_ns", true);
     e.finish();
   }
-  {
+  if (tile.has("bus")) {
     YamlSection bus = tile.section("bus");
     a.tile.bus = unit_use(bus, "bytes_per_ns");
     bus.finish();
   }
+  if (!a.neuron_cores() && (a.tile.edram_bytes == 0 || a.tile.bus.unit.empty() || !chip_has_router(root)))
+    throw InputError(origin + ": a machine of current-mode IMAs needs 'tile.edram', 'tile.bus' and 'chip.router' "
+                     "(only neuron cores are described without them, for their peak figures)");
   if (tile.has("units")) {
     YamlSection units = tile.section("units");
     for (const std::string& name : units.keys()) {
@@ -92,8 +141,12 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
 
   YamlSection chip(root, "chip", origin);
   a.chip.tiles = chip.integer("tiles");
-  a.chip.tiles_per_router = chip.integer("tiles_per_router");
+  const bool routed = chip.has("router");
+  a.chip.tiles_per_router = routed ? chip.integer("tiles_per_router") : a.chip.tiles;
   const bool mesh_given = chip.has("mesh");
+  if (!routed && (mesh_given || chip.has("tiles_per_router")))
+    throw InputError(origin + ": 'chip.mesh' and 'chip.tiles_per_router' need a 'chip.router' (without one the "
+                     "cores have no mesh)");
   if (mesh_given) {
     YamlSection m = chip.section("mesh");
     a.chip.mesh_rows = m.integer("rows");
@@ -103,13 +156,17 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     std::tie(a.chip.mesh_rows, a.chip.mesh_cols) = derive_mesh(a.chip.routers_needed());
   }
   {
-    YamlSection router = chip.section("router");
-    a.chip.router = unit_use(router, "bytes_per_ns");
-    a.chip.hop_ns = router.number("hop_ns");
-    router.finish();
-    YamlSection offchip = chip.section("offchip");
-    a.chip.offchip = unit_use(offchip, "bytes_per_ns");
-    offchip.finish();
+    if (routed) {
+      YamlSection router = chip.section("router");
+      a.chip.router = unit_use(router, "bytes_per_ns");
+      a.chip.hop_ns = router.number("hop_ns");
+      router.finish();
+    }
+    if (chip.has("offchip") || !a.neuron_cores()) {
+      YamlSection offchip = chip.section("offchip");
+      a.chip.offchip = unit_use(offchip, "bytes_per_ns");
+      offchip.finish();
+    }
   }
   chip.finish();
   // The chip's crossbars (each factor at most 2^30: the product fits in 128 bits; within the
@@ -209,11 +266,39 @@ double MachineBill::peak_mw(const std::vector<BillLine>& lines) {
   return p;
 }
 
+namespace {
+
+/// A machine of neuron cores: each core's named components priced by the named library (area
+/// and leakage; their energy per read depends on the precision: sw/study/chip_peak.h), the
+/// chip its cores.
+MachineBill price_neuron_machine(const Architecture& arch, const ComponentLibrary& lib) {
+  if (!lib.is_named())
+    throw InputError("architecture.machine " + arch.name + " has neuron cores, priced by named components: set "
+                     "components.library to a library of named components (e.g. neurram), not " + lib.source);
+  MachineBill bill;
+  for (const Instance& i : arch.ima.components) {
+    const Bill b = price(lib.named, {i}, Ledger{}, 0.0);
+    bill.ima.push_back({i.name, static_cast<long long>(i.count), b.total_area_um2() * 1e-6, 0.0,
+                        b.total_leakage_nw() * 1e-6});
+  }
+  const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
+  bill.tile.push_back({"core", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima), 0.0,
+                       arch.tile.imas * MachineBill::leakage(bill.ima)});
+  bill.chip.push_back({"tile", arch.chip.tiles, arch.chip.tiles * MachineBill::area(bill.tile), 0.0,
+                       arch.chip.tiles * MachineBill::leakage(bill.tile)});
+  bill.chip_area_mm2.crossbar = MachineBill::area(bill.ima) * cores;
+  bill.chip_leakage_mw.crossbar = MachineBill::leakage(bill.ima) * cores;
+  return bill;
+}
+
+}  // namespace
+
 MachineBill price_machine(const Architecture& arch, const CostModel& cost, const ConvertersSpec& converters,
                           const MappingSpec& mapping) {
   if (!arch.machine) throw std::logic_error("price_machine: layer-sized is no machine");
   MachineBill bill;
   const ComponentLibrary& lib = cost.lib;
+  if (arch.neuron_cores()) return price_neuron_machine(arch, lib);
   // One IMA as the counting rule's inventory: every crossbar present and read each read_ns.
   const long long xb = arch.ima.crossbars, rows = arch.crossbar.rows, cols = arch.crossbar.cols;
   LayerInventory v;

@@ -11,6 +11,8 @@
 
 #include "sw/analog/analog_spec.h"
 #include "sw/common/config.h"
+#include "sw/hw/components.h"
+#include "sw/hw/core_parts.h"
 #include "sw/hw/cost.h"
 
 namespace xbarsim {
@@ -39,9 +41,21 @@ struct Architecture {
   struct Ima {
     int crossbars = 0;
     int adcs = 0;        ///< shared by the IMA's physical columns (columns_per_adc each)
-    double read_ns = 0;  ///< one read of every crossbar (DACs, cells, sample-and-holds)
+    /// One read of every crossbar (DACs, cells, sample-and-holds). A neuron readout derives it
+    /// from its steps at the configured precision (read_steps): one file for every precision.
+    double read_ns = 0;
     long long input_register_bytes = 0, output_register_bytes = 0;
+    /// Named components of an IMA (a core), priced by a named library (sw/hw/components.h):
+    /// its neurons' parts, word lines, cells, drivers; the parts count their actions.
+    std::vector<Instance> components;
   } ima;
+  InputSpec input;      ///< section input: how inputs reach the rows (default bit_serial)
+  ReadoutSpec readout;  ///< section readout: how columns are read (default current_adc)
+  bool neuron_cores() const { return readout.kind == ReadoutKind::Neuron; }
+  /// A neuron core's steps of one read at (input, output) bits.
+  ReadSteps read_steps(int input_bits, int output_bits) const {
+    return neuron_read_steps(input, readout, input_bits, output_bits);
+  }
   struct Tile {
     int imas = 0;
     long long edram_bytes = 0;
@@ -54,7 +68,10 @@ struct Architecture {
     int tiles_per_router = 1;
     /// The routers' grid: chip.mesh, or derived (derive_mesh) when the file leaves it out.
     int mesh_rows = 0, mesh_cols = 0;
-    UnitUse router;     ///< one per mesh node; actions_per_ns per link
+    /// One per mesh node; actions_per_ns per link. Without chip.router the cores have no mesh:
+    /// one node holds every tile (mesh 1 x 1, nothing routed, nothing priced).
+    UnitUse router;
+    bool has_router() const { return !router.unit.empty(); }
     double hop_ns = 0;  ///< a transfer's head through one router
     UnitUse offchip;    ///< off-chip links
     long long routers() const { return static_cast<long long>(mesh_rows) * mesh_cols; }

@@ -117,10 +117,17 @@ ComponentLibrary load_component_library(const ConfigTree& cfg) {
   const std::string path = cfg.get_string("components.library");
   // A built-in library by name (a file of that name must be written as ./isaac etc.).
   const std::string name = path.empty() ? "isaac_paper" : path;
-  if (const char* text = builtin_component_library_yaml(name.c_str()))
-    return parse_component_library(text, "built-in configs/components/" + name + ".yaml");
-  return parse_component_library(read_input_file(path, "the component library (components.library)", kMaxYamlBytes),
-                                 path);
+  const char* builtin = builtin_component_library_yaml(name.c_str());
+  const std::string origin = builtin ? "built-in configs/components/" + name + ".yaml" : path;
+  const std::string text =
+      builtin ? builtin : read_input_file(path, "the component library (components.library)", kMaxYamlBytes);
+  if (is_named_library(text)) {
+    ComponentLibrary lib;
+    lib.source = origin;
+    lib.named = parse_named_library(text, origin);
+    return lib;
+  }
+  return parse_component_library(text, origin);
 }
 
 }  // namespace xbarsim

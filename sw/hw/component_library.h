@@ -7,6 +7,7 @@
 #include <string>
 
 #include "sw/common/config.h"
+#include "sw/hw/components.h"
 
 namespace xbarsim {
 
@@ -30,6 +31,11 @@ struct ConverterModel {
 
 struct ComponentLibrary {
   std::string source;  ///< file it was read from
+  /// A library of named components (sw/hw/components.h: a file with a top-level `components:`
+  /// section, such as configs/components/neurram.yaml); the fixed sections below are then
+  /// unset (zero) and the machine's cores are priced by name.
+  NamedLibrary named;
+  bool is_named() const { return !named.components.empty(); }
   ConverterModel adc, dac;
   int adc_columns_per_unit = 128;      ///< crossbar columns sharing one ADC (default of converters.adc_columns_per_adc)
   double adc_sample_rate_gsps = 1.28;  ///< conversions per ns of one ADC (timing and peak power)

@@ -21,6 +21,14 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                        std::to_string(shared) + " columns (its IMA's); set 0 or " + std::to_string(shared));
     hw.columns_per_adc = shared;
   }
+  if (hw.arch.neuron_cores()) {  // one read's time follows from the precision
+    const int in = ac.converters.activation_bits(), out = ac.converters.adc_bits;
+    if (in < 1 || out < 1)
+      throw InputError("architecture.machine " + hw.arch.name +
+                       " reads with neurons whose steps follow the precision: set converters.input_bits (or "
+                       "dac_bits) and converters.adc_bits (the output bits), not none");
+    hw.arch.ima.read_ns = hw.arch.read_steps(in, out).time_ns;
+  }
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
   hw.cost.lib = hw.lib;
   hw.cost.dac_bits = ac.converters.dac_bits;
@@ -104,6 +112,10 @@ void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineAct
 
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {
   const Architecture& a = hw.arch;
+  if (a.neuron_cores())
+    throw InputError("architecture.machine " + a.name +
+                     ": networks are not placed on neuron cores yet; its peak figures: xbarsim simulate without "
+                     "--model; a network's accuracy at its precisions: --set architecture.machine=layer-sized");
   MachineReport r;
   r.name = a.name;
   r.tiles = a.chip.tiles;

@@ -525,7 +525,7 @@ MachinePlan toy_machine(const Model& m, const AnalogConfig& ac) {
   a.name = "toy";
   a.machine = true;
   a.crossbar = {64, 32, 0};
-  a.ima = {2, 2, 100.0, 1024, 256};
+  a.ima = {2, 2, 100.0, 1024, 256, {}};
   a.tile.imas = 64;
   a.tile.edram_bytes = 65536;
   a.tile.edram_bytes_per_ns = 32;

@@ -1,0 +1,201 @@
+#include "sw/hw/components.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+
+#include "sw/common/input_file.h"
+#include "sw/common/yaml_section.h"
+
+namespace xbarsim {
+
+const char* builtin_component_library_yaml(const char* name);  // configs/components/<name>.yaml, compiled in
+
+double Figure::at(const Params& params, const std::string& where) const {
+  auto param = [&](const std::string& p) {
+    const auto it = params.find(p);
+    if (it == params.end()) throw InputError(where + " depends on parameter '" + p + "', which is not given");
+    return it->second;
+  };
+  double v = value;
+  for (const std::string& p : per) v *= param(p);
+  if (!exponential.empty()) v *= std::exp2(param(exponential) - reference);
+  return v;
+}
+
+double Component::capacitance_ff(const Params& params, const std::string& library) const {
+  const auto it = params.find("cells");
+  if (it == params.end())
+    throw InputError(library + ": capacitor '" + name + "' needs the parameter 'cells' (the cells on its line)");
+  return c_per_cell_ff * it->second + c_fixed_ff;
+}
+
+double Component::action_pj(const std::string& action, const Params& params, const std::string& library) const {
+  switch (kind) {
+    case ComponentKind::Capacitor: {
+      if (action != "switch")
+        throw InputError(library + ": capacitor '" + name + "' has one action, 'switch', not '" + action + "'");
+      const double dv = v_high_v - v_low_v;
+      return capacitance_ff(params, library) * 1e-3 * dv * dv;  // fF x V^2 = fJ; pJ
+    }
+    case ComponentKind::Table: {
+      const auto it = actions_pj.find(action);
+      if (it == actions_pj.end()) {
+        std::string list;
+        for (const auto& [a, f] : actions_pj) list += (list.empty() ? "" : ", ") + a;
+        throw InputError(library + ": component '" + name + "' has no action '" + action + "' (" + list + ")");
+      }
+      return it->second.at(params, library + ": '" + name + ".actions." + action + "'");
+    }
+  }
+  return 0;
+}
+
+const Component& NamedLibrary::at(const std::string& name) const {
+  const auto it = components.find(name);
+  if (it != components.end()) return it->second;
+  std::string list;
+  for (const auto& [n, c] : components) list += (list.empty() ? "" : ", ") + n;
+  throw InputError(source + ": no component '" + name + "' (" + (list.empty() ? "none" : list) + ")");
+}
+
+namespace {
+
+double total(const std::map<std::string, double>& m) {
+  double t = 0;
+  for (const auto& [k, v] : m) t += v;
+  return t;
+}
+
+Params merged(const Params& defaults, const Params& given) {
+  Params p = defaults;
+  for (const auto& [k, v] : given) p[k] = v;
+  return p;
+}
+
+Figure figure(YamlSection& s, const std::string& key) {
+  Figure f;
+  if (s.raw(key).IsScalar()) {
+    f.value = s.number(key);
+    return f;
+  }
+  YamlSection m = s.section(key);
+  f.value = m.number("value");
+  if (m.has("per")) f.per = m.words("per");
+  if (m.has("exponential")) {
+    f.exponential = m.word("exponential");
+    f.reference = m.real("reference");
+  }
+  m.finish();
+  return f;
+}
+
+}  // namespace
+
+double Bill::total_area_um2() const { return total(area_um2); }
+double Bill::total_leakage_nw() const { return total(leakage_nw); }
+double Bill::total_energy_pj() const { return total(energy_pj); }
+
+nlohmann::json Bill::to_json() const {
+  return {{"area_um2", area_um2},           {"leakage_nw", leakage_nw},           {"energy_pj", energy_pj},
+          {"total_area_um2", total_area_um2()}, {"total_leakage_nw", total_leakage_nw()},
+          {"total_energy_pj", total_energy_pj()}};
+}
+
+Bill price(const NamedLibrary& lib, const std::vector<Instance>& instances, const Ledger& ledger, double time_ns) {
+  Bill b;
+  std::map<std::string, const Instance*> by_name;
+  for (const Instance& i : instances) {
+    if (!by_name.emplace(i.name, &i).second) throw std::logic_error("price: instance '" + i.name + "' twice");
+    const Component& c = lib.at(i.component);
+    const Params p = merged(c.params, i.params);
+    const std::string where = lib.source + ": '" + c.name;
+    b.area_um2[i.part] += i.count * c.area_um2.at(p, where + ".area_um2'");
+    const double leak = i.count * c.leakage_nw.at(p, where + ".leakage_nw'");
+    b.leakage_nw[i.part] += leak;
+    b.energy_pj[i.part] += leak * time_ns * 1e-6;  // nW x ns = 1e-9 nJ... = 1e-6 pJ
+  }
+  for (const Ledger::Count& n : ledger.counts) {
+    const auto it = by_name.find(n.instance);
+    if (it == by_name.end()) throw std::logic_error("price: actions of unknown instance '" + n.instance + "'");
+    const Instance& i = *it->second;
+    const Component& c = lib.at(i.component);
+    b.energy_pj[i.part] += n.n * c.action_pj(n.action, merged(c.params, i.params), lib.source);
+  }
+  for (const auto& [part, pj] : ledger.energy_pj) b.energy_pj[part] += pj;
+  return b;
+}
+
+bool is_named_library(const std::string& yaml_text) {
+  try {
+    const YAML::Node root = YAML::Load(yaml_text);
+    return root.IsMap() && root["components"];
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
+
+NamedLibrary parse_named_library(const std::string& text, const std::string& origin) {
+  const YAML::Node root = load_yaml_map(text, origin, "a component library");
+  check_yaml_sections(root, {"technology_nm", "voltage_v", "components"}, origin);
+  YamlSection top(root, origin, origin, true);
+  NamedLibrary lib;
+  lib.source = origin;
+  lib.technology_nm = top.number("technology_nm", true);
+  lib.voltage_v = top.number("voltage_v", true);
+  YamlSection comps = top.section("components");
+  for (const std::string& name : comps.keys()) {
+    YamlSection s = comps.section(name);
+    Component c;
+    c.name = name;
+    const std::string kind = s.word_or("kind", "table");
+    if (kind == "capacitor") {
+      c.kind = ComponentKind::Capacitor;
+      c.c_per_cell_ff = s.number("c_per_cell_ff");
+      c.c_fixed_ff = s.number("c_fixed_ff");
+      c.v_low_v = s.number("v_low_v");
+      c.v_high_v = s.number("v_high_v");
+      if (!(c.v_high_v > c.v_low_v))
+        throw InputError(origin + ": '" + name + "': v_high_v must be above v_low_v");
+    } else if (kind != "table") {
+      throw InputError(s.where("kind") + " must be table or capacitor, got '" + kind + "'");
+    }
+    if (s.has("params")) {
+      YamlSection p = s.section("params");
+      for (const std::string& k : p.keys()) c.params[k] = p.number(k);
+      p.finish();
+    }
+    c.area_um2 = s.has("area_um2") ? figure(s, "area_um2") : Figure{};
+    c.leakage_nw = s.has("leakage_nw") ? figure(s, "leakage_nw") : Figure{};
+    if (s.has("actions")) {
+      if (c.kind == ComponentKind::Capacitor)
+        throw InputError(s.where("actions") + ": a capacitor's energy is its physics (C dV^2 per switch), not a table");
+      YamlSection a = s.section("actions");
+      for (const std::string& k : a.keys()) c.actions_pj[k] = figure(a, k);
+      a.finish();
+    }
+    s.finish();
+    lib.components[name] = c;
+  }
+  comps.finish();
+  top.finish();
+  return lib;
+}
+
+NamedLibrary load_named_library(const ConfigTree& cfg) {
+  const std::string path = cfg.get_string("components.library");
+  const std::string name = path.empty() ? "isaac_paper" : path;
+  std::string text, origin;
+  if (const char* t = builtin_component_library_yaml(name.c_str())) {
+    text = t;
+    origin = "built-in configs/components/" + name + ".yaml";
+  } else {
+    text = read_input_file(path, "the component library (components.library)", kMaxYamlBytes);
+    origin = path;
+  }
+  if (!is_named_library(text))
+    throw InputError(origin + ": not a library of named components (a top-level 'components:' section)");
+  return parse_named_library(text, origin);
+}
+
+}  // namespace xbarsim

@@ -1,0 +1,115 @@
+#include "sw/study/chip_peak.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "sw/circuit/crossbar_solver.h"
+#include "sw/common/seed.h"
+
+namespace xbarsim {
+
+nlohmann::json ChipPeak::to_json() const {
+  return {{"architecture", architecture},
+          {"input_bits", input_bits},
+          {"output_bits", output_bits},
+          {"read", steps.to_json()},
+          {"cores", cores},
+          {"ops_per_read", ops_per_read},
+          {"peak_tops", tops},
+          {"peak_tops_per_w", tops_per_w},
+          {"energy_fj_per_op", fj_per_op},
+          {"input_pulse_pj_per_bit", pulse_pj_per_bit},
+          {"core_read_energy_pj", per_read.energy_pj},
+          {"core_area_mm2", core_area_mm2},
+          {"core_area_share", area_share},
+          {"area_mm2", core_area_mm2 * static_cast<double>(cores)}};
+}
+
+double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& given, CircuitSolution* last) {
+  const AnalogConfig ac = with_device_range(given);
+  const InputSpec& in = arch.input;
+  const int rows = arch.crossbar.rows, cols = arch.crossbar.cols;
+  const int per_weight = ac.mapping.columns_per_weight();
+  const double g_lo = ac.xbar.g_min_s, g_hi = ac.xbar.g_max_s * (1 - ac.mapping.g_headroom);
+  const int code_bits = ac.mapping.code_bits();
+  const double levels = code_bits > 0 ? std::exp2(code_bits) - 1 : 0;  // 0: analog cells
+  std::mt19937_64 rng(derive_seed(static_cast<uint64_t>(in.seed), {42}));
+  std::normal_distribution<double> normal(0, 1);
+  std::uniform_real_distribution<double> uniform(0, 1);
+  // Weights: Gaussian, clipped, quantized; a weight column's polarities side by side (the
+  // pair's other cell at g_min), a shift mapping's one column holding w - w_lo.
+  Eigen::MatrixXd g(rows, cols);
+  for (int j0 = 0; j0 + per_weight <= cols; j0 += per_weight)
+    for (int i = 0; i < rows; ++i) {
+      const double w = std::clamp(normal(rng) / in.weight_clip_sigma, -1.0, 1.0);  // in [-1, 1]
+      auto level = [&](double x) { return levels > 0 ? std::round(x * levels) / levels : x; };  // x in [0, 1]
+      if (ac.mapping.differential()) {
+        g(i, j0) = g_lo + (g_hi - g_lo) * level(std::max(w, 0.0));
+        g(i, j0 + 1) = g_lo + (g_hi - g_lo) * level(std::max(-w, 0.0));
+      } else {
+        g(i, j0) = g_lo + (g_hi - g_lo) * level((w + 1) / 2);
+      }
+    }
+  for (int j = cols / per_weight * per_weight; j < cols; ++j) g.col(j).setConstant(g_lo);  // unused columns
+  double joules = 0;
+  for (int k = 0; k < in.vectors; ++k) {
+    Eigen::VectorXd v(rows);
+    for (int i = 0; i < rows; ++i) v(i) = uniform(rng) < in.bit_density ? in.v_read_v : 0.0;
+    // TEMPORARY closed form (ideal wires): replaced by the voltage-mode solve.
+    double w = 0;
+    for (int j = 0; j < cols; ++j) {
+      const double vj = g.col(j).dot(v) / g.col(j).sum();
+      w += (g.col(j).array() * (v.array() - vj).square()).sum();
+    }
+    joules += w * in.pulse_ns * 1e-9;
+    (void)last;
+  }
+  return joules / in.vectors * 1e12;
+}
+
+double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac) {
+  return input_pulse_pj_per_bit(arch, ac, nullptr);
+}
+
+ChipPeak chip_peak(const HardwareContext& hw, const AnalogConfig& ac) {
+  const Architecture& a = hw.arch;
+  if (!a.machine || !a.neuron_cores())
+    throw InputError("peak figures of neuron cores: architecture.machine " + a.name +
+                     " has none (its readout is not 'neuron')");
+  ChipPeak r;
+  r.architecture = a.name;
+  r.input_bits = hw.converters.activation_bits();
+  r.output_bits = hw.converters.adc_bits;
+  if (r.input_bits < 1 || r.output_bits < 1)
+    throw InputError("peak figures of neuron cores need converters.input_bits (or dac_bits) and converters.adc_bits "
+                     "(the output bits) set, not none");
+  r.steps = a.read_steps(r.input_bits, r.output_bits);
+  r.cores = a.chip.tiles * static_cast<long long>(a.tile.imas) * a.ima.crossbars;
+  r.ops_per_read =
+      2.0 * a.crossbar.rows * (a.crossbar.cols / std::max(1, hw.mapping.columns_per_weight())) * a.ima.crossbars;
+  r.pulse_pj_per_bit = input_pulse_pj_per_bit(a, ac) * a.ima.crossbars;
+  // One core's actions in one read, by the parts that perform them.
+  auto count = [&](const std::string& name) {
+    for (const Instance& i : a.ima.components)
+      if (i.name == name) return i.count;
+    return 0.0;
+  };
+  Ledger ledger;
+  const ReadSteps& s = r.steps;
+  ledger.add(a.readout.adc, "step", count(a.readout.adc) * static_cast<double>(s.adc_steps));
+  ledger.add(a.readout.integrator, "step", count(a.readout.integrator) * static_cast<double>(s.integrate_steps));
+  ledger.add(a.readout.sample, "sample", count(a.readout.sample) * static_cast<double>(s.samples));
+  ledger.add(a.readout.shift_add, "add", count(a.readout.shift_add) * s.phases);
+  ledger.add(a.input.wordline, "switch", count(a.input.wordline) * a.input.wordline_switches_per_bit * s.magnitude_bits);
+  ledger.energy_pj["input_pulses"] = r.pulse_pj_per_bit * s.magnitude_bits;
+  r.per_read = price(hw.lib.named, a.ima.components, ledger, s.time_ns);
+  r.tops = r.ops_per_read * static_cast<double>(r.cores) / s.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
+  for (const auto& [part, pj] : r.per_read.energy_pj) r.fj_per_op[part] = pj * 1e3 / r.ops_per_read;
+  r.tops_per_w = r.ops_per_read / r.per_read.total_energy_pj();  // ops/pJ = TOPS/W
+  r.core_area_mm2 = r.per_read.total_area_um2() * 1e-6;
+  for (const auto& [part, um2] : r.per_read.area_um2) r.area_share[part] = um2 * 1e-6 / r.core_area_mm2;
+  return r;
+}
+
+}  // namespace xbarsim
