@@ -271,8 +271,15 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg_.quantum_ns, sc_core::SC_NS));
   if (machine_) {
     const Architecture& a = machine_->arch;
-    noc_ = std::make_unique<MeshNoc>("noc", a.chip.mesh_rows, a.chip.mesh_cols, a.chip.tiles_per_router,
-                                     a.chip.router.actions_per_ns, a.chip.hop_ns);
+    // Cores without a mesh (no chip.router): one node holds every tile, and every transfer is
+    // relayed through the chip's off-chip port at its links' rate (send_rows).
+    const double rate = a.chip.has_router() ? a.chip.router.actions_per_ns
+                                            : a.chip.offchip.actions_per_ns * static_cast<double>(a.chip.offchip.count);
+    if (!(rate > 0))
+      throw InputError("architecture.machine " + a.name + ": a network needs a way between its cores: chip.router, or "
+                       "chip.offchip for cores without a mesh");
+    noc_ = std::make_unique<MeshNoc>("noc", a.chip.mesh_rows, a.chip.mesh_cols, a.chip.tiles_per_router, rate,
+                                     a.chip.hop_ns);
   } else {
     bus_ = std::make_unique<Bus>("bus", cfg_.clock_ns(), cfg_.link_bytes_per_cycle, cfg_.hop_cycles, cfg_.bus_lanes);
   }
@@ -469,20 +476,31 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
       if (t != source && std::find(remote.begin(), remote.end(), t) == remote.end()) remote.push_back(t);
   }
   if (!s) result_.memory_stall_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;  // the input port waited
-  if (remote.empty()) {
-    local_bytes_ += bytes;
-    sc_core::wait(sim_delay(static_cast<double>(bytes) / machine_->arch.tile.edram_bytes_per_ns));
-  } else {
+  const Architecture& arch = machine_->arch;
+  auto send = [&](int from, const std::vector<int>& to) {
     tlm::tlm_generic_payload p;
     fill_payload(p, v, size, consumers.front()->rows_per_image(), row, count, bytes);
     auto* route = new Route;  // owned by the payload
-    route->source = source;
-    route->destinations = remote;
+    route->source = from;
+    route->destinations = to;
     p.set_extension(route);
     sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
     transport(p, delay);
     sc_core::wait(delay);
     if (tracing_) bus_bytes_sig_.write(static_cast<int>(std::min<long long>(noc_->bytes(), 1LL << 30)));
+  };
+  if (remote.empty()) {
+    local_bytes_ += bytes;
+    // A tile's own buffer; a core without one keeps the rows in its registers.
+    if (arch.tile.edram_bytes_per_ns > 0)
+      sc_core::wait(sim_delay(static_cast<double>(bytes) / arch.tile.edram_bytes_per_ns));
+  } else if (!arch.chip.has_router() && source >= 0) {
+    // Cores without a mesh: out through the chip's port to what routes them (NeuRRAM's test
+    // FPGA), and back in to the consumers; the port's links are shared by every transfer.
+    send(source, {-1});
+    send(-1, remote);
+  } else {
+    send(source, remote);
   }
   for (RowBuffer* b : consumers) b->commit(image, row + count - 1);
 }

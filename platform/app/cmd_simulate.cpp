@@ -83,7 +83,7 @@ int simulate_peak(const CliArgs& args, const ConfigTree& base, const std::vector
   for (const SweepPoint& p : points) {
     const ConfigTree cfg = sweep_config(base, p);
     const AnalogConfig ac = parse_analog_config(cfg);
-    peaks.push_back(chip_peak(make_hardware_context(cfg, ac), ac));
+    peaks.push_back(chip_peak(make_hardware_context(cfg, ac)));
   }
   SweepOutputs out(args, points.front(), "input_bits,output_bits,peak_tops,peak_tops_per_w,area_mm2");
   out.set_report("simulate", base, "the peak figures of " + peaks.front().architecture);

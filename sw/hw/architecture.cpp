@@ -254,9 +254,14 @@ double MachineBill::leakage(const std::vector<BillLine>& lines) {
   return p;
 }
 
+double unit_action_pj(const ComponentLibrary& lib, const std::string& unit) {
+  if (lib.is_named()) return lib.named.at(unit).action_pj("action", {}, lib.source);
+  return lib.unit(unit).action_pj;
+}
+
 double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op) {
   for (const UnitUse& u : arch.tile.units)
-    if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) return lib.unit(u.unit).action_pj;
+    if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) return unit_action_pj(lib, u.unit);
   return 0.0;
 }
 
@@ -276,18 +281,18 @@ MachineBill price_neuron_machine(const Architecture& arch, const ComponentLibrar
     throw InputError("architecture.machine " + arch.name + " has neuron cores, priced by named components: set "
                      "components.library to a library of named components (e.g. neurram), not " + lib.source);
   MachineBill bill;
+  const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
   for (const Instance& i : arch.ima.components) {
     const Bill b = price(lib.named, {i}, Ledger{}, 0.0);
     bill.ima.push_back({i.name, static_cast<long long>(i.count), b.total_area_um2() * 1e-6, 0.0,
                         b.total_leakage_nw() * 1e-6});
+    bill.chip_area_mm2.parts[i.part] += bill.ima.back().area_mm2 * cores;
+    bill.chip_leakage_mw.parts[i.part] += bill.ima.back().leakage_mw * cores;
   }
-  const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
   bill.tile.push_back({"core", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima), 0.0,
                        arch.tile.imas * MachineBill::leakage(bill.ima)});
   bill.chip.push_back({"tile", arch.chip.tiles, arch.chip.tiles * MachineBill::area(bill.tile), 0.0,
                        arch.chip.tiles * MachineBill::leakage(bill.tile)});
-  bill.chip_area_mm2.crossbar = MachineBill::area(bill.ima) * cores;
-  bill.chip_leakage_mw.crossbar = MachineBill::leakage(bill.ima) * cores;
   return bill;
 }
 

@@ -67,6 +67,10 @@ InputSpec parse_input_spec(YamlSection& s) {
     in.max_bits_per_phase = s.integer("max_bits_per_phase");
     in.v_read_v = s.number("v_read_v", true);
     in.pulse_ns = s.number("pulse_ns", true);
+    const std::string pairs = s.word("pairs");
+    if (pairs != "rows" && pairs != "columns")
+      throw InputError(s.where("pairs") + " must be rows or columns, got '" + pairs + "'");
+    in.pairs_on_rows = pairs == "rows";
     in.wordline = s.word("wordline");
     in.wordline_switches_per_bit = s.number("wordline_switches_per_bit", true);
     YamlSection w = s.section("pulse_workload");

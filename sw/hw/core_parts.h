@@ -32,8 +32,12 @@ struct InputSpec {
   /// lines switches per magnitude bit.
   std::string wordline;
   double wordline_switches_per_bit = 0;
+  /// Sign-magnitude: a weight's two cells on adjacent rows driven with opposite pulses
+  /// (NeuRRAM: `pairs: rows`), or in adjacent columns read apart (`pairs: columns`).
+  bool pairs_on_rows = false;
   /// The workload the input pulses' energy is solved for (peak figures): the fraction of
-  /// magnitude bits that pulse, weights Gaussian clipped at this many sigma, the vectors averaged.
+  /// magnitude bits that pulse (inputs non-negative), weights Gaussian clipped at this many
+  /// sigma, the vectors averaged.
   double bit_density = 0.5, weight_clip_sigma = 3;
   int vectors = 8, seed = 1;
 };

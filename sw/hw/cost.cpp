@@ -24,17 +24,19 @@ constexpr double ComponentBreakdown::*kParts[] = {&ComponentBreakdown::crossbar,
 
 ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) {
   for (auto f : kParts) this->*f += o.*f;
+  for (const auto& [name, v] : o.parts) parts[name] += v;
   return *this;
 }
 
 ComponentBreakdown ComponentBreakdown::operator*(double k) const {
   ComponentBreakdown r = *this;
   for (auto f : kParts) r.*f *= k;
+  for (auto& [name, v] : r.parts) v *= k;
   return r;
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
-  return {{"crossbar", crossbar},
+  nlohmann::json j = {{"crossbar", crossbar},
           {"adc", adc},
           {"dac", dac},
           {"accumulator", accumulator},
@@ -47,6 +49,8 @@ nlohmann::json ComponentBreakdown::to_json() const {
           {"digital", digital},
           {"memory", memory},
           {"total", total()}};
+  for (const auto& [name, v] : parts) j[name] = v;
+  return j;
 }
 
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {

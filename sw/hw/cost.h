@@ -6,6 +6,9 @@
 /// used cell of every iteration, not V*I*t of the solved currents.
 #include <nlohmann/json.hpp>
 
+#include <map>
+#include <string>
+
 #include "sw/hw/component_library.h"
 #include "sw/hw/inventory.h"
 
@@ -16,9 +19,14 @@ struct ComponentBreakdown {
   double crossbar = 0, adc = 0, dac = 0, accumulator = 0, shift_register = 0, buffer = 0;
   double sample_hold = 0, shift_add = 0, output_register = 0;
   double interconnect = 0, digital = 0, memory = 0;  ///< platform-level components
+  /// Parts of cores priced by named components (sw/hw/components.h: a neuron core's neuron,
+  /// wordline, input_pulses, rram, drivers, other), by part name.
+  std::map<std::string, double> parts;
   double total() const {
-    return crossbar + adc + dac + accumulator + shift_register + buffer + sample_hold + shift_add + output_register +
-           interconnect + digital + memory;
+    double t = crossbar + adc + dac + accumulator + shift_register + buffer + sample_hold + shift_add + output_register +
+               interconnect + digital + memory;
+    for (const auto& [name, v] : parts) t += v;
+    return t;
   }
   /// The paper's scope (Table "Overhead comparison"): arrays, converters, accumulators.
   double arrays_and_converters() const { return crossbar + adc + dac + accumulator; }

@@ -37,25 +37,44 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
   std::mt19937_64 rng(derive_seed(static_cast<uint64_t>(in.seed), {42}));
   std::normal_distribution<double> normal(0, 1);
   std::uniform_real_distribution<double> uniform(0, 1);
-  // Weights: Gaussian, clipped, quantized; a weight column's polarities side by side (the
-  // pair's other cell at g_min), a shift mapping's one column holding w - w_lo.
-  Eigen::MatrixXd g(rows, cols);
-  for (int j0 = 0; j0 + per_weight <= cols; j0 += per_weight)
-    for (int i = 0; i < rows; ++i) {
-      const double w = std::clamp(normal(rng) / in.weight_clip_sigma, -1.0, 1.0);  // in [-1, 1]
-      auto level = [&](double x) { return levels > 0 ? std::round(x * levels) / levels : x; };  // x in [0, 1]
-      if (ac.mapping.differential()) {
-        g(i, j0) = g_lo + (g_hi - g_lo) * level(std::max(w, 0.0));
-        g(i, j0 + 1) = g_lo + (g_hi - g_lo) * level(std::max(-w, 0.0));
-      } else {
-        g(i, j0) = g_lo + (g_hi - g_lo) * level((w + 1) / 2);
+  // Weights: Gaussian, clipped, quantized to the mapping's magnitude codes; a differential
+  // weight's cells on adjacent rows driven with opposite pulses (pairs: rows) or in adjacent
+  // columns (pairs: columns; the other cell of a pair at g_min); a shift mapping's one cell
+  // holding w - w_lo.
+  auto level = [&](double x) { return levels > 0 ? std::round(x * levels) / levels : x; };  // x in [0, 1]
+  auto cell = [&](double x) { return g_lo + (g_hi - g_lo) * level(x); };
+  const bool rows_paired = ac.mapping.differential() && in.pairs_on_rows;
+  const int pair_step = ac.mapping.differential() ? 2 : 1;
+  Eigen::MatrixXd g = Eigen::MatrixXd::Constant(rows, cols, g_lo);
+  if (rows_paired) {
+    for (int j = 0; j < cols; ++j)
+      for (int i = 0; i + 1 < rows; i += 2) {
+        const double w = std::clamp(normal(rng) / in.weight_clip_sigma, -1.0, 1.0);
+        g(i, j) = cell(std::max(w, 0.0));
+        g(i + 1, j) = cell(std::max(-w, 0.0));
       }
-    }
-  for (int j = cols / per_weight * per_weight; j < cols; ++j) g.col(j).setConstant(g_lo);  // unused columns
+  } else {
+    for (int j0 = 0; j0 + per_weight <= cols; j0 += per_weight)
+      for (int i = 0; i < rows; ++i) {
+        const double w = std::clamp(normal(rng) / in.weight_clip_sigma, -1.0, 1.0);
+        if (ac.mapping.differential()) {
+          g(i, j0) = cell(std::max(w, 0.0));
+          g(i, j0 + 1) = cell(std::max(-w, 0.0));
+        } else {
+          g(i, j0) = cell((w + 1) / 2);
+        }
+      }
+  }
   double joules = 0;
   for (int k = 0; k < in.vectors; ++k) {
     Eigen::VectorXd v(rows);
-    for (int i = 0; i < rows; ++i) v(i) = uniform(rng) < in.bit_density ? in.v_read_v : 0.0;
+    v.setZero();
+    if (rows_paired) {  // an input's pulse: +v_read on the G+ row, -v_read on the G- row
+      for (int i = 0; i + 1 < rows; i += pair_step)
+        if (uniform(rng) < in.bit_density) v(i) = in.v_read_v, v(i + 1) = -in.v_read_v;
+    } else {
+      for (int i = 0; i < rows; ++i) v(i) = uniform(rng) < in.bit_density ? in.v_read_v : 0.0;
+    }
     // TEMPORARY closed form (ideal wires): replaced by the voltage-mode solve.
     double w = 0;
     for (int j = 0; j < cols; ++j) {
@@ -72,7 +91,7 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac) 
   return input_pulse_pj_per_bit(arch, ac, nullptr);
 }
 
-ChipPeak chip_peak(const HardwareContext& hw, const AnalogConfig& ac) {
+ChipPeak chip_peak(const HardwareContext& hw) {
   const Architecture& a = hw.arch;
   if (!a.machine || !a.neuron_cores())
     throw InputError("peak figures of neuron cores: architecture.machine " + a.name +
@@ -84,11 +103,12 @@ ChipPeak chip_peak(const HardwareContext& hw, const AnalogConfig& ac) {
   if (r.input_bits < 1 || r.output_bits < 1)
     throw InputError("peak figures of neuron cores need converters.input_bits (or dac_bits) and converters.adc_bits "
                      "(the output bits) set, not none");
-  r.steps = a.read_steps(r.input_bits, r.output_bits);
+  r.steps = hw.read_steps;
   r.cores = a.chip.tiles * static_cast<long long>(a.tile.imas) * a.ima.crossbars;
-  r.ops_per_read =
-      2.0 * a.crossbar.rows * (a.crossbar.cols / std::max(1, hw.mapping.columns_per_weight())) * a.ima.crossbars;
-  r.pulse_pj_per_bit = input_pulse_pj_per_bit(a, ac) * a.ima.crossbars;
+  // Two operations per weight (a MAC), a weight per columns_per_weight cells (on rows or columns).
+  r.ops_per_read = 2.0 * a.crossbar.rows * a.crossbar.cols / std::max(1, hw.mapping.columns_per_weight()) *
+                   a.ima.crossbars;
+  r.pulse_pj_per_bit = hw.core_pulse_pj_per_bit * a.ima.crossbars;
   // One core's actions in one read, by the parts that perform them.
   auto count = [&](const std::string& name) {
     for (const Instance& i : a.ima.components)

@@ -45,6 +45,6 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac);
 
 /// The machine's peak figures at the configured precision; InputError when the machine has
 /// no neuron cores.
-ChipPeak chip_peak(const HardwareContext& hw, const AnalogConfig& ac);
+ChipPeak chip_peak(const HardwareContext& hw);
 
 }  // namespace xbarsim

@@ -2,6 +2,7 @@
 
 #include "sw/analog/input_slicing.h"
 #include "sw/nn/network.h"
+#include "sw/study/chip_peak.h"
 
 namespace xbarsim {
 
@@ -27,7 +28,13 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
       throw InputError("architecture.machine " + hw.arch.name +
                        " reads with neurons whose steps follow the precision: set converters.input_bits (or "
                        "dac_bits) and converters.adc_bits (the output bits), not none");
-    hw.arch.ima.read_ns = hw.arch.read_steps(in, out).time_ns;
+    if (ac.converters.dac_bits != in)
+      throw InputError("architecture.machine " + hw.arch.name + " integrates all of an input's bits in one read: set "
+                       "converters.dac_bits to converters.input_bits (" + std::to_string(in) + "), not " +
+                       std::to_string(ac.converters.dac_bits));
+    hw.read_steps = hw.arch.read_steps(in, out);
+    hw.arch.ima.read_ns = hw.read_steps.time_ns;
+    hw.core_pulse_pj_per_bit = input_pulse_pj_per_bit(hw.arch, ac);
   }
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
   hw.cost.lib = hw.lib;
@@ -57,19 +64,63 @@ nlohmann::json CostReport::to_json() const {
           {"time_ns_per_image", time_ns}};
 }
 
+ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a) {
+  const Architecture& arch = hw.arch;
+  const ReadSteps& s = hw.read_steps;
+  // Every converted column is one neuron's read: its parts' steps, its word line's switches;
+  // every cell read carries its share of a core's solved input pulses.
+  const double reads = a.adc_conversions;
+  Ledger l;
+  l.add(arch.readout.adc, "step", reads * static_cast<double>(s.adc_steps));
+  l.add(arch.readout.integrator, "step", reads * static_cast<double>(s.integrate_steps));
+  l.add(arch.readout.sample, "sample", reads * static_cast<double>(s.samples));
+  l.add(arch.readout.shift_add, "add", reads * s.phases);
+  l.add(arch.input.wordline, "switch", reads * arch.input.wordline_switches_per_bit * s.magnitude_bits);
+  const double cells = static_cast<double>(arch.crossbar.rows) * arch.crossbar.cols;
+  l.energy_pj["input_pulses"] = a.cell_reads / cells * hw.core_pulse_pj_per_bit * s.magnitude_bits;
+  const Bill b = price(hw.lib.named, arch.ima.components, l, 0.0);
+  ComponentBreakdown e;
+  for (const auto& [part, pj] : b.energy_pj)
+    if (pj > 0) e.parts[part] = pj;
+  return e;
+}
+
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a) {
   r.area_mm2 += hw.cost.area_mm2(v);
   r.peak_power_mw += hw.cost.peak_power_mw(v);
   r.leakage_mw += hw.cost.leakage_mw(v);
-  r.dynamic_energy_uj += hw.cost.dynamic_energy_pj(a) * 1e-6;
+  r.dynamic_energy_uj += (hw.arch.neuron_cores() ? neuron_energy_pj(hw, a) : hw.cost.dynamic_energy_pj(a)) * 1e-6;
   r.crossbars += v.crossbars;
   r.adcs += v.adcs;
   r.dacs += v.dacs;
 }
 
+namespace {
+
+/// The machine's bill; neuron cores' peak power is every core reading back to back: one whole
+/// core's read (every column converted, every cell read) each read time.
+MachineBill machine_bill(const HardwareContext& hw) {
+  MachineBill bill = price_machine(hw.arch, hw.cost, hw.converters, hw.mapping);
+  if (!hw.arch.neuron_cores()) return bill;
+  const Architecture& a = hw.arch;
+  ActionCounts read;
+  read.adc_conversions = static_cast<double>(a.crossbar.cols) * a.ima.crossbars;
+  read.cell_reads = static_cast<double>(a.crossbar.rows) * a.crossbar.cols * a.ima.crossbars;
+  const ComponentBreakdown core_mw = neuron_energy_pj(hw, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
+  const double cores = static_cast<double>(a.chip.tiles) * a.tile.imas;
+  for (BillLine& l : bill.ima) l.peak_mw = l.leakage_mw;
+  bill.ima.push_back({"reads", 1, 0.0, core_mw.total(), 0.0});
+  bill.tile.front().peak_mw = a.tile.imas * MachineBill::peak_mw(bill.ima);
+  bill.chip.front().peak_mw = a.chip.tiles * MachineBill::peak_mw(bill.tile);
+  bill.chip_peak_mw = bill.chip_leakage_mw + core_mw * cores;
+  return bill;
+}
+
+}  // namespace
+
 void price_whole_machine(CostReport& r, const HardwareContext& hw) {
   if (!hw.arch.machine) return;
-  const MachineBill bill = price_machine(hw.arch, hw.cost, hw.converters, hw.mapping);
+  const MachineBill bill = machine_bill(hw);
   r.area_mm2 = bill.chip_area_mm2;
   r.peak_power_mw = bill.chip_peak_mw;
   r.leakage_mw = bill.chip_leakage_mw;
@@ -102,26 +153,24 @@ void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineAct
   if (!hw.arch.machine) return;
   price_whole_machine(r, hw);
   const Architecture& arch = hw.arch;
-  ComponentBreakdown pj;
-  pj.interconnect = a.edram_read_bytes * hw.lib.unit(arch.tile.bus.unit).action_pj +
-                    a.router_bytes * hw.lib.unit(arch.chip.router.unit).action_pj;
-  pj.memory = a.memory_bytes * hw.lib.unit(arch.chip.offchip.unit).action_pj;
-  for (const auto& [name, ops] : a.digital_ops) pj.digital += ops * digital_op_pj(arch, hw.lib, name);
-  r.dynamic_energy_uj += pj * 1e-6;
+  // Each unit by name; a machine without one (cores without a mesh, bus or buffer) moves
+  // those bytes nowhere on chip.
+  auto pj = [&](const UnitUse& u) { return u.unit.empty() ? 0.0 : unit_action_pj(hw.lib, u.unit); };
+  ComponentBreakdown e;
+  e.interconnect = a.edram_read_bytes * pj(arch.tile.bus) + a.router_bytes * pj(arch.chip.router);
+  e.memory = a.memory_bytes * pj(arch.chip.offchip);
+  for (const auto& [name, ops] : a.digital_ops) e.digital += ops * digital_op_pj(arch, hw.lib, name);
+  r.dynamic_energy_uj += e * 1e-6;
 }
 
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {
   const Architecture& a = hw.arch;
-  if (a.neuron_cores())
-    throw InputError("architecture.machine " + a.name +
-                     ": networks are not placed on neuron cores yet; its peak figures: xbarsim simulate without "
-                     "--model; a network's accuracy at its precisions: --set architecture.machine=layer-sized");
   MachineReport r;
   r.name = a.name;
   r.tiles = a.chip.tiles;
   r.imas_per_tile = a.tile.imas;
   r.crossbars_per_ima = a.ima.crossbars;
-  r.bill = price_machine(a, hw.cost, hw.converters, hw.mapping);
+  r.bill = machine_bill(hw);
   std::vector<LayerInventory> layers;
   for (size_t l = 0; l < m.linear.size(); ++l)
     layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l)));

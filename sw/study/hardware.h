@@ -18,6 +18,10 @@ struct HardwareContext {
   Architecture arch;          ///< architecture.machine (layer-sized: arch.machine is false)
   int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library or the machine
   CostModel cost;
+  /// Neuron cores (arch.neuron_cores()): the steps of one read at the configured precision and
+  /// the solved energy (pJ) of one magnitude bit's input pulses on a whole core.
+  ReadSteps read_steps;
+  double core_pulse_pj_per_bit = 0;
   /// The inventory of layer L under `scheme`, its inputs streamed as the converters say
   /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's).
   LayerInventory inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs) const {
@@ -41,6 +45,11 @@ struct CostReport {
   double avg_power_mw() const { return time_ns > 0 ? energy_uj().total() * 1e6 / time_ns : 0.0; }
   nlohmann::json to_json() const;
 };
+
+/// Neuron cores: the energy (pJ) of counted actions by named part (each converted column one
+/// neuron read: its parts' steps and its word line's switches; each cell read its share of the
+/// solved input pulses).
+ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a);
 
 /// Adds one layer (its inventory and the actions of one image) to `r`.
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);

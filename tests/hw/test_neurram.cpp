@@ -133,7 +133,7 @@ ChipPeak peak_at(int in, int out) {
                                      "converters.dac_bits=" + std::to_string(in),
                                      "converters.adc_bits=" + std::to_string(out)});
   const AnalogConfig ac = parse_analog_config(cfg);
-  return chip_peak(make_hardware_context(cfg, ac), ac);
+  return chip_peak(make_hardware_context(cfg, ac));
 }
 
 double rel(double model, double published) { return model / published - 1; }
