@@ -192,7 +192,7 @@ Eigen::MatrixXd solve(const Eigen::MatrixXd& g, const Eigen::MatrixXd& v, const 
   return interruptible([&] {  // the solve runs on this thread (and the solver's) without the GIL
     auto solver = make_crossbar_solver(params, opts);
     solver->program(g);
-    return solver->column_currents(v);
+    return solver->column_outputs(v);
   });
 }
 
@@ -730,6 +730,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
         "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
         "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "
+        "With crossbar.sensing = voltage, the settled column voltages (V) of the open columns. "
         "Releases the GIL.");
   m.def(
       "netlist",
@@ -744,5 +745,6 @@ PYBIND11_MODULE(_core, m) {
         return out.str();
       },
       py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
-      "The equivalent SPICE netlist (text); `ngspice -b` on it prints the column currents");
+      "The equivalent SPICE netlist (text); `ngspice -b` on it prints the column currents (voltages with "
+      "crossbar.sensing = voltage)");
 }

@@ -3,7 +3,8 @@
 # runs the test suite (CTest + GoogleTest), all of it but the cases CI runs after it
 # (XBARSIM_CI_ONLY, a ctest -E regex; "" runs everything), which keep this command within 10
 # minutes on 2 cores: the 128x64 nonlinear ngspice comparison (four minutes of ngspice itself;
-# the 64x32 one stays here), the software accuracy of ResNet-32 and ResNet-56 over the whole
+# the 64x32 one stays here), the 256x64 voltage-sensing ones (two minutes of ngspice; 64x32 and
+# 256x16 stay), the software accuracy of ResNet-32 and ResNet-56 over the whole
 # CIFAR-10 test set (ResNet-20's stays here), python.agreement (the converted ResNet-20 and
 # LeNet against eval on 500 images), every command on the whole torchvision zoo (the zoo's
 # import against torch's logits stays), the linear per-slice ngspice comparison (the
@@ -16,7 +17,7 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh build
 log=$(mktemp)
 set +e
-ci_only=${XBARSIM_CI_ONLY-'128x64_nonlinear|FullTestSetAccuracyMatchesMetadata/.resnet(32|56)|python[.]agreement|TorchZooCli[.]EveryCommand|BitSlicedNgspice[.]EverySliceLinear|TwoMpiRanksEqualOne'}
+ci_only=${XBARSIM_CI_ONLY-'128x64_nonlinear|256x64_voltage|FullTestSetAccuracyMatchesMetadata/.resnet(32|56)|python[.]agreement|TorchZooCli[.]EveryCommand|BitSlicedNgspice[.]EverySliceLinear|TwoMpiRanksEqualOne'}
 exclude=()
 [ -n "$ci_only" ] && exclude=(-E "$ci_only")
 (cd build && ctest --output-on-failure -j "$(nproc)" --timeout 900 "${exclude[@]}") 2>&1 | tee "$log"

@@ -21,6 +21,11 @@ namespace xbarsim {
 AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& method_key) {
   AnalogConfig c;
   c.xbar = parse_crossbar_params(cfg);
+  if (c.xbar.voltage_sensing())
+    throw InputError(
+        "configuration key 'crossbar.sensing' (voltage): the analog layers, their mapping and mitigations read "
+        "column currents; voltage sensing is available to `xbarsim solve`, `xbarsim netlist` and the Python solve "
+        "and netlist only");
   c.solver = parse_solver_options(cfg);
   c.mapping = parse_mapping_spec(cfg, c.xbar);
   c.mitigation = mitigation_from_name(cfg.get_string(method_key), method_key);

@@ -37,7 +37,7 @@ namespace {
 const CommandRegistrar kRegister{
     "netlist", cmd_netlist,
     "netlist --conductances G.csv --inputs V.csv [--out NET.cir] [--config F] [--set k=v]...\n      the equivalent "
-    "SPICE netlist; `ngspice -b NET.cir` prints the column currents"};
+    "SPICE netlist; `ngspice -b NET.cir` prints the column currents (voltages with crossbar.sensing: voltage)"};
 }  // namespace
 
 }  // namespace xbarsim

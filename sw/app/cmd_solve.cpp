@@ -39,7 +39,8 @@ int cmd_solve(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   auto solver = make_crossbar_solver(params, opts);
   solver->program(g);
-  const Eigen::MatrixXd currents = solver->column_currents(v);
+  // The sensed outputs: column currents (A), or column voltages (V) with crossbar.sensing: voltage.
+  const Eigen::MatrixXd currents = solver->column_outputs(v);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
   const std::string out = args.has("--out") ? args.get("--out") : args.get("--csv");
@@ -55,7 +56,8 @@ int cmd_solve(int argc, char** argv) {
   if (args.has("--csv") && args.has("--out")) write_csv_matrix(args.get("--csv"), currents);
   std::cerr << "xbarsim solve: " << g.rows() << "x" << g.cols() << " crossbar, " << v.rows()
             << " input vector(s), memristor=" << to_string(params.memristor.model)
-            << ", transistor=" << to_string(params.transistor.model) << ", solver=" << to_string(opts.method) << ": "
+            << ", transistor=" << to_string(params.transistor.model) << ", sensing=" << to_string(params.sensing)
+            << ", solver=" << to_string(opts.method) << ": "
             << std::fixed << std::setprecision(2) << ms << " ms\n";
   if (args.has("--json")) {
     nlohmann::json j;
@@ -66,12 +68,14 @@ int cmd_solve(int argc, char** argv) {
     j["memristor_model"] = to_string(params.memristor.model);
     j["transistor_model"] = to_string(params.transistor.model);
     j["solver"] = to_string(opts.method);
+    j["sensing"] = to_string(params.sensing);
     j["wall_time_ms"] = ms;
-    j["column_currents_a"] = nlohmann::json::array();
+    const char* key = params.voltage_sensing() ? "column_voltages_v" : "column_currents_a";
+    j[key] = nlohmann::json::array();
     for (Eigen::Index k = 0; k < currents.rows(); ++k) {
       std::vector<double> row(currents.cols());
       for (Eigen::Index c = 0; c < currents.cols(); ++c) row[c] = currents(k, c);
-      j["column_currents_a"].push_back(row);
+      j[key].push_back(row);
     }
     write_json(args.get("--json"), j);
   }
@@ -83,7 +87,8 @@ namespace {
 const CommandRegistrar kRegister{
     "solve", cmd_solve,
     "solve --conductances G.csv --inputs V.csv [--out I.csv] [--config F] [--set k=v]... [--json F]\n      column "
-    "currents (A) of one crossbar for each input vector (one line of n per vector)"};
+    "currents (A) of one crossbar for each input vector (one line of n per vector); column voltages (V) with "
+    "crossbar.sensing: voltage"};
 }  // namespace
 
 }  // namespace xbarsim

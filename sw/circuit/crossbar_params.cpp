@@ -10,6 +10,7 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
   p.r_wire_ohm = cfg.get_double("crossbar.r_wire");
   p.r_in_ohm = cfg.get_double("crossbar.r_in");
   p.r_out_ohm = cfg.get_double("crossbar.r_out");
+  p.sensing = require_enum<Sensing>(cfg, "crossbar.sensing", {{"current", Sensing::Current}, {"voltage", Sensing::Voltage}});
   p.g_min_s = cfg.get_double("crossbar.g_min");
   p.g_max_s = cfg.get_double("crossbar.g_max");
   if (!(p.g_max_s > p.g_min_s)) {
@@ -64,6 +65,16 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg) {
 const char* to_string(MemristorModel m) { return m == MemristorModel::Sinh ? "sinh" : "linear"; }
 const char* to_string(TransistorModel t) {
   return t == TransistorModel::None ? "none" : t == TransistorModel::Linear ? "linear" : "level1";
+}
+
+const char* to_string(Sensing s) {
+  switch (s) {
+    case Sensing::Current:
+      return "current";
+    case Sensing::Voltage:
+      return "voltage";
+  }
+  return "current";  // unreachable: every enumerator returns above
 }
 
 const char* to_string(SolverMethod m) {

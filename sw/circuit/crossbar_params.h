@@ -8,6 +8,12 @@ namespace xbarsim {
 
 enum class MemristorModel { Linear, Sinh };
 enum class TransistorModel { None, Linear, Level1 };
+/// How each column is read (crossbar.sensing). current: the column ends in r_out at the virtual
+/// ground of a transimpedance amplifier and its current is the output. voltage: the column end is
+/// open (a sampling capacitor draws no DC current, as NeuRRAM's neuron, Wan et al., Nature 608,
+/// 504 (2022)); r_out carries no current and the output is the settled column voltage, with ideal
+/// wires V_j = sum_i I_ij = 0, i.e. sum_i G_ij V_i / sum_i G_ij for linear cells.
+enum class Sensing { Current, Voltage };
 
 /// Largest k*V the sinh model accepts (at the read voltage, the input range and every input):
 /// sinh overflows near 710.
@@ -37,19 +43,22 @@ struct TransistorParams {
   double kp_a_per_v2 = 1e-3;
 };
 
-/// Circuit of an m x n crossbar (see README "Circuit"): row i is driven by an ideal source
-/// V_i through r_in, then r_wire segments between cells; column j runs through r_wire
-/// segments to r_out and the virtual ground of the sense amplifier.
+/// Circuit of an m x n crossbar (see docs/physics.md "The circuit"): row i is driven by an ideal
+/// source V_i through r_in, then r_wire segments between cells; column j runs through r_wire
+/// segments to r_out and the virtual ground of the sense amplifier (current sensing) or to an
+/// open end (voltage sensing).
 struct CrossbarParams {
   double r_wire_ohm = 1.0;
   double r_in_ohm = 1.0;
   double r_out_ohm = 1.0;
+  Sensing sensing = Sensing::Current;
   double g_min_s = 1.0 / 300e3;
   double g_max_s = 1.0 / 15e3;
   double v_in_max_v = 0.4;
   MemristorParams memristor;
   TransistorParams transistor;
 
+  bool voltage_sensing() const { return sensing == Sensing::Voltage; }
   bool is_linear() const {
     return memristor.model == MemristorModel::Linear && transistor.model != TransistorModel::Level1;
   }
@@ -60,6 +69,7 @@ CrossbarParams parse_crossbar_params(const ConfigTree& cfg);
 
 const char* to_string(MemristorModel m);
 const char* to_string(TransistorModel t);
+const char* to_string(Sensing s);
 
 enum class SolverMethod { Auto, Line, Direct };
 const char* to_string(SolverMethod m);

@@ -15,8 +15,11 @@ struct CircuitSolution {
   Eigen::MatrixXd v_mid;           ///< V, M(i,j): between memristor and access transistor
   Eigen::MatrixXd v_bottom;        ///< V, B(i,j): column-wire node of cell (i,j)
   Eigen::MatrixXd cell_current;    ///< A, memristor current T -> M
-  Eigen::VectorXd column_current;  ///< A, current through r_out of each column
-  int newton_iterations = 0;       ///< 0 for linear circuits
+  Eigen::VectorXd column_current;  ///< A, current through r_out of each column (0 with voltage sensing)
+  /// V, the column-end node D_j: the output with voltage sensing (the settled open column);
+  /// r_out times the column current with current sensing.
+  Eigen::VectorXd column_voltage;
+  int newton_iterations = 0;  ///< 0 for linear circuits
   /// A solution of an m x n crossbar with every matrix sized (values unset).
   static CircuitSolution sized(int m, int n) {
     CircuitSolution s;
@@ -25,6 +28,7 @@ struct CircuitSolution {
     s.v_bottom.resize(m, n);
     s.cell_current.resize(m, n);
     s.column_current.resize(n);
+    s.column_voltage.resize(n);
     return s;
   }
   int linear_iterations = 0;  ///< total inner iterations (structured solver)
@@ -49,10 +53,24 @@ class CrossbarSolver {
 
   /// Column currents (A) for a batch of input vectors: k x m voltages -> k x n currents.
   /// Linear devices use the effective matrix when it is cheaper; batches run on all threads.
+  /// With voltage sensing the columns carry no current: InputError (use column_voltages).
   virtual Eigen::MatrixXd column_currents(const Eigen::MatrixXd& v_in) const;
 
-  /// Effective conductance matrix G_eff (m x n, S) with I = V * G_eff exactly, for linear
-  /// devices only (throws SolverError otherwise).
+  /// Column-end voltages (V, CircuitSolution::column_voltage) for a batch of input vectors:
+  /// k x m voltages -> k x n voltages; the outputs with voltage sensing (r_out times the
+  /// column currents with current sensing). Computed as column_currents is.
+  virtual Eigen::MatrixXd column_voltages(const Eigen::MatrixXd& v_in) const;
+
+  /// The sensed outputs: column_currents (A) with current sensing, column_voltages (V) with
+  /// voltage sensing.
+  Eigen::MatrixXd column_outputs(const Eigen::MatrixXd& v_in) const {
+    return params_.voltage_sensing() ? column_voltages(v_in) : column_currents(v_in);
+  }
+
+  /// Effective matrix of the sensed outputs, for linear devices only (throws SolverError
+  /// otherwise), exact up to the solver's tolerance: current sensing, the conductances G_eff
+  /// (m x n, S) with I = V * G_eff; voltage sensing, the gains A (m x n, dimensionless) with
+  /// V_col = V * A (with ideal wires A_ij = G_ij / sum_k G_kj).
   virtual Eigen::MatrixXd effective_matrix() const = 0;
 
   int rows() const { return static_cast<int>(g_.rows()); }
@@ -66,6 +84,10 @@ class CrossbarSolver {
   /// Validates and stores g; shared by implementations.
   void store_conductances(const Eigen::MatrixXd& g_s);
   void check_input(const Eigen::VectorXd& v_in) const;
+  /// Throws InputError unless the batch has one voltage per row.
+  void check_batch(const Eigen::MatrixXd& v_in) const;
+  /// Outputs of a batch, vector by vector on all threads: the column voltages or currents.
+  Eigen::MatrixXd solve_each(const Eigen::MatrixXd& v_in, bool voltages) const;
   /// A, the largest KCL residual (any node) that Newton accepts at convergence, for inputs
   /// of magnitude up to `v_scale`: abstol + newton_tolerance * v_scale * largest wire conductance.
   double kcl_tolerance(double v_scale) const;
@@ -77,6 +99,12 @@ class CrossbarSolver {
   SolverOptions options_;
   Eigen::MatrixXd g_;
 };
+
+/// Power (W) dissipated in the memristors of a solution: sum over cells of
+/// cell_current * (v_top - v_mid). The access transistors' share, cell_current *
+/// (v_mid - v_bottom), is not included. With ideal wires and linear cells it is
+/// sum_ij G_ij (V_i - V_col,j)^2 (voltage sensing) or sum_ij G_ij V_i^2 (current sensing).
+double cell_power_w(const CircuitSolution& s);
 
 /// The solver selected by options.method: "auto"/"line" -> LineSolver, "direct" -> NodalSolver.
 std::unique_ptr<CrossbarSolver> make_crossbar_solver(const CrossbarParams& p, const SolverOptions& o);

@@ -29,7 +29,10 @@ LineSolver::LineSolver(const CrossbarParams& p, const SolverOptions& o)
     : CrossbarSolver(p, o), memristor_(p.memristor), transistor_(p.transistor) {
   g_w_ = 1.0 / p.r_wire_ohm;
   g_s_ = 1.0 / (p.r_in_ohm + p.r_wire_ohm);   // source -> r_in -> L_i -> r_wire -> T(i,0)
-  g_d_ = 1.0 / (p.r_wire_ohm + p.r_out_ohm);  // B(m-1,j) -> r_wire -> D_j -> r_out -> ground
+  // B(m-1,j) -> r_wire -> D_j -> r_out -> ground; voltage sensing: D_j is open.
+  floating_ = p.voltage_sensing();
+  g_d_ = floating_ ? 0.0 : 1.0 / (p.r_wire_ohm + p.r_out_ohm);
+  out_gain_ = floating_ ? 1.0 : g_d_;
 }
 
 void LineSolver::factor_rows(const double* extra, double* p_inv) const {
@@ -47,7 +50,13 @@ void LineSolver::factor_rows(const double* extra, double* p_inv) const {
   }
 }
 
-void LineSolver::factor_cols(const double* extra, double* q_diag, double* q_inv) const {
+void LineSolver::factor_cols(const double* extra, System& s) const {
+  double* q_diag = s.q_diag.data();
+  double* q_inv = s.q_inv.data();
+  if (floating_) {
+    factor_floating_cols(extra, s);
+    return;
+  }
   const double gw2 = g_w_ * g_w_;
   for (int i = m_ - 1; i >= 0; --i) {
     const double up = i > 0 ? g_w_ : 0.0;  // U_j is open
@@ -59,6 +68,35 @@ void LineSolver::factor_cols(const double* extra, double* q_diag, double* q_inv)
       q_inv[o + j] = 1.0 / (d - (i + 1 < m_ ? gw2 * q_inv[o + n_ + j] : 0.0));
     }
   }
+}
+
+void LineSolver::factor_floating_cols(const double* extra, System& s) const {
+  // Pivot of node i = the wire above it + e_i, e_i = the conductance to ground of node i and
+  // everything below it with the wire above open: e_i = extra_i + (g_w in series with e_i+1).
+  // q_diag holds e of the row below until the next row is done, then Q's diagonal.
+  const double gw = g_w_;
+  const int mn = m_ * n_;
+  s.q_cell.assign(extra, extra + mn);
+  double* q_diag = s.q_diag.data();
+  double* q_inv = s.q_inv.data();
+  for (int i = m_ - 1; i >= 0; --i) {
+    const double up = i > 0 ? gw : 0.0;
+    const int o = i * n_;
+    for (int j = 0; j < n_; ++j) {
+      double e = extra[o + j];
+      if (i + 1 < m_) {
+        const double below = q_diag[o + n_ + j];
+        e += gw * below / (gw + below);
+      }
+      q_diag[o + j] = e;
+      q_inv[o + j] = 1.0 / (up + e);
+    }
+    if (i + 1 < m_) {
+      const double down = i + 2 < m_ ? gw : 0.0;
+      for (int j = 0; j < n_; ++j) q_diag[o + n_ + j] = gw + down + extra[o + n_ + j];
+    }
+  }
+  for (int j = 0; j < n_; ++j) q_diag[j] = (m_ > 1 ? gw : 0.0) + extra[j];
 }
 
 void LineSolver::row_solve(const double* p_inv, const double* r, double* x) const {
@@ -108,6 +146,18 @@ void LineSolver::schur_apply(const System& s, const double* x, double* y, Worksp
   row_solve(s.p_inv.data(), a, b);
   const double* cy = s.y();
   const double gw = g_w_;
+  if (!s.q_cell.empty()) {  // floating columns: the wires on voltage differences
+    for (int i = 0; i < m_; ++i) {
+      const int o = i * n_;
+      for (int j = 0; j < n_; ++j) {
+        double v = s.q_cell[o + j] * x[o + j] - cy[o + j] * b[o + j];
+        if (i > 0) v += gw * (x[o + j] - x[o - n_ + j]);
+        if (i + 1 < m_) v += gw * (x[o + j] - x[o + n_ + j]);
+        y[o + j] = v;
+      }
+    }
+    return;
+  }
   for (int i = 0; i < m_; ++i) {
     const int o = i * n_;
     for (int j = 0; j < n_; ++j) {
@@ -282,7 +332,7 @@ void LineSolver::program(const Eigen::MatrixXd& g_s) {
   linear_.resize(mn, true);
   for (int k = 0; k < mn; ++k) linear_.cx[k] = -g_cell_[k];
   factor_rows(g_cell_.data(), linear_.p_inv.data());
-  factor_cols(g_cell_.data(), linear_.q_diag.data(), linear_.q_inv.data());
+  factor_cols(g_cell_.data(), linear_);
 }
 
 double LineSolver::memory_doubles(int m, int n) const {
@@ -300,6 +350,14 @@ CircuitSolution LineSolver::solve(const Eigen::VectorXd& v_in) const {
   return params_.is_linear() ? solve_linear(v_in, w) : solve_newton(v_in, w);
 }
 
+void LineSolver::column_outputs(const double* b, CircuitSolution& s) const {
+  for (int j = 0; j < n_; ++j) {
+    const double vb = b[(m_ - 1) * n_ + j];
+    s.column_current(j) = g_d_ * vb;
+    s.column_voltage(j) = floating_ ? vb : g_d_ * vb * params_.r_out_ohm;
+  }
+}
+
 CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace& w) const {
   const int mn = m_ * n_;
   std::vector<double> r_t(mn, 0.0), r_b(mn, 0.0), t(mn), b(mn);
@@ -315,7 +373,7 @@ CircuitSolution LineSolver::solve_linear(const Eigen::VectorXd& v_in, Workspace&
       s.v_mid(i, j) = t[k] - ic / g_(i, j);
       s.cell_current(i, j) = ic;
     }
-  for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * b[(m_ - 1) * n_ + j];
+  column_outputs(b.data(), s);
   return s;
 }
 
@@ -417,7 +475,7 @@ int LineSolver::newton_direction(NewtonState& st, Workspace& w) const {
     }
   }
   factor_rows(st.jtt.data(), st.sys.p_inv.data());
-  factor_cols(st.jbb.data(), st.sys.q_diag.data(), st.sys.q_inv.data());
+  factor_cols(st.jbb.data(), st.sys);
   const int inner = solve_tb(st.sys, st.rt.data(), st.rb.data(), st.dt.data(), st.db.data(), w, options_.tolerance);
   if (short_tr)
     st.dm = st.db;
@@ -460,7 +518,7 @@ CircuitSolution LineSolver::newton_solution(const NewtonState& st) const {
       memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), im, d);
       s.cell_current(i, j) = im;
     }
-  for (int j = 0; j < n_; ++j) s.column_current(j) = g_d_ * st.vb[(m_ - 1) * n_ + j];
+  column_outputs(st.vb.data(), s);
   return s;
 }
 
@@ -521,16 +579,16 @@ Eigen::MatrixXd LineSolver::compute_effective_matrix() const {
       std::fill(r_t.begin(), r_t.end(), 0.0);
       std::fill(r_b.begin(), r_b.end(), 0.0);
       if (by_rows) {
-        // Unit source on row c: row c of G_eff is g_d * b(m-1, :).
+        // Unit source on row c: row c of G_eff is g_d * b(m-1, :) (of A: b(m-1, :)).
         r_t[c * n_] = g_s_;
         solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w, options_.tolerance);
-        for (int j = 0; j < n_; ++j) geff(c, j) = g_d_ * b[(m_ - 1) * n_ + j];
+        for (int j = 0; j < n_; ++j) geff(c, j) = out_gain_ * b[(m_ - 1) * n_ + j];
       } else {
         // Adjoint (reciprocity, symmetric K): unit current into B(m-1, c);
-        // G_eff(i, c) = g_s * g_d * t(i, 0).
+        // G_eff(i, c) = g_s * g_d * t(i, 0) (A(i, c) = g_s * t(i, 0)).
         r_b[(m_ - 1) * n_ + c] = 1.0;
         solve_tb(linear_, r_t.data(), r_b.data(), t.data(), b.data(), w, options_.tolerance);
-        for (int i = 0; i < m_; ++i) geff(i, c) = g_s_ * g_d_ * t[i * n_];
+        for (int i = 0; i < m_; ++i) geff(i, c) = g_s_ * out_gain_ * t[i * n_];
       }
     }
   });

@@ -14,6 +14,11 @@
 /// whose spectrum is close to 1 because the cells are weak compared with the wires.
 /// Column chains are eliminated from their grounded end, which keeps the pivots well
 /// conditioned (a floating chain eliminated from its open end loses digits).
+/// Voltage sensing (crossbar.sensing = voltage) leaves both ends of a column open: the chain is
+/// then grounded only through its cells, far weaker than its wires. Its pivots are computed as
+/// wire + (conductance to ground seen below), the latter by series/parallel combination without
+/// subtraction, and the Schur operator applies the column wires to voltage differences
+/// (g_w (b_i - b_i+1) ...), so that neither loses the cells' currents against the wires'.
 ///
 /// Many vectors with nonlinear devices (column_currents, solver.nonlinear = batched) use a
 /// leaner inexact Newton (line_solver_batch.cpp) than the per-vector reference solve():
@@ -54,6 +59,8 @@ class LineSolver : public CrossbarSolver {
   /// Nonlinear devices: the batched inexact Newton above (solver.nonlinear = batched), falling
   /// back to the per-vector Newton for a vector it does not converge on; otherwise as CrossbarSolver.
   Eigen::MatrixXd column_currents(const Eigen::MatrixXd& v_in) const override;
+  /// As column_currents, for the column-end voltages.
+  Eigen::MatrixXd column_voltages(const Eigen::MatrixXd& v_in) const override;
   Eigen::MatrixXd effective_matrix() const override;
 
   /// Scratch buffers for one thread (sized for the programmed array).
@@ -65,6 +72,7 @@ class LineSolver : public CrossbarSolver {
     std::vector<double> p_inv;   ///< inverse pivots of the row tridiagonals (P)
     std::vector<double> q_diag;  ///< diagonal of Q
     std::vector<double> q_inv;   ///< inverse pivots of the column tridiagonals (Q, from the grounded end)
+    std::vector<double> q_cell;  ///< voltage sensing: Q's cell terms (Q = column-wire Laplacian + diag(q_cell))
     std::vector<double> cx;      ///< X diagonal (row equation, column unknown)
     std::vector<double> cy;      ///< Y diagonal (column equation, row unknown); empty: Y = X
     bool symmetric = true;
@@ -72,12 +80,17 @@ class LineSolver : public CrossbarSolver {
     /// Zeroed operator for `mn` cells; a symmetric one keeps cy empty (Y = X).
     void resize(size_t mn, bool is_symmetric) {
       for (auto* v : {&p_inv, &q_diag, &q_inv, &cx}) v->assign(mn, 0.0);
+      q_cell.clear();
       cy.assign(is_symmetric ? 0 : mn, 0.0);
       symmetric = is_symmetric;
     }
   };
   void factor_rows(const double* extra, double* p_inv) const;
-  void factor_cols(const double* extra, double* q_diag, double* q_inv) const;
+  void factor_cols(const double* extra, System& s) const;
+  /// factor_cols for floating columns (voltage sensing); also fills s.q_cell.
+  void factor_floating_cols(const double* extra, System& s) const;
+  /// The solution's column currents and voltages from the column-wire voltages b.
+  void column_outputs(const double* b, CircuitSolution& s) const;
   void row_solve(const double* p_inv, const double* r, double* x) const;
   void col_solve(const double* q_inv, const double* r, double* x) const;
   void schur_apply(const System& s, const double* x, double* y, Workspace& w) const;
@@ -101,7 +114,10 @@ class LineSolver : public CrossbarSolver {
   CircuitSolution newton_solution(const NewtonState& st) const;
   // The batched inexact Newton (line_solver_batch.cpp).
   struct BatchState;
-  /// Column currents of v_in into `out` (n); false when it did not converge.
+  /// The batched outputs of many vectors: column voltages (`voltages`) or currents.
+  Eigen::MatrixXd batch_outputs(const Eigen::MatrixXd& v_in, bool voltages) const;
+  /// Column outputs (out_gain_ x the column's last B node: currents or voltages) of v_in into
+  /// `out` (n); false when it did not converge.
   bool batch_solve(const double* v_in, BatchState& st, Workspace& w, double* out) const;
   /// The ideal operating point plus one Jacobi step through the wires.
   void batch_start(const double* v_in, BatchState& st, Workspace& w) const;
@@ -116,7 +132,9 @@ class LineSolver : public CrossbarSolver {
   double memory_doubles(int m, int n) const;
 
   int m_ = 0, n_ = 0;
-  double g_w_ = 1, g_s_ = 0.5, g_d_ = 0.5;  ///< wire, source-side and ground-side conductances (S)
+  double g_w_ = 1, g_s_ = 0.5, g_d_ = 0.5;  ///< wire, source-side and ground-side (0: voltage sensing) conductances (S)
+  bool floating_ = false;                   ///< voltage sensing: the columns' ends are open
+  double out_gain_ = 0.5;  ///< the sensed output per volt at B(m-1, j): g_d (A/V, current sensing) or 1 (voltage)
   MemristorDevice memristor_;
   TransistorDevice transistor_;
   System linear_;               ///< linear devices: the nodal system itself

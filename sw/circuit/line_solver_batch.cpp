@@ -84,8 +84,18 @@ struct LineSolver::BatchState {
 };
 
 Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
-  if (params_.is_linear() || !options_.batched_nonlinear || v_in.rows() == 0 || v_in.cols() != m_)
+  if (floating_ || params_.is_linear() || !options_.batched_nonlinear || v_in.rows() == 0 || v_in.cols() != m_)
     return CrossbarSolver::column_currents(v_in);
+  return batch_outputs(v_in, false);
+}
+
+Eigen::MatrixXd LineSolver::column_voltages(const Eigen::MatrixXd& v_in) const {
+  if (!floating_ || params_.is_linear() || !options_.batched_nonlinear || v_in.rows() == 0 || v_in.cols() != m_)
+    return CrossbarSolver::column_voltages(v_in);
+  return batch_outputs(v_in, true);
+}
+
+Eigen::MatrixXd LineSolver::batch_outputs(const Eigen::MatrixXd& v_in, bool voltages) const {
   for (Eigen::Index k = 0; k < v_in.rows(); ++k) check_input(v_in.row(k).transpose());
   const int count = static_cast<int>(v_in.rows());
   const int threads = std::max(1, std::min(resolve_threads(options_.threads), count));
@@ -113,7 +123,8 @@ Eigen::MatrixXd LineSolver::column_currents(const Eigen::MatrixXd& v_in) const {
       } catch (const SolverError&) {  // an inner solve failed: as for non-convergence
       }
       try {  // the reference per-vector Newton
-        out.row(k) = solve(v.row(k).transpose()).column_current.transpose();
+        const CircuitSolution s = solve(v.row(k).transpose());
+        out.row(k) = (voltages ? s.column_voltage : s.column_current).transpose();
       } catch (const SolverError& e) {
         throw SolverError("input vector " + std::to_string(k + 1) +
                           ": neither the batched nor the per-vector Newton converged: " + e.what());
@@ -128,16 +139,34 @@ void LineSolver::batch_start(const double* v_in, BatchState& st, Workspace& w) c
   // between memristor and transistor (small signal).
   const bool short_tr = transistor_.is_short();
   const double* ratio = st.ratio;
+  // Open columns (voltage sensing): each at the voltage where its cells' small-signal currents
+  // cancel, sum_i g0_ij (V_i - V_j) = 0 (st.dt as scratch).
+  double* v_end = floating_ ? st.dt.data() : nullptr;
+  if (floating_) {
+    double* den = st.db.data();
+    std::fill(v_end, v_end + n_, 0.0);
+    std::fill(den, den + n_, 0.0);
+    const double g_t0 = transistor_.is_short() ? 0.0 : transistor_.g0();
+    for (int i = 0; i < m_; ++i)
+      for (int j = 0; j < n_; ++j) {
+        const double g_m0 = memristor_.g0(st.g[i * n_ + j]);
+        const double g0 = transistor_.is_short() ? g_m0 : g_m0 * g_t0 / (g_m0 + g_t0);
+        v_end[j] += g0 * v_in[i];
+        den[j] += g0;
+      }
+    for (int j = 0; j < n_; ++j) v_end[j] /= den[j];
+  }
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {
       const int k = i * n_ + j;
+      const double vb = floating_ ? v_end[j] : 0.0;
       st.vt[k] = v_in[i];
-      st.vb[k] = 0.0;
-      st.vm[k] = ratio[k] * v_in[i];
+      st.vb[k] = vb;
+      st.vm[k] = vb + ratio[k] * (v_in[i] - vb);
     }
   // One Jacobi step through the wires: the node voltages that the ideal cell currents imply.
   batch_devices(st, w);
-  wire_voltages(params_, m_, n_, v_in, w.b.data(), st.vt.data(), st.vb.data());
+  wire_voltages(params_, m_, n_, v_in, w.b.data(), st.vt.data(), st.vb.data(), v_end);
   const int mn = m_ * n_;
   for (int k = 0; k < mn; ++k) st.vm[k] = short_tr ? st.vb[k] : st.vb[k] + ratio[k] * (st.vt[k] - st.vb[k]);
 }
@@ -242,7 +271,7 @@ double LineSolver::batch_direction(BatchState& st, Workspace& w, double step_tol
     condense_cell(mn, st.gm.data(), st.ga.data(), st.gb.data(), st.fm.data(), jtt, jbb, st.sys.cx.data(), st.ft.data(),
                   st.fb.data());
   factor_rows(jtt, st.sys.p_inv.data());
-  factor_cols(jbb, st.sys.q_diag.data(), st.sys.q_inv.data());
+  factor_cols(jbb, st.sys);
   solve_tb(st.sys, st.ft.data(), st.fb.data(), st.dt.data(), st.db.data(), w, step_tol);
   if (short_tr)
     std::copy(st.db.begin(), st.db.end(), st.dm.begin());
@@ -290,8 +319,8 @@ bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, d
     // theta, ten times the change.
     double change = 0, i_max = 0;
     for (int j = 0; j < n_; ++j) {
-      change = std::max(change, g_d_ * std::abs(scale * st.db[bottom + j]));
-      i_max = std::max(i_max, g_d_ * std::abs(st.vb[bottom + j]));
+      change = std::max(change, out_gain_ * std::abs(scale * st.db[bottom + j]));
+      i_max = std::max(i_max, out_gain_ * std::abs(st.vb[bottom + j]));
     }
     double estimate = 10 * change;
     if (scale == 1.0 && last_change > 0) {
@@ -301,7 +330,7 @@ bool LineSolver::batch_solve(const double* v_in, BatchState& st, Workspace& w, d
     last_change = scale == 1.0 ? change : -1;
     converged = estimate <= options_.nonlinear_tolerance * i_max && f_max <= kcl_tol;
   }
-  for (int j = 0; j < n_; ++j) out[j] = g_d_ * st.vb[bottom + j];
+  for (int j = 0; j < n_; ++j) out[j] = out_gain_ * st.vb[bottom + j];
   return converged;
 }
 

@@ -31,6 +31,43 @@ void NodalSolver::add_conductance(std::vector<Eigen::Triplet<double>>& t, int a,
   }
 }
 
+void NodalSolver::add_wire(int a, int b, double g) {
+  add_conductance(wire_triplets_, a, b, g);
+  wire_branches_.push_back({a, b, g});
+}
+
+void NodalSolver::wire_residual(const Eigen::VectorXd& x, const Eigen::VectorXd& rhs, Eigen::VectorXd& f) const {
+  if (!params_.voltage_sensing()) {
+    f.noalias() = k_wire_ * x - rhs;
+    return;
+  }
+  f = -rhs;
+  for (const Branch& w : wire_branches_) {
+    const double i = w.g * (x(w.a) - (w.b >= 0 ? x(w.b) : 0.0));
+    f(w.a) += i;
+    if (w.b >= 0) f(w.b) -= i;
+  }
+}
+
+Eigen::VectorXd NodalSolver::solve_factored(const Eigen::VectorXd& rhs) const {
+  Eigen::VectorXd x = factor_->ldlt.solve(rhs);
+  if (factor_->ldlt.info() != Eigen::Success) throw SolverError("sparse Cholesky solve failed");
+  if (!params_.voltage_sensing()) return x;
+  // Iterative refinement: the factor's error on the floating columns' common mode shrinks by
+  // ~eps x (wire / cell conductance) per step; stop when a step no longer halves it.
+  Eigen::VectorXd f(unknowns_);
+  double last = HUGE_VAL;
+  for (int step = 0; step < 8; ++step) {
+    residual(x, rhs, f, nullptr);
+    const Eigen::VectorXd dx = factor_->ldlt.solve(f);
+    const double d = dx.cwiseAbs().maxCoeff();
+    if (!(d < 0.5 * last)) break;
+    x -= dx;
+    last = d;
+  }
+  return x;
+}
+
 void NodalSolver::program(const Eigen::MatrixXd& g_s) {
   store_conductances(g_s);
   {
@@ -46,17 +83,19 @@ void NodalSolver::program(const Eigen::MatrixXd& g_s) {
   unknowns_ = base_ + 2 * m_ + 2 * n_;
   const double gw = 1.0 / params_.r_wire_ohm;
   wire_triplets_.clear();
+  wire_branches_.clear();
   for (int i = 0; i < m_; ++i) {
-    add_conductance(wire_triplets_, node_row_left(i), -1, 1.0 / params_.r_in_ohm);  // source side
-    add_conductance(wire_triplets_, node_row_left(i), node_top(i, 0), gw);
-    for (int j = 0; j + 1 < n_; ++j) add_conductance(wire_triplets_, node_top(i, j), node_top(i, j + 1), gw);
-    add_conductance(wire_triplets_, node_top(i, n_ - 1), node_row_right(i), gw);
+    add_wire(node_row_left(i), -1, 1.0 / params_.r_in_ohm);  // source side
+    add_wire(node_row_left(i), node_top(i, 0), gw);
+    for (int j = 0; j + 1 < n_; ++j) add_wire(node_top(i, j), node_top(i, j + 1), gw);
+    add_wire(node_top(i, n_ - 1), node_row_right(i), gw);
   }
   for (int j = 0; j < n_; ++j) {
-    add_conductance(wire_triplets_, node_col_top(j), node_bottom(0, j), gw);
-    for (int i = 0; i + 1 < m_; ++i) add_conductance(wire_triplets_, node_bottom(i, j), node_bottom(i + 1, j), gw);
-    add_conductance(wire_triplets_, node_bottom(m_ - 1, j), node_col_bottom(j), gw);
-    add_conductance(wire_triplets_, node_col_bottom(j), -1, 1.0 / params_.r_out_ohm);
+    add_wire(node_col_top(j), node_bottom(0, j), gw);
+    for (int i = 0; i + 1 < m_; ++i) add_wire(node_bottom(i, j), node_bottom(i + 1, j), gw);
+    add_wire(node_bottom(m_ - 1, j), node_col_bottom(j), gw);
+    // Voltage sensing: D_j is open (r_out leads to a node with nothing else on it).
+    if (!params_.voltage_sensing()) add_wire(node_col_bottom(j), -1, 1.0 / params_.r_out_ohm);
   }
   k_wire_.resize(unknowns_, unknowns_);
   k_wire_.setFromTriplets(wire_triplets_.begin(), wire_triplets_.end());
@@ -99,33 +138,41 @@ CircuitSolution NodalSolver::extract(const Eigen::VectorXd& x) const {
       memristor_.eval(g_(i, j), s.v_top(i, j) - s.v_mid(i, j), c, d);
       s.cell_current(i, j) = c;
     }
-  for (int j = 0; j < n_; ++j) s.column_current(j) = x(node_col_bottom(j)) / params_.r_out_ohm;
+  const bool open = params_.voltage_sensing();
+  for (int j = 0; j < n_; ++j) {
+    s.column_voltage(j) = x(node_col_bottom(j));
+    s.column_current(j) = open ? 0.0 : x(node_col_bottom(j)) / params_.r_out_ohm;
+  }
   return s;
 }
 
 CircuitSolution NodalSolver::solve(const Eigen::VectorXd& v_in) const {
   check_input(v_in);
   if (!params_.is_linear()) return solve_nonlinear(v_in);
-  Eigen::VectorXd x = factor_->ldlt.solve(source_rhs(v_in));
-  if (factor_->ldlt.info() != Eigen::Success) throw SolverError("sparse Cholesky solve failed");
-  return extract(x);
+  return extract(solve_factored(source_rhs(v_in)));
 }
 
 Eigen::MatrixXd NodalSolver::effective_matrix() const {
   if (!params_.is_linear()) throw SolverError("the effective conductance matrix exists only for linear devices");
-  // Unit input on each row: row i of G_eff is the column-current response.
+  // Unit input on each row: row i of G_eff is the column-current response (of A, the
+  // column-end voltages').
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(unknowns_, m_);
   for (int i = 0; i < m_; ++i) rhs(node_row_left(i), i) = 1.0 / params_.r_in_ohm;
-  const Eigen::MatrixXd x = factor_->ldlt.solve(rhs);
+  Eigen::MatrixXd x(unknowns_, m_);
+  if (params_.voltage_sensing())
+    for (int i = 0; i < m_; ++i) x.col(i) = solve_factored(rhs.col(i));
+  else
+    x = factor_->ldlt.solve(rhs);
   Eigen::MatrixXd geff(m_, n_);
   for (int i = 0; i < m_; ++i)
-    for (int j = 0; j < n_; ++j) geff(i, j) = x(node_col_bottom(j), i) / params_.r_out_ohm;
+    for (int j = 0; j < n_; ++j)
+      geff(i, j) = params_.voltage_sensing() ? x(node_col_bottom(j), i) : x(node_col_bottom(j), i) / params_.r_out_ohm;
   return geff;
 }
 
 void NodalSolver::residual(const Eigen::VectorXd& x, const Eigen::VectorXd& rhs, Eigen::VectorXd& f,
                            std::vector<Eigen::Triplet<double>>* jac) const {
-  f.noalias() = k_wire_ * x - rhs;
+  wire_residual(x, rhs, f);
   if (jac) *jac = wire_triplets_;
   for (int i = 0; i < m_; ++i)
     for (int j = 0; j < n_; ++j) {

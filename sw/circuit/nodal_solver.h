@@ -5,6 +5,10 @@
 /// programming (Eigen SimplicialLDLT, AMD ordering) and reused for every input vector.
 /// Nonlinear devices: damped Newton-Raphson with voltage limiting, sparse LU per iteration.
 /// This is the general sparse direct baseline; LineSolver is the fast structured solver.
+/// Voltage sensing leaves the columns grounded only through their cells, far weaker than the
+/// wires: there the KCL residuals take each wire's current from its voltage difference (the
+/// assembled matrix times x would lose the cells' currents against the wires'), and linear
+/// solves are refined with that residual until the correction stops shrinking.
 #include <Eigen/Sparse>
 #include <memory>
 #include <vector>
@@ -37,6 +41,13 @@ class NodalSolver : public CrossbarSolver {
 
  private:
   void add_conductance(std::vector<Eigen::Triplet<double>>& t, int a, int b, double g) const;
+  /// A wire (or r_in, r_out: b = -1 for ground) of the linear part.
+  void add_wire(int a, int b, double g);
+  /// The linear part's currents leaving each node minus the sources': k_wire x - rhs, with
+  /// voltage sensing summed branch by branch on voltage differences.
+  void wire_residual(const Eigen::VectorXd& x, const Eigen::VectorXd& rhs, Eigen::VectorXd& f) const;
+  /// Linear devices: the factor's solution of K x = rhs, refined with `residual` (voltage sensing).
+  Eigen::VectorXd solve_factored(const Eigen::VectorXd& rhs) const;
   Eigen::VectorXd source_rhs(const Eigen::VectorXd& v_in) const;
   CircuitSolution extract(const Eigen::VectorXd& x) const;
   CircuitSolution solve_nonlinear(const Eigen::VectorXd& v_in) const;
@@ -49,6 +60,11 @@ class NodalSolver : public CrossbarSolver {
   MemristorDevice memristor_;
   TransistorDevice transistor_;
   std::vector<Eigen::Triplet<double>> wire_triplets_;  ///< linear part (wires, r_in, r_out)
+  struct Branch {
+    int a, b;  ///< nodes (b = -1: ground)
+    double g;  ///< S
+  };
+  std::vector<Branch> wire_branches_;  ///< the same, branch by branch
   Eigen::SparseMatrix<double> k_wire_;
   struct Factor;
   std::unique_ptr<Factor> factor_;

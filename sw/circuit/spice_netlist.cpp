@@ -24,7 +24,7 @@ void write_spice_netlist(std::ostream& out, const CrossbarParams& p, const Eigen
   if (inputs.rows() < 1) throw InputError("netlist: at least one input vector is needed");
   const bool short_tr = p.transistor.model == TransistorModel::None;
   out << "* xbarsim crossbar " << m << "x" << n << " memristor=" << to_string(p.memristor.model)
-      << " transistor=" << to_string(p.transistor.model) << "\n";
+      << " transistor=" << to_string(p.transistor.model) << " sensing=" << to_string(p.sensing) << "\n";
   out << ".options reltol=1e-10 abstol=1e-18 vntol=1e-15 gmin=1e-30 itl1=500\n";
   if (p.transistor.model == TransistorModel::Level1) {
     out << ".model xnmos nmos level=1 vto=" << num(p.transistor.vth_v) << " kp=" << num(p.transistor.kp_a_per_v2)
@@ -47,7 +47,9 @@ void write_spice_netlist(std::ostream& out, const CrossbarParams& p, const Eigen
           << num(p.r_wire_ohm) << "\n";
     out << "rw_d_" << j << " b_" << m - 1 << "_" << j << " d_" << j << " " << num(p.r_wire_ohm) << "\n";
     out << "rout_" << j << " d_" << j << " s_" << j << " " << num(p.r_out_ohm) << "\n";
-    out << "vsense_" << j << " s_" << j << " 0 dc 0\n";
+    // Voltage sensing: s_j has nothing else on it (the sampling capacitor, open at DC); the
+    // column still has a DC path to ground through its cells and the row drivers.
+    if (!p.voltage_sensing()) out << "vsense_" << j << " s_" << j << " 0 dc 0\n";
   }
   const double sinh_scale = MemristorDevice(p.memristor).scale();
   for (int i = 0; i < m; ++i)
@@ -71,13 +73,16 @@ void write_spice_netlist(std::ostream& out, const CrossbarParams& p, const Eigen
     if (k > 0)
       for (int i = 0; i < m; ++i) out << "alter vin_" << i << " dc = " << num(inputs(k, i)) << "\n";
     out << "op\necho xbarsim_vector " << k << "\nprint";
-    for (int j = 0; j < n; ++j) out << " i(vsense_" << j << ")";
+    for (int j = 0; j < n; ++j) out << (p.voltage_sensing() ? " v(s_" : " i(vsense_") << j << ")";
     out << "\n";
   }
   out << ".endc\n.end\n";
 }
 
-Eigen::MatrixXd parse_ngspice_currents(const std::string& output, int vectors, int cols) {
+namespace {
+/// The values printed as `<name>K) = value` (e.g. "i(vsense_3) = ...") of each vector.
+Eigen::MatrixXd parse_ngspice_prints(const std::string& output, int vectors, int cols, const char* format,
+                                     const char* what) {
   Eigen::MatrixXd out = Eigen::MatrixXd::Constant(vectors, cols, std::nan(""));
   std::istringstream in(output);
   std::string line;
@@ -91,14 +96,23 @@ Eigen::MatrixXd parse_ngspice_currents(const std::string& output, int vectors, i
     int j;
     char rest[64];
     double v;
-    if (std::sscanf(line.c_str(), " i(vsense_%d) = %lf%63s", &j, &v, rest) >= 2 && j >= 0 && j < cols) out(k, j) = v;
+    if (std::sscanf(line.c_str(), format, &j, &v, rest) >= 2 && j >= 0 && j < cols) out(k, j) = v;
   }
   for (int r = 0; r < vectors; ++r)
     for (int c = 0; c < cols; ++c)
       if (std::isnan(out(r, c)))
-        throw SolverError("ngspice output lacks the current of column " + std::to_string(c) + " for vector " +
-                          std::to_string(r));
+        throw SolverError(std::string("ngspice output lacks the ") + what + " of column " + std::to_string(c) +
+                          " for vector " + std::to_string(r));
   return out;
+}
+}  // namespace
+
+Eigen::MatrixXd parse_ngspice_currents(const std::string& output, int vectors, int cols) {
+  return parse_ngspice_prints(output, vectors, cols, " i(vsense_%d) = %lf%63s", "current");
+}
+
+Eigen::MatrixXd parse_ngspice_voltages(const std::string& output, int vectors, int cols) {
+  return parse_ngspice_prints(output, vectors, cols, " v(s_%d) = %lf%63s", "voltage");
 }
 
 }  // namespace xbarsim

@@ -33,6 +33,23 @@ TEST(Cli, SolveSingleCellMatchesOhmsLaw) {
   EXPECT_NEAR(b, i2, 1e-12 * i2);
 }
 
+TEST(Cli, SolveWithVoltageSensingPrintsTheOpenColumnsVoltages) {
+  // Two cells on one column, nearly ideal wires: V = (G1 V1 + G2 V2) / (G1 + G2).
+  const auto g = file("gv.csv", "5e-5\n2e-5\n");
+  const auto v = file("vv.csv", "0.1,0.4\n");
+  const auto r = run("solve --conductances " + g + " --inputs " + v +
+                     " --set crossbar.sensing=voltage --set crossbar.r_wire=1e-9 --set crossbar.r_in=1e-9");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const double expect = (5e-5 * 0.1 + 2e-5 * 0.4) / 7e-5;
+  double a = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str(), "%lf", &a), 1) << r.out;
+  EXPECT_NEAR(a, expect, 1e-12 * expect);
+  // The analog layers read currents: an input error naming the key, not a run on zero currents.
+  const auto e = run("eval --model lenet_mnist --images 1 --set crossbar.sensing=voltage");
+  EXPECT_EQ(e.code, 2) << e.out;
+  EXPECT_NE(e.out.find("crossbar.sensing"), std::string::npos) << e.out;
+}
+
 TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
   const auto g = file("g.csv", "5e-5,6e-5\n4e-5,3e-5\n");
   const auto v3 = file("v3.csv", "0.1,0.2,0.3\n");
@@ -48,6 +65,7 @@ TEST(Cli, BadInputGivesOneClearMessageAndNonZeroExit) {
       {"solve --conductances /nonexistent.csv --inputs " + v2, "cannot open '/nonexistent.csv'"},
       {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.r_wier=1", "crossbar.r_wier"},
       {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.r_wire=-1", "crossbar.r_wire"},
+      {"solve --conductances " + g + " --inputs " + v2 + " --set crossbar.sensing=charge", "crossbar.sensing"},
       {"solve --conductances " + g + " --inputs " + v2 + " --config /nonexistent.yaml", "nonexistent.yaml"},
       {"solve --inputs " + v2, "--conductances"},
       {"solve --conductances " + g + " --inputs " + v2 + " --bogus 1", "unknown option"},
