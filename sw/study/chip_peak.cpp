@@ -65,6 +65,10 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
         }
       }
   }
+  CrossbarParams p = ac.xbar;
+  p.sensing = Sensing::Voltage;  // each column settles onto its neuron's sampling capacitor
+  const auto solver = make_crossbar_solver(p, ac.solver);
+  solver->program(g);
   double joules = 0;
   for (int k = 0; k < in.vectors; ++k) {
     Eigen::VectorXd v(rows);
@@ -75,14 +79,11 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
     } else {
       for (int i = 0; i < rows; ++i) v(i) = uniform(rng) < in.bit_density ? in.v_read_v : 0.0;
     }
-    // TEMPORARY closed form (ideal wires): replaced by the voltage-mode solve.
-    double w = 0;
-    for (int j = 0; j < cols; ++j) {
-      const double vj = g.col(j).dot(v) / g.col(j).sum();
-      w += (g.col(j).array() * (v.array() - vj).square()).sum();
-    }
-    joules += w * in.pulse_ns * 1e-9;
-    (void)last;
+    // What the drivers deliver: each row's pulse voltage x the current its cells draw (the
+    // cells', wires' and access transistors' dissipation together).
+    const CircuitSolution s = solver->solve(v);
+    joules += v.dot(s.cell_current.rowwise().sum()) * in.pulse_ns * 1e-9;
+    if (last) *last = s;
   }
   return joules / in.vectors * 1e12;
 }

@@ -158,6 +158,29 @@ TEST(NeurramChip, ExtendedDataFig12EveryPrecision) {
   }
 }
 
+TEST(NeurramChip, InputPulsesFromTheSolvedCore) {
+  // Every weight clipped to full scale (a pair holds g_max and g_min), every input pulsing:
+  // with ideal wires a column j settles at V_j = sum_i G_ij V_i / G_j, G_j = 128 (g_max + g_min),
+  // and the drivers deliver sum_j G_j (v^2 - V_j^2) <= v^2 x 256 G_j: within 2 % of that bound
+  // (V_j^2 / v^2 is about 1 / 128 for random signs).
+  ConfigTree cfg = ConfigTree::load(XBARSIM_SOURCE_DIR "/configs/neurram.yaml",
+                                    {"crossbar.r_wire=1e-6", "crossbar.r_in=1e-6", "crossbar.r_out=1e-6"});
+  AnalogConfig ac = parse_analog_config(cfg);
+  Architecture a = make_hardware_context(cfg, ac).arch;
+  a.input.bit_density = 1;
+  a.input.weight_clip_sigma = 1e-9;
+  const double g_min = 1e-6, g_max = 40e-6, v = 0.5, t = 10e-9;
+  const double bound_pj = v * v * 256 * 128 * (g_max + g_min) * t * 1e12;
+  const double ideal = input_pulse_pj_per_bit(a, ac);
+  EXPECT_LE(ideal, bound_pj * 0.999);  // a current-mode column (held at 0 V) would take the whole bound
+  EXPECT_GE(ideal, bound_pj * 0.98);
+  // 1-ohm wires and drivers: the far cells see less than v (the rows' drops), so less energy.
+  ConfigTree wired = ConfigTree::load(XBARSIM_SOURCE_DIR "/configs/neurram.yaml", {});
+  const double with_wires = input_pulse_pj_per_bit(a, parse_analog_config(wired));
+  EXPECT_LT(with_wires, 0.95 * ideal);
+  EXPECT_GT(with_wires, 0.5 * ideal);
+}
+
 TEST(NeurramChip, CoreAreaAndSplit) {
   const ChipPeak c = peak_at(3, 5);
   // Published: a neuron 1270 um^2, 256 of them 28 % of a core: 1.161 mm^2; drivers 21 %,
