@@ -95,8 +95,9 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac) 
 ChipPeak chip_peak(const HardwareContext& hw) {
   const Architecture& a = hw.arch;
   if (!a.machine || !a.neuron_cores())
-    throw InputError("peak figures of neuron cores: architecture.machine " + a.name +
-                     " has none (its readout is not 'neuron')");
+    throw InputError("give --model or --preset: without a network simulate reports the peak figures of a machine "
+                     "of neuron cores (e.g. --config configs/neurram.yaml), and architecture.machine " + a.name +
+                     " has none");
   ChipPeak r;
   r.architecture = a.name;
   r.input_bits = hw.converters.activation_bits();

@@ -203,3 +203,66 @@ TEST(NeurramChip, OneFileEveryPrecision) {
 
 }  // namespace
 }  // namespace xbarsim
+
+// The command: simulate without a network prints and writes the peak figures; a sweep gives
+// one point per precision; bad input is one error line (exit 2); a network runs on the cores.
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/app/cli_test_util.h"
+
+namespace xbarsim {
+namespace {
+
+std::string config() { return std::string(XBARSIM_SOURCE_DIR) + "/configs/neurram.yaml"; }
+
+TEST(NeurramCli, PeakFiguresJsonAndSweep) {
+  const std::string json = ::testing::TempDir() + "/neurram_peak.json";
+  const auto r = xbarsim_test::run_xbarsim("simulate --config " + config() +
+                                           " --set 'converters.adc_bits=[5,10]' --json " + json);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("48 cores"), std::string::npos) << r.out;
+  std::ifstream f(json);
+  const nlohmann::json j = nlohmann::json::parse(f);
+  ASSERT_TRUE(j.is_array()) << j.dump();
+  ASSERT_EQ(j.size(), 2u);
+  for (const auto& point : j) {
+    const nlohmann::json& p = point.contains("result") ? point["result"] : point;
+    for (const char* key : {"peak_tops", "peak_tops_per_w", "area_mm2", "energy_fj_per_op", "read"})
+      EXPECT_TRUE(p.contains(key)) << key << " in " << p.dump();
+  }
+  // 3 input bits: 2 magnitude bits, one phase: 3 integrations; 5 then 10 ADC steps.
+  auto time_ns = [&](int k) {
+    const nlohmann::json& p = j[k].contains("result") ? j[k]["result"] : j[k];
+    return p["read"]["time_ns"].get<double>();
+  };
+  EXPECT_DOUBLE_EQ(time_ns(0), 3 * 270 + 5 * 300 + 300);
+  EXPECT_DOUBLE_EQ(time_ns(1), 3 * 270 + 10 * 300 + 300);
+}
+
+TEST(NeurramCli, BadInputIsOneErrorLine) {
+  auto expect_error = [](const std::string& args, const std::string& says) {
+    const auto r = xbarsim_test::run_xbarsim(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(says), std::string::npos) << args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("terminate"), std::string::npos) << r.out;
+  };
+  expect_error("simulate --config " + config() + " --set converters.dac_bits=1", "converters.dac_bits");
+  expect_error("simulate --config " + config() + " --set converters.adc_bits=none", "converters.adc_bits");
+  expect_error("simulate", "--model or --preset");
+  expect_error("simulate --config " + config() + " --images 3", "--images needs a network");
+}
+
+TEST(NeurramCli, NetworkOnTheCoresNamesItsBottleneck) {
+  // A small preset network, timing only: it runs on the cores, and the time of a read is the
+  // neuron's at the precision.
+  const auto r = xbarsim_test::run_xbarsim("simulate --preset lenet --config " + config() + " --timing-only --images 2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("on neurram"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("bottleneck:"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace xbarsim
