@@ -22,6 +22,11 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                        std::to_string(shared) + " columns (its IMA's); set 0 or " + std::to_string(shared));
     hw.columns_per_adc = shared;
   }
+  if (hw.lib.is_named() && !hw.arch.neuron_cores())
+    throw InputError("components.library " + hw.lib.source +
+                     " holds named components, which price a machine of neuron cores (architecture.machine: "
+                     "neurram); architecture.machine " + hw.arch.name +
+                     " is priced by a fixed library (components.library: isaac or isaac_paper)");
   if (hw.arch.neuron_cores()) {  // one read's time follows from the precision
     const int in = ac.converters.activation_bits(), out = ac.converters.adc_bits;
     if (in < 1 || out < 1)
