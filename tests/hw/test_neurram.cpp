@@ -253,7 +253,7 @@ TEST(NeurramCli, BadInputIsOneErrorLine) {
   expect_error("simulate --config " + config() + " --set converters.adc_bits=none", "converters.adc_bits");
   expect_error("simulate", "--model or --preset");
   // Named components price neuron cores only: never a layer-sized design priced at zero.
-  expect_error("eval --preset lenet --config " + config() + " --set architecture.machine=layer-sized",
+  expect_error("simulate --preset lenet --timing-only --config " + config() + " --set architecture.machine=layer-sized",
                "holds named components");
   expect_error("simulate --config " + config() + " --images 3", "--images needs a network");
 }
