@@ -255,8 +255,7 @@ double MachineBill::leakage(const std::vector<BillLine>& lines) {
 }
 
 double unit_action_pj(const ComponentLibrary& lib, const std::string& unit) {
-  if (lib.is_named()) return lib.named.at(unit).action_pj("action", {}, lib.source);
-  return lib.unit(unit).action_pj;
+  return lib.named.at(unit).action_pj("action", {}, lib.source);
 }
 
 double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op) {
@@ -284,8 +283,7 @@ MachineBill price_neuron_machine(const Architecture& arch, const ComponentLibrar
   const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
   for (const Instance& i : arch.ima.components) {
     const Bill b = price(lib.named, {i}, Ledger{}, 0.0);
-    bill.ima.push_back({i.name, static_cast<long long>(i.count), b.total_area_um2() * 1e-6, 0.0,
-                        b.total_leakage_nw() * 1e-6});
+    bill.ima.push_back({i.name, static_cast<long long>(i.count), b.total_area_mm2(), 0.0, b.total_leakage_mw()});
     bill.chip_area_mm2.parts[i.part] += bill.ima.back().area_mm2 * cores;
     bill.chip_leakage_mw.parts[i.part] += bill.ima.back().leakage_mw * cores;
   }
@@ -357,18 +355,23 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
     bill.chip_leakage_mw.*part += l.leakage_mw * times;
   };
 
+  // A line of units at their peak: price() of the instances and of one ns of their actions.
+  auto line = [&](const std::string& name, long long count, const Bill& b) {
+    return BillLine{name, count, b.total_area_mm2(), b.total_leakage_mw() + b.total_energy_pj(), b.total_leakage_mw()};
+  };
   auto priced = [&](const UnitUse& u) {
-    const ComponentLibrary::Unit& m = lib.unit(u.unit);
-    return BillLine{u.unit, u.count, u.count * m.area_mm2, u.count * (m.leakage_mw + m.action_pj * u.actions_per_ns),
-                    u.count * m.leakage_mw};
+    Ledger per_ns;
+    per_ns.add(u.unit, "action", static_cast<double>(u.count) * u.actions_per_ns);
+    return line(u.unit, u.count, price(lib.named, {{u.unit, u.unit, u.unit, static_cast<double>(u.count), {}}}, per_ns, 0.0));
   };
   const double kib = arch.tile.edram_bytes / 1024.0, tiles = arch.chip.tiles;
   bill.tile.push_back({"ima", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima),
                        arch.tile.imas * MachineBill::peak_mw(bill.ima),
                        arch.tile.imas * MachineBill::leakage(bill.ima)});
-  bill.tile.push_back({"edram", arch.tile.edram_bytes, kib * lib.buffer.area_mm2_per_kib,
-                       kib * lib.buffer.leakage_mw_per_kib + lib.buffer.read_pj_per_byte * arch.tile.edram_bytes_per_ns,
-                       kib * lib.buffer.leakage_mw_per_kib});
+  Ledger edram_per_ns;  // the eDRAM read at its rate
+  edram_per_ns.add("buffer", "read", arch.tile.edram_bytes_per_ns);
+  bill.tile.push_back(line("edram", arch.tile.edram_bytes,
+                           price(cost.components(), {{"buffer", "buffer", "buffer", kib, {}}}, edram_per_ns, 0.0)));
   add(&ComponentBreakdown::buffer, bill.tile.back(), tiles);
   bill.tile.push_back(priced(arch.tile.bus));
   add(&ComponentBreakdown::interconnect, bill.tile.back(), tiles);

@@ -64,6 +64,8 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
                       origin);
   ComponentLibrary lib;
   lib.source = origin;
+  lib.named.source = origin;
+  lib.named.area_unit_mm2 = lib.named.leakage_unit_mw = 1;  // mm^2, mW
   YamlSection adc(root, "adc", origin), dac(root, "dac", origin), lut(root, "dac_lut", origin),
       cell(root, "cell", origin), acc(root, "accumulator", origin), sr(root, "shift_register", origin),
       sh(root, "sample_hold", origin), sa(root, "shift_add", origin), outr(root, "output_register", origin),
@@ -97,20 +99,17 @@ ComponentLibrary parse_component_library(const std::string& text, const std::str
     YamlSection units(root, "units", origin);
     for (const std::string& name : units.keys()) {
       YamlSection u = units.section(name);
-      lib.units[name] = {u.number("area_mm2"), u.number("leakage_mw"), u.number("action_pj")};
+      Component c;  // priced by name (price()): one action is what the architecture says it does
+      c.name = name;
+      c.area.value = u.number("area_mm2");
+      c.leakage.value = u.number("leakage_mw");
+      c.actions_pj["action"].value = u.number("action_pj");
       u.finish();
+      lib.named.components[name] = c;
     }
     units.finish();
   }
   return lib;
-}
-
-const ComponentLibrary::Unit& ComponentLibrary::unit(const std::string& name) const {
-  const auto it = units.find(name);
-  if (it != units.end()) return it->second;
-  std::string list;
-  for (const auto& [n, u] : units) list += (list.empty() ? "" : ", ") + n;
-  throw InputError(source + ": no unit '" + name + "' in section 'units' (" + (list.empty() ? "none" : list) + ")");
 }
 
 ComponentLibrary load_component_library(const ConfigTree& cfg) {
@@ -125,6 +124,7 @@ ComponentLibrary load_component_library(const ConfigTree& cfg) {
     ComponentLibrary lib;
     lib.source = origin;
     lib.named = parse_named_library(text, origin);
+    lib.named_form = true;
     return lib;
   }
   return parse_component_library(text, origin);

@@ -31,11 +31,13 @@ struct ConverterModel {
 
 struct ComponentLibrary {
   std::string source;  ///< file it was read from
-  /// A library of named components (sw/hw/components.h: a file with a top-level `components:`
-  /// section, such as configs/components/neurram.yaml); the fixed sections below are then
-  /// unset (zero) and the machine's cores are priced by name.
+  /// Components by name, priced by price() (sw/hw/components.h). A library in the named form
+  /// (a top-level `components:` section, such as configs/components/neurram.yaml) is all here,
+  /// and the fixed sections below are unset (zero); a fixed library has its `units` here (mm^2,
+  /// mW, pJ per `action`), and CostModel::components() gives its fixed sections the same way.
   NamedLibrary named;
-  bool is_named() const { return !named.components.empty(); }
+  bool named_form = false;
+  bool is_named() const { return named_form; }
   ConverterModel adc, dac;
   int adc_columns_per_unit = 128;      ///< crossbar columns sharing one ADC (default of converters.adc_columns_per_adc)
   double adc_sample_rate_gsps = 1.28;  ///< conversions per ns of one ADC (timing and peak power)
@@ -75,15 +77,6 @@ struct ComponentLibrary {
   struct Memory {
     double transfer_pj_per_byte = 0;  ///< off-chip input/output
   } memory;
-  /// A unit an architecture instantiates by name (section `units`): a tile's bus, a router,
-  /// a sigmoid or pooling unit, an off-chip link; one action is what the architecture says it
-  /// does per cycle (a byte moved, an operation).
-  struct Unit {
-    double area_mm2 = 0, leakage_mw = 0, action_pj = 0;
-  };
-  std::map<std::string, Unit> units;
-  /// The unit named `name`; InputError naming the library and the units it has otherwise.
-  const Unit& unit(const std::string& name) const;
 };
 
 /// Scales `value` from `ref` to `bits` by the rule.

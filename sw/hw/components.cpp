@@ -56,7 +56,7 @@ const Component& NamedLibrary::at(const std::string& name) const {
   if (it != components.end()) return it->second;
   std::string list;
   for (const auto& [n, c] : components) list += (list.empty() ? "" : ", ") + n;
-  throw InputError(source + ": no component '" + name + "' (" + (list.empty() ? "none" : list) + ")");
+  throw InputError(source + ": no component or unit '" + name + "' (" + (list.empty() ? "none" : list) + ")");
 }
 
 namespace {
@@ -92,13 +92,13 @@ Figure figure(YamlSection& s, const std::string& key) {
 
 }  // namespace
 
-double Bill::total_area_um2() const { return total(area_um2); }
-double Bill::total_leakage_nw() const { return total(leakage_nw); }
+double Bill::total_area_mm2() const { return total(area_mm2); }
+double Bill::total_leakage_mw() const { return total(leakage_mw); }
 double Bill::total_energy_pj() const { return total(energy_pj); }
 
 nlohmann::json Bill::to_json() const {
-  return {{"area_um2", area_um2},           {"leakage_nw", leakage_nw},           {"energy_pj", energy_pj},
-          {"total_area_um2", total_area_um2()}, {"total_leakage_nw", total_leakage_nw()},
+  return {{"area_mm2", area_mm2},           {"leakage_mw", leakage_mw},           {"energy_pj", energy_pj},
+          {"total_area_mm2", total_area_mm2()}, {"total_leakage_mw", total_leakage_mw()},
           {"total_energy_pj", total_energy_pj()}};
 }
 
@@ -110,10 +110,10 @@ Bill price(const NamedLibrary& lib, const std::vector<Instance>& instances, cons
     const Component& c = lib.at(i.component);
     const Params p = merged(c.params, i.params);
     const std::string where = lib.source + ": '" + c.name;
-    b.area_um2[i.part] += i.count * c.area_um2.at(p, where + ".area_um2'");
-    const double leak = i.count * c.leakage_nw.at(p, where + ".leakage_nw'");
-    b.leakage_nw[i.part] += leak;
-    b.energy_pj[i.part] += leak * time_ns * 1e-6;  // nW x ns = 1e-9 nJ... = 1e-6 pJ
+    b.area_mm2[i.part] += i.count * c.area.at(p, where + ".area'") * lib.area_unit_mm2;
+    const double leak = i.count * c.leakage.at(p, where + ".leakage'") * lib.leakage_unit_mw;
+    b.leakage_mw[i.part] += leak;
+    b.energy_pj[i.part] += leak * time_ns;  // mW x ns = pJ
   }
   for (const Ledger::Count& n : ledger.counts) {
     const auto it = by_name.find(n.instance);
@@ -165,8 +165,8 @@ NamedLibrary parse_named_library(const std::string& text, const std::string& ori
       for (const std::string& k : p.keys()) c.params[k] = p.number(k);
       p.finish();
     }
-    c.area_um2 = s.has("area_um2") ? figure(s, "area_um2") : Figure{};
-    c.leakage_nw = s.has("leakage_nw") ? figure(s, "leakage_nw") : Figure{};
+    c.area = s.has("area_um2") ? figure(s, "area_um2") : Figure{};
+    c.leakage = s.has("leakage_nw") ? figure(s, "leakage_nw") : Figure{};
     if (s.has("actions")) {
       if (c.kind == ComponentKind::Capacitor)
         throw InputError(s.where("actions") + ": a capacitor's energy is its physics (C dV^2 per switch), not a table");

@@ -44,7 +44,7 @@ struct Component {
   std::string name;
   ComponentKind kind = ComponentKind::Table;
   Params params;  ///< defaults (an instance may override them)
-  Figure area_um2, leakage_nw;
+  Figure area, leakage;  ///< in the library's units (NamedLibrary::area_unit, leakage_unit)
   std::map<std::string, Figure> actions_pj;  ///< energy of one action, by action name
   /// Capacitor: fF per cell on the line, fF of the line's driver, the swing.
   double c_per_cell_ff = 0, c_fixed_ff = 0, v_low_v = 0, v_high_v = 0;
@@ -54,10 +54,13 @@ struct Component {
   double capacitance_ff(const Params& params, const std::string& library) const;
 };
 
-/// A component library in the named form (a top-level `components:` map).
+/// A component library in the named form (a top-level `components:` map: area in um^2,
+/// leakage in nW), or a fixed library's sections and units as named components (mm^2, mW).
 struct NamedLibrary {
   std::string source;
   double technology_nm = 0, voltage_v = 0;  ///< what the figures are for (documentation)
+  /// mm^2 per unit of the figures' area, mW per unit of their leakage (1e-6: um^2 and nW).
+  double area_unit_mm2 = 1e-6, leakage_unit_mw = 1e-6;
   std::map<std::string, Component> components;
   /// The component named `name`; InputError naming the library and what it has otherwise.
   const Component& at(const std::string& name) const;
@@ -84,11 +87,11 @@ struct Ledger {
   void add(const std::string& instance, const std::string& action, double n) { counts.push_back({instance, action, n}); }
 };
 
-/// Area, leakage and energy by part (and the totals).
+/// Area (mm^2), leakage (mW) and energy (pJ) by part, and the totals.
 struct Bill {
-  std::map<std::string, double> area_um2, leakage_nw, energy_pj;
-  double total_area_um2() const;
-  double total_leakage_nw() const;
+  std::map<std::string, double> area_mm2, leakage_mw, energy_pj;
+  double total_area_mm2() const;
+  double total_leakage_mw() const;
   double total_energy_pj() const;
   nlohmann::json to_json() const;
 };

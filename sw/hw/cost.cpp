@@ -20,6 +20,11 @@ constexpr double ComponentBreakdown::*kParts[] = {&ComponentBreakdown::crossbar,
                                                   &ComponentBreakdown::interconnect,
                                                   &ComponentBreakdown::digital,
                                                   &ComponentBreakdown::memory};
+constexpr const char* kPartNames[] = {"crossbar",    "adc",         "dac",          "accumulator",
+                                      "shift_register", "buffer",    "sample_hold",  "shift_add",
+                                      "output_register", "interconnect", "digital",  "memory"};
+static_assert(std::size(kPartNames) == std::size(kParts), "a name for every part");
+
 }  // namespace
 
 ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) {
@@ -69,32 +74,77 @@ ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
   return *this;
 }
 
+namespace {
+
+/// A breakdown from price()'s figures by part, each part a ComponentBreakdown field by name.
+ComponentBreakdown by_part(const std::map<std::string, double>& parts) {
+  ComponentBreakdown b;
+  for (const auto& [name, v] : parts) {
+    const auto it = std::find(std::begin(kPartNames), std::end(kPartNames), name);
+    if (it == std::end(kPartNames)) throw std::logic_error("by_part: no part '" + name + "'");
+    b.*kParts[it - std::begin(kPartNames)] = v;
+  }
+  return b;
+}
+
+Component component(const std::string& name, double area_mm2, double leakage_mw,
+                    std::initializer_list<std::pair<const char*, double>> actions) {
+  Component c;
+  c.name = name;
+  c.area.value = area_mm2;
+  c.leakage.value = leakage_mw;
+  for (const auto& [a, pj] : actions) c.actions_pj[a].value = pj;
+  return c;
+}
+
+}  // namespace
+
+NamedLibrary CostModel::components() const {
+  NamedLibrary n;
+  n.source = lib.source;
+  n.area_unit_mm2 = n.leakage_unit_mw = 1;
+  const int ab = adc_bits_priced(), db = dac_bits_priced();
+  auto add = [&](Component c) { n.components[c.name] = std::move(c); };
+  add(component("crossbar", lib.cell.area_mm2, lib.cell.leakage_mw, {{"read", lib.cell.read_pj}}));
+  add(component("adc", lib.adc.area_at(ab), lib.adc.leakage_mw, {{"convert", lib.adc.conversion_pj_at(ab)}}));
+  add(component("dac", lib.dac.area_at(db) + (dac_lut ? lib.dac_lut.area_mm2 : 0.0),
+                lib.dac.leakage_mw + (dac_lut ? lib.dac_lut.leakage_mw : 0.0), {{"convert", dac_conversion_pj()}}));
+  add(component("accumulator", lib.accumulator.area_mm2, lib.accumulator.leakage_mw,
+                {{"accumulate", lib.accumulator.accumulate_pj}}));
+  add(component("shift_register", lib.shift_register.area_mm2_per_entry, lib.shift_register.leakage_mw_per_entry,
+                {{"shift", lib.shift_register.shift_pj}, {"read", lib.shift_register.read_pj}}));
+  add(component("buffer", lib.buffer.area_mm2_per_kib, lib.buffer.leakage_mw_per_kib,
+                {{"read", lib.buffer.read_pj_per_byte}, {"write", lib.buffer.write_pj_per_byte}}));
+  add(component("sample_hold", lib.sample_hold.area_mm2, lib.sample_hold.leakage_mw, {{"sample", lib.sample_hold.sample_pj}}));
+  add(component("shift_add", lib.shift_add.area_mm2, lib.shift_add.leakage_mw, {{"add", lib.shift_add.op_pj}}));
+  add(component("output_register", lib.output_register.area_mm2_per_byte, lib.output_register.leakage_mw_per_byte,
+                {{"write", lib.output_register.write_pj}}));
+  add(component("interconnect", lib.interconnect.area_mm2, lib.interconnect.leakage_mw,
+                {{"transfer", lib.interconnect.transfer_pj_per_byte}}));
+  add(component("digital", lib.digital.area_mm2, lib.digital.leakage_mw, {{"op", lib.digital.op_pj}}));
+  add(component("memory", 0, 0, {{"transfer", lib.memory.transfer_pj_per_byte}}));
+  return n;
+}
+
+std::vector<Instance> CostModel::instances(const LayerInventory& v) const {
+  auto unit = [](const char* name, double count) { return Instance{name, name, name, count, {}}; };
+  return {unit("crossbar", static_cast<double>(v.cells_present)),
+          unit("adc", static_cast<double>(v.adcs)),
+          unit("dac", static_cast<double>(v.dacs)),
+          unit("accumulator", static_cast<double>(v.accumulators)),
+          unit("shift_register", static_cast<double>(v.shift_register_entries * v.input_bytes)),
+          unit("buffer", static_cast<double>(v.buffer_bytes) / kKiB),
+          unit("sample_hold", static_cast<double>(v.sample_holds)),
+          unit("shift_add", static_cast<double>(shift_add_units(v))),
+          unit("output_register", static_cast<double>(v.output_register_bytes))};
+}
+
 ComponentBreakdown CostModel::area_mm2(const LayerInventory& v) const {
-  ComponentBreakdown a;
-  a.crossbar = v.cells_present * lib.cell.area_mm2;
-  a.adc = v.adcs * lib.adc.area_at(adc_bits_priced());
-  a.dac = v.dacs * (lib.dac.area_at(dac_bits_priced()) + (dac_lut ? lib.dac_lut.area_mm2 : 0.0));
-  a.accumulator = v.accumulators * lib.accumulator.area_mm2;
-  a.shift_register = v.shift_register_entries * v.input_bytes * lib.shift_register.area_mm2_per_entry;
-  a.buffer = v.buffer_bytes / kKiB * lib.buffer.area_mm2_per_kib;
-  a.sample_hold = v.sample_holds * lib.sample_hold.area_mm2;
-  a.shift_add = shift_add_units(v) * lib.shift_add.area_mm2;
-  a.output_register = v.output_register_bytes * lib.output_register.area_mm2_per_byte;
-  return a;
+  return by_part(price(components(), instances(v), Ledger{}, 0.0).area_mm2);
 }
 
 ComponentBreakdown CostModel::leakage_mw(const LayerInventory& v) const {
-  ComponentBreakdown p;
-  p.crossbar = v.cells_present * lib.cell.leakage_mw;
-  p.adc = v.adcs * lib.adc.leakage_mw;
-  p.dac = v.dacs * (lib.dac.leakage_mw + (dac_lut ? lib.dac_lut.leakage_mw : 0.0));
-  p.accumulator = v.accumulators * lib.accumulator.leakage_mw;
-  p.shift_register = v.shift_register_entries * v.input_bytes * lib.shift_register.leakage_mw_per_entry;
-  p.buffer = v.buffer_bytes / kKiB * lib.buffer.leakage_mw_per_kib;
-  p.sample_hold = v.sample_holds * lib.sample_hold.leakage_mw;
-  p.shift_add = shift_add_units(v) * lib.shift_add.leakage_mw;
-  p.output_register = v.output_register_bytes * lib.output_register.leakage_mw_per_byte;
-  return p;
+  return by_part(price(components(), instances(v), Ledger{}, 0.0).leakage_mw);
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
@@ -102,54 +152,66 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conversions_per_ns) const {
-  // pJ per action x actions per ns (GHz) = mW. Every cell and converter of every array is
-  // active: the arrays' cells present, not only the used ones (the paper's table).
+  // Actions per ns (GHz) x pJ per action = mW. Every cell and converter of every array is
+  // active: the arrays' cells present, not only the used ones (the paper's table). One read
+  // per cycle: every DAC reads its input register entry, every column is sampled; every
+  // conversion is shifted, added and written to the output register (sliced reads).
   const double clock_ghz = clock_mhz * 1e-3;
-  ComponentBreakdown p = leakage_mw(v);
-  p.crossbar += v.cells_present * lib.cell.read_pj * clock_ghz;
-  p.adc += conversions_per_ns * lib.adc.conversion_pj_at(adc_bits_priced());
-  p.dac += v.dacs * dac_conversion_pj() * clock_ghz;
-  p.accumulator += v.accumulators * lib.accumulator.accumulate_pj * clock_ghz;
-  // One read per cycle: every DAC reads its input register entry, every column is sampled;
-  // every conversion is shifted, added and written to the output register (sliced reads).
-  p.shift_register += v.dacs * lib.shift_register.read_pj * clock_ghz;
-  p.sample_hold += v.sample_holds * lib.sample_hold.sample_pj * clock_ghz;
+  Ledger per_cycle, per_ns;
+  per_cycle.add("crossbar", "read", static_cast<double>(v.cells_present));
+  per_ns.add("adc", "convert", conversions_per_ns);
+  per_cycle.add("dac", "convert", static_cast<double>(v.dacs));
+  per_cycle.add("accumulator", "accumulate", static_cast<double>(v.accumulators));
+  per_cycle.add("shift_register", "read", static_cast<double>(v.dacs));
+  per_cycle.add("sample_hold", "sample", static_cast<double>(v.sample_holds));
   if (v.sliced()) {
-    p.shift_add += conversions_per_ns * lib.shift_add.op_pj;
-    p.output_register += conversions_per_ns * lib.output_register.write_pj;
+    per_ns.add("shift_add", "add", conversions_per_ns);
+    per_ns.add("output_register", "write", conversions_per_ns);
   }
-  return p;
+  const NamedLibrary parts = components();
+  const std::vector<Instance> units = instances(v);
+  return by_part(price(parts, units, Ledger{}, 0.0).leakage_mw) +
+         by_part(price(parts, units, per_cycle, 0.0).energy_pj) * clock_ghz +
+         by_part(price(parts, units, per_ns, 0.0).energy_pj);
 }
 
 ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
-  ComponentBreakdown e;
-  e.crossbar = a.cell_reads * lib.cell.read_pj;
-  e.adc = a.adc_conversions * lib.adc.conversion_pj_at(adc_bits_priced());
-  e.dac = a.dac_conversions * dac_conversion_pj();
-  e.accumulator = a.accumulates * lib.accumulator.accumulate_pj;
-  e.shift_register = a.shifts * lib.shift_register.shift_pj + a.dac_conversions * lib.shift_register.read_pj;
-  e.sample_hold = a.samples * lib.sample_hold.sample_pj;
-  e.shift_add = a.shift_adds * lib.shift_add.op_pj;
-  e.output_register = a.shift_adds * lib.output_register.write_pj;
-  e.buffer = a.buffer_read_bytes * lib.buffer.read_pj_per_byte + a.buffer_write_bytes * lib.buffer.write_pj_per_byte;
-  e.interconnect = a.bus_bytes * lib.interconnect.transfer_pj_per_byte;
-  e.digital = a.digital_ops * lib.digital.op_pj;
-  e.memory = a.memory_bytes * lib.memory.transfer_pj_per_byte;
-  return e;
+  Ledger l;
+  l.add("crossbar", "read", a.cell_reads);
+  l.add("adc", "convert", a.adc_conversions);
+  l.add("dac", "convert", a.dac_conversions);
+  l.add("accumulator", "accumulate", a.accumulates);
+  l.add("shift_register", "shift", a.shifts);
+  l.add("shift_register", "read", a.dac_conversions);  // every DAC conversion reads its entry
+  l.add("sample_hold", "sample", a.samples);
+  l.add("shift_add", "add", a.shift_adds);
+  l.add("output_register", "write", a.shift_adds);  // each shift-and-add result is written
+  l.add("buffer", "read", a.buffer_read_bytes);
+  l.add("buffer", "write", a.buffer_write_bytes);
+  l.add("interconnect", "transfer", a.bus_bytes);
+  l.add("digital", "op", a.digital_ops);
+  l.add("memory", "transfer", a.memory_bytes);
+  const auto unit = [](const char* name) { return Instance{name, name, name, 0, {}}; };
+  return by_part(price(components(),
+                       {unit("crossbar"), unit("adc"), unit("dac"), unit("accumulator"), unit("shift_register"),
+                        unit("sample_hold"), unit("shift_add"), unit("output_register"), unit("buffer"),
+                        unit("interconnect"), unit("digital"), unit("memory")},
+                       l, 0.0)
+                     .energy_pj);
 }
 
 ComponentBreakdown CostModel::platform_area_mm2(int digital_units) const {
-  ComponentBreakdown a;
-  a.interconnect = lib.interconnect.area_mm2;
-  a.digital = digital_units * lib.digital.area_mm2;
-  return a;
+  return by_part(price(components(), {{"interconnect", "interconnect", "interconnect", 1, {}},
+                                      {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
+                       Ledger{}, 0.0)
+                     .area_mm2);
 }
 
 ComponentBreakdown CostModel::platform_leakage_mw(int digital_units) const {
-  ComponentBreakdown p;
-  p.interconnect = lib.interconnect.leakage_mw;
-  p.digital = digital_units * lib.digital.leakage_mw;
-  return p;
+  return by_part(price(components(), {{"interconnect", "interconnect", "interconnect", 1, {}},
+                                      {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
+                       Ledger{}, 0.0)
+                     .leakage_mw);
 }
 
 long long CostModel::shift_add_units(const LayerInventory& v) const {

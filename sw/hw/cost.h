@@ -1,7 +1,8 @@
 #pragma once
-/// Cost of an inventory from the component library, in one place (Accelergy style):
-/// area and leakage from unit counts; energy from action counts x energy per action plus
-/// leakage x time; peak power with every unit busy at its highest action rate.
+/// Cost of an inventory from the component library (Accelergy style), by the one pricing
+/// function, price() (sw/hw/components.h): the library's sections as named components, the
+/// inventory's unit counts as their instances (area, leakage), action counts as their ledger
+/// (energy, plus leakage x time); peak power with every unit busy at its highest action rate.
 /// The crossbar read energy is the library's energy per cell read (cell.read_pj) for every
 /// used cell of every iteration, not V*I*t of the solved currents.
 #include <nlohmann/json.hpp>
@@ -10,6 +11,7 @@
 #include <string>
 
 #include "sw/hw/component_library.h"
+#include "sw/hw/components.h"
 #include "sw/hw/inventory.h"
 
 namespace xbarsim {
@@ -66,6 +68,12 @@ struct CostModel {
 
   /// Shift-and-add units of a layer with sliced reads: ceil(ADCs / shift_add.adcs_per_unit).
   long long shift_add_units(const LayerInventory& v) const;
+  /// The fixed library's sections as named components at these resolutions (mm^2, mW, pJ),
+  /// each named as its part of ComponentBreakdown (cell as crossbar); everything below is
+  /// their price (price(), sw/hw/components.h): instances from the inventory, actions counted.
+  NamedLibrary components() const;
+  /// The inventory's units as instances of components().
+  std::vector<Instance> instances(const LayerInventory& v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;
   /// Every unit at its highest action rate: the ADCs at the library's sample rate.

@@ -129,8 +129,8 @@ ChipPeak chip_peak(const HardwareContext& hw) {
   r.tops = r.ops_per_read * static_cast<double>(r.cores) / s.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
   for (const auto& [part, pj] : r.per_read.energy_pj) r.fj_per_op[part] = pj * 1e3 / r.ops_per_read;
   r.tops_per_w = r.ops_per_read / r.per_read.total_energy_pj();  // ops/pJ = TOPS/W
-  r.core_area_mm2 = r.per_read.total_area_um2() * 1e-6;
-  for (const auto& [part, um2] : r.per_read.area_um2) r.area_share[part] = um2 * 1e-6 / r.core_area_mm2;
+  r.core_area_mm2 = r.per_read.total_area_mm2();
+  for (const auto& [part, mm2] : r.per_read.area_mm2) r.area_share[part] = mm2 / r.core_area_mm2;
   return r;
 }
 

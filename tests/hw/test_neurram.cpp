@@ -80,15 +80,15 @@ TEST(NamedComponents, PriceByHand) {
   l.add("w", "switch", 6);
   l.energy_pj["pulses"] = 7;
   const Bill b = price(lib, inst, l, 1000.0);  // 1 us
-  EXPECT_DOUBLE_EQ(b.area_um2.at("neuron"), 4 * 400 + 4 * 45 * 8);
-  EXPECT_DOUBLE_EQ(b.area_um2.at("input"), 4);
+  EXPECT_NEAR(b.area_mm2.at("neuron"), (4 * 400 + 4 * 45 * 8) * 1e-6, 1e-18);
+  EXPECT_NEAR(b.area_mm2.at("input"), 4e-6, 1e-18);
   // adc: 10 x 0.3 + 4 x 10 nW x 1 us (4e-5 pJ... = 0.04 pJ); sample 2 x 1.2.
   EXPECT_NEAR(b.energy_pj.at("neuron"), 3.0 + 0.04 + 2.4, 1e-12);
   EXPECT_NEAR(b.energy_pj.at("input"), 5 * 0.5 * 4, 1e-12);  // 2^(6-4)
   // C = 2.1 x 256 + 48 = 585.6 fF; C dV^2 = 585.6 x 1.69 fJ per switch.
   EXPECT_NEAR(b.energy_pj.at("wordline"), 6 * 585.6 * 1.69 * 1e-3, 1e-12);
   EXPECT_DOUBLE_EQ(b.energy_pj.at("pulses"), 7);
-  EXPECT_NEAR(b.total_leakage_nw(), 40, 1e-12);
+  EXPECT_NEAR(b.total_leakage_mw(), 40e-6, 1e-18);
 }
 
 TEST(NamedComponents, BadInputIsNamed) {
@@ -192,7 +192,7 @@ TEST(NeurramChip, CoreAreaAndSplit) {
   EXPECT_LE(std::abs(rel(c.area_share.at("rram"), 0.12)), 0.05);
   EXPECT_LE(std::abs(rel(c.area_share.at("other"), 0.39)), 0.05);
   // The neuron from its components: 400 + 350 + 170 + 8 x 45 = 1280 um^2 (published 1270).
-  EXPECT_NEAR(c.per_read.area_um2.at("neuron") / 256, 1280, 1e-9);
+  EXPECT_NEAR(c.per_read.area_mm2.at("neuron") / 256, 1280e-6, 1e-15);
 }
 
 TEST(NeurramChip, OneFileEveryPrecision) {
