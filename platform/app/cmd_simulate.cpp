@@ -108,7 +108,8 @@ int simulate_peak(const CliArgs& args, const ConfigTree& base, const std::vector
   }
   const ChipPeak& c = peaks.front();
   std::printf("core %.4f mm2:", c.core_area_mm2);
-  for (const auto& [part, share] : c.area_share) std::printf(" %s %.1f %%", part.c_str(), 100 * share);
+  for (const auto& [part, share] : c.area_share)
+    if (share > 0) std::printf(" %s %.1f %%", part.c_str(), 100 * share);
   std::printf("\n(energy per operation by part: WL = word-line switching, neuron = its components and leakage, "
               "pulses = the solved input pulses; 2 operations per MAC)\n");
   out.finish();

@@ -26,7 +26,7 @@ nlohmann::json ChipPeak::to_json() const {
           {"area_mm2", core_area_mm2 * static_cast<double>(cores)}};
 }
 
-double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& given, CircuitSolution* last) {
+double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& given) {
   const AnalogConfig ac = with_device_range(given);
   const InputSpec& in = arch.input;
   const int rows = arch.crossbar.rows, cols = arch.crossbar.cols;
@@ -83,13 +83,8 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
     // cells', wires' and access transistors' dissipation together).
     const CircuitSolution s = solver->solve(v);
     joules += v.dot(s.cell_current.rowwise().sum()) * in.pulse_ns * 1e-9;
-    if (last) *last = s;
   }
   return joules / in.vectors * 1e12;
-}
-
-double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac) {
-  return input_pulse_pj_per_bit(arch, ac, nullptr);
 }
 
 ChipPeak chip_peak(const HardwareContext& hw) {
