@@ -124,6 +124,10 @@ double cell_power_w(const CircuitSolution& s) {
   return (s.cell_current.array() * (s.v_top - s.v_mid).array()).sum();
 }
 
+double source_power_w(const CircuitSolution& s, const Eigen::VectorXd& v_in) {
+  return v_in.dot(s.cell_current.rowwise().sum());
+}
+
 void parallel_for(int count, int threads, const std::function<void(int)>& f) {
   threads = std::max(1, std::min(threads, count));
   if (threads == 1 || on_worker_thread()) {  // nested (e.g. a solve inside a parallel image loop): inline

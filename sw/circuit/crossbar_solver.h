@@ -106,6 +106,11 @@ class CrossbarSolver {
 /// sum_ij G_ij (V_i - V_col,j)^2 (voltage sensing) or sum_ij G_ij V_i^2 (current sensing).
 double cell_power_w(const CircuitSolution& s);
 
+/// Power (W) the row sources deliver to a solution for inputs `v_in`: sum over rows of
+/// V_i x the current the row's cells draw (by KCL, what flows in through r_in): the cells',
+/// transistors' and wires' dissipation together. With ideal wires it is cell_power_w.
+double source_power_w(const CircuitSolution& s, const Eigen::VectorXd& v_in);
+
 /// The solver selected by options.method: "auto"/"line" -> LineSolver, "direct" -> NodalSolver.
 std::unique_ptr<CrossbarSolver> make_crossbar_solver(const CrossbarParams& p, const SolverOptions& o);
 

@@ -44,7 +44,6 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
   auto level = [&](double x) { return levels > 0 ? std::round(x * levels) / levels : x; };  // x in [0, 1]
   auto cell = [&](double x) { return g_lo + (g_hi - g_lo) * level(x); };
   const bool rows_paired = ac.mapping.differential() && in.pairs_on_rows;
-  const int pair_step = ac.mapping.differential() ? 2 : 1;
   Eigen::MatrixXd g = Eigen::MatrixXd::Constant(rows, cols, g_lo);
   if (rows_paired) {
     for (int j = 0; j < cols; ++j)
@@ -74,15 +73,13 @@ double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& give
     Eigen::VectorXd v(rows);
     v.setZero();
     if (rows_paired) {  // an input's pulse: +v_read on the G+ row, -v_read on the G- row
-      for (int i = 0; i + 1 < rows; i += pair_step)
+      for (int i = 0; i + 1 < rows; i += 2)
         if (uniform(rng) < in.bit_density) v(i) = in.v_read_v, v(i + 1) = -in.v_read_v;
     } else {
       for (int i = 0; i < rows; ++i) v(i) = uniform(rng) < in.bit_density ? in.v_read_v : 0.0;
     }
-    // What the drivers deliver: each row's pulse voltage x the current its cells draw (the
-    // cells', wires' and access transistors' dissipation together).
-    const CircuitSolution s = solver->solve(v);
-    joules += v.dot(s.cell_current.rowwise().sum()) * in.pulse_ns * 1e-9;
+    // What the drivers deliver: the cells', wires' and access transistors' dissipation.
+    joules += source_power_w(solver->solve(v), v) * in.pulse_ns * 1e-9;
   }
   return joules / in.vectors * 1e12;
 }
@@ -95,33 +92,20 @@ ChipPeak chip_peak(const HardwareContext& hw) {
                      " has none");
   ChipPeak r;
   r.architecture = a.name;
-  r.input_bits = hw.converters.activation_bits();
+  r.input_bits = hw.converters.activation_bits();  // both set: make_hardware_context checked them
   r.output_bits = hw.converters.adc_bits;
-  if (r.input_bits < 1 || r.output_bits < 1)
-    throw InputError("peak figures of neuron cores need converters.input_bits (or dac_bits) and converters.adc_bits "
-                     "(the output bits) set, not none");
   r.steps = hw.read_steps;
   r.cores = a.chip.tiles * static_cast<long long>(a.tile.imas) * a.ima.crossbars;
   // Two operations per weight (a MAC), a weight per columns_per_weight cells (on rows or columns).
   r.ops_per_read = 2.0 * a.crossbar.rows * a.crossbar.cols / std::max(1, hw.mapping.columns_per_weight()) *
                    a.ima.crossbars;
   r.pulse_pj_per_bit = hw.core_pulse_pj_per_bit * a.ima.crossbars;
-  // One core's actions in one read, by the parts that perform them.
-  auto count = [&](const std::string& name) {
-    for (const Instance& i : a.ima.components)
-      if (i.name == name) return i.count;
-    return 0.0;
-  };
-  Ledger ledger;
-  const ReadSteps& s = r.steps;
-  ledger.add(a.readout.adc, "step", count(a.readout.adc) * static_cast<double>(s.adc_steps));
-  ledger.add(a.readout.integrator, "step", count(a.readout.integrator) * static_cast<double>(s.integrate_steps));
-  ledger.add(a.readout.sample, "sample", count(a.readout.sample) * static_cast<double>(s.samples));
-  ledger.add(a.readout.shift_add, "add", count(a.readout.shift_add) * s.phases);
-  ledger.add(a.input.wordline, "switch", count(a.input.wordline) * a.input.wordline_switches_per_bit * s.magnitude_bits);
-  ledger.energy_pj["input_pulses"] = r.pulse_pj_per_bit * s.magnitude_bits;
-  r.per_read = price(hw.lib.named, a.ima.components, ledger, s.time_ns);
-  r.tops = r.ops_per_read * static_cast<double>(r.cores) / s.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
+  // One core's read: every column a neuron read, every cell read; leakage over the read.
+  const double xbars = a.ima.crossbars;
+  r.per_read = price(hw.lib.named, a.ima.components,
+                     neuron_read_ledger(hw, xbars * a.crossbar.cols, xbars * a.crossbar.rows * a.crossbar.cols),
+                     r.steps.time_ns);
+  r.tops = r.ops_per_read * static_cast<double>(r.cores) / r.steps.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
   for (const auto& [part, pj] : r.per_read.energy_pj) r.fj_per_op[part] = pj * 1e3 / r.ops_per_read;
   r.tops_per_w = r.ops_per_read / r.per_read.total_energy_pj();  // ops/pJ = TOPS/W
   r.core_area_mm2 = r.per_read.total_area_mm2();

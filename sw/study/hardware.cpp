@@ -69,21 +69,23 @@ nlohmann::json CostReport::to_json() const {
           {"time_ns_per_image", time_ns}};
 }
 
-ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a) {
+Ledger neuron_read_ledger(const HardwareContext& hw, double neuron_reads, double cell_reads) {
   const Architecture& arch = hw.arch;
   const ReadSteps& s = hw.read_steps;
-  // Every converted column is one neuron's read: its parts' steps, its word line's switches;
-  // every cell read carries its share of a core's solved input pulses.
-  const double reads = a.adc_conversions;
   Ledger l;
-  l.add(arch.readout.adc, "step", reads * static_cast<double>(s.adc_steps));
-  l.add(arch.readout.integrator, "step", reads * static_cast<double>(s.integrate_steps));
-  l.add(arch.readout.sample, "sample", reads * static_cast<double>(s.samples));
-  l.add(arch.readout.shift_add, "add", reads * s.phases);
-  l.add(arch.input.wordline, "switch", reads * arch.input.wordline_switches_per_bit * s.magnitude_bits);
+  l.add(arch.readout.adc, "step", neuron_reads * static_cast<double>(s.adc_steps));
+  l.add(arch.readout.integrator, "step", neuron_reads * static_cast<double>(s.integrate_steps));
+  l.add(arch.readout.sample, "sample", neuron_reads * static_cast<double>(s.samples));
+  l.add(arch.readout.shift_add, "add", neuron_reads * s.phases);
+  l.add(arch.input.wordline, "switch", neuron_reads * arch.input.wordline_switches_per_bit * s.magnitude_bits);
   const double cells = static_cast<double>(arch.crossbar.rows) * arch.crossbar.cols;
-  l.energy_pj["input_pulses"] = a.cell_reads / cells * hw.core_pulse_pj_per_bit * s.magnitude_bits;
-  const Bill b = price(hw.lib.named, arch.ima.components, l, 0.0);
+  l.energy_pj["input_pulses"] = cell_reads / cells * hw.core_pulse_pj_per_bit * s.magnitude_bits;
+  return l;
+}
+
+ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a) {
+  // Every converted column is one neuron's read.
+  const Bill b = price(hw.lib.named, hw.arch.ima.components, neuron_read_ledger(hw, a.adc_conversions, a.cell_reads), 0.0);
   ComponentBreakdown e;
   for (const auto& [part, pj] : b.energy_pj)
     if (pj > 0) e.parts[part] = pj;

@@ -171,6 +171,49 @@ TEST(VoltageSensing, CellPowerWithIdealWires) {
   }
 }
 
+TEST(VoltageSensing, SourcePowerIsCellsPlusWires) {
+  // Ideal wires: the sources deliver what the cells dissipate, sum G (V_i - V_col)^2. With
+  // resistive wires and drivers they deliver that plus every wire segment's I^2 R.
+  const int m = 40, n = 20;
+  CrossbarParams p = voltage_params(TransistorModel::None);
+  p.r_wire_ohm = p.r_in_ohm = p.r_out_ohm = 1e-9;
+  const Eigen::MatrixXd g = test::random_g(m, n, p, 63);
+  const Eigen::VectorXd v = test::random_v(1, m, 0.0, 0.4, 64).row(0).transpose();
+  const Eigen::RowVectorXd v_col = (v.transpose() * g).array() / g.colwise().sum().array();
+  double ideal = 0;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < n; ++j) ideal += g(i, j) * (v(i) - v_col(j)) * (v(i) - v_col(j));
+  for (const std::string method : {"line", "direct"}) {
+    auto s = solver_for(p, method);
+    s->program(g);
+    EXPECT_NEAR(source_power_w(s->solve(v), v), ideal, 1e-9 * ideal) << method;
+  }
+  CrossbarParams w = p;
+  w.r_wire_ohm = w.r_in_ohm = 50;
+  auto s = solver_for(w, "line");
+  s->program(g);
+  const CircuitSolution sol = s->solve(v);
+  // The wires' dissipation, segment by segment: each row's current through its driver (r_in)
+  // and the segment before its first cell, the row wires between cells, and the column wires
+  // (the open end carries nothing).
+  double wires = 0;
+  for (int i = 0; i < m; ++i) {
+    const double row = sol.cell_current.row(i).sum();
+    wires += row * row * (w.r_in_ohm + w.r_wire_ohm);
+    for (int j = 0; j + 1 < n; ++j) {
+      const double d = sol.v_top(i, j) - sol.v_top(i, j + 1);
+      wires += d * d / w.r_wire_ohm;
+    }
+  }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i + 1 < m; ++i) {
+      const double d = sol.v_bottom(i, j) - sol.v_bottom(i + 1, j);
+      wires += d * d / w.r_wire_ohm;
+    }
+  EXPECT_GT(wires, 0);
+  EXPECT_NEAR(source_power_w(sol, v), cell_power_w(sol) + wires, 1e-9 * source_power_w(sol, v));
+}
+
 TEST(VoltageSensing, ColumnCurrentsAreAnInputError) {
   auto s = solver_for(voltage_params(TransistorModel::None), "line");
   s->program(Eigen::MatrixXd::Constant(4, 3, 2e-5));
