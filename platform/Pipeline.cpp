@@ -273,8 +273,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     const Architecture& a = machine_->arch;
     // Cores without a mesh (no chip.router): one node holds every tile, and every transfer is
     // relayed through the chip's off-chip port at its links' rate (send_rows).
-    const double rate = a.chip.has_router() ? a.chip.router.actions_per_ns
-                                            : a.chip.offchip.actions_per_ns * static_cast<double>(a.chip.offchip.count);
+    const double rate = a.chip.transfer_bytes_per_ns();
     if (!(rate > 0))
       throw InputError("architecture.machine " + a.name + ": a network needs a way between its cores: chip.router, or "
                        "chip.offchip for cores without a mesh");
@@ -718,8 +717,7 @@ void Pipeline::source() {
 
 double Pipeline::offchip_ns(long long bytes) const {
   if (machine_) {
-    const UnitUse& links = machine_->arch.chip.offchip;
-    return static_cast<double>(bytes) / (links.count * links.actions_per_ns);
+    return static_cast<double>(bytes) / machine_->arch.chip.offchip_bytes_per_ns();
   }
   return std::ceil(static_cast<double>(bytes) / cfg_.memory_bytes_per_cycle) * cfg_.clock_ns();
 }

@@ -78,16 +78,17 @@ void CrossbarSolver::check_input(const Eigen::VectorXd& v_in) const {
   }
 }
 
-void CrossbarSolver::check_batch(const Eigen::MatrixXd& v_in) const {
+Eigen::MatrixXd CrossbarSolver::solved_outputs(const Eigen::MatrixXd& v_in, bool voltages) const {
   if (v_in.cols() != g_.rows()) {
     std::ostringstream os;
     os << "input vectors have " << v_in.cols() << " voltages but the crossbar has " << g_.rows() << " rows";
     throw InputError(os.str());
   }
-}
-
-Eigen::MatrixXd CrossbarSolver::solve_each(const Eigen::MatrixXd& v_in, bool voltages) const {
   Eigen::MatrixXd out(v_in.rows(), g_.cols());
+  if (params_.is_linear() && v_in.rows() > std::min(g_.rows(), g_.cols())) {
+    out.noalias() = v_in * effective_matrix();
+    return out;
+  }
   parallel_for(static_cast<int>(v_in.rows()), resolve_threads(options_.threads), [&](int k) {
     const CircuitSolution s = solve(v_in.row(k).transpose());
     out.row(k) = (voltages ? s.column_voltage : s.column_current).transpose();
@@ -100,24 +101,12 @@ Eigen::MatrixXd CrossbarSolver::column_currents(const Eigen::MatrixXd& v_in) con
     throw InputError(
         "crossbar.sensing is voltage: the columns end open and carry no current; their outputs are the column "
         "voltages");
-  check_batch(v_in);
-  if (params_.is_linear() && v_in.rows() > std::min(g_.rows(), g_.cols())) {
-    Eigen::MatrixXd out(v_in.rows(), g_.cols());
-    out.noalias() = v_in * effective_matrix();
-    return out;
-  }
-  return solve_each(v_in, false);
+  return solved_outputs(v_in, false);
 }
 
 Eigen::MatrixXd CrossbarSolver::column_voltages(const Eigen::MatrixXd& v_in) const {
   if (!params_.voltage_sensing()) return column_currents(v_in) * params_.r_out_ohm;
-  check_batch(v_in);
-  if (params_.is_linear() && v_in.rows() > std::min(g_.rows(), g_.cols())) {
-    Eigen::MatrixXd out(v_in.rows(), g_.cols());
-    out.noalias() = v_in * effective_matrix();
-    return out;
-  }
-  return solve_each(v_in, true);
+  return solved_outputs(v_in, true);
 }
 
 double cell_power_w(const CircuitSolution& s) {

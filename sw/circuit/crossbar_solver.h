@@ -84,10 +84,10 @@ class CrossbarSolver {
   /// Validates and stores g; shared by implementations.
   void store_conductances(const Eigen::MatrixXd& g_s);
   void check_input(const Eigen::VectorXd& v_in) const;
-  /// Throws InputError unless the batch has one voltage per row.
-  void check_batch(const Eigen::MatrixXd& v_in) const;
-  /// Outputs of a batch, vector by vector on all threads: the column voltages or currents.
-  Eigen::MatrixXd solve_each(const Eigen::MatrixXd& v_in, bool voltages) const;
+  /// The column voltages or currents of a batch (InputError unless it has one voltage per
+  /// row): through the effective matrix for linear devices when that is cheaper, else vector
+  /// by vector on all threads.
+  Eigen::MatrixXd solved_outputs(const Eigen::MatrixXd& v_in, bool voltages) const;
   /// A, the largest KCL residual (any node) that Newton accepts at convergence, for inputs
   /// of magnitude up to `v_scale`: abstol + newton_tolerance * v_scale * largest wire conductance.
   double kcl_tolerance(double v_scale) const;

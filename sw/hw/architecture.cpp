@@ -22,8 +22,6 @@ UnitUse unit_use(YamlSection& s, const char* rate_key) {
   return u;
 }
 
-bool chip_has_router(const YAML::Node& root) { return root["chip"] && root["chip"].IsMap() && root["chip"]["router"]; }
-
 }  // namespace
 
 Architecture parse_architecture(const std::string& text, const std::string& origin) {
@@ -114,9 +112,6 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     a.tile.bus = unit_use(bus, "bytes_per_ns");
     bus.finish();
   }
-  if (!a.neuron_cores() && (a.tile.edram_bytes == 0 || a.tile.bus.unit.empty() || !chip_has_router(root)))
-    throw InputError(origin + ": a machine of current-mode IMAs needs 'tile.edram', 'tile.bus' and 'chip.router' "
-                     "(only neuron cores are described without them, for their peak figures)");
   if (tile.has("units")) {
     YamlSection units = tile.section("units");
     for (const std::string& name : units.keys()) {
@@ -169,6 +164,9 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     }
   }
   chip.finish();
+  if (!a.neuron_cores() && (a.tile.edram_bytes == 0 || a.tile.bus.unit.empty() || !a.chip.has_router()))
+    throw InputError(origin + ": a machine of current-mode IMAs needs 'tile.edram', 'tile.bus' and 'chip.router' "
+                     "(only neuron cores are described without them)");
   // The chip's crossbars (each factor at most 2^30: the product fits in 128 bits; within the
   // limit every count of the machine fits in 64).
   const __int128 chip_crossbars = static_cast<__int128>(a.chip.tiles) * a.tile.imas * a.ima.crossbars;

@@ -74,6 +74,10 @@ struct Architecture {
     bool has_router() const { return !router.unit.empty(); }
     double hop_ns = 0;  ///< a transfer's head through one router
     UnitUse offchip;    ///< off-chip links
+    double offchip_bytes_per_ns() const { return static_cast<double>(offchip.count) * offchip.actions_per_ns; }
+    /// The rate of a transfer between tiles: a router link, or (cores without a mesh) the
+    /// off-chip links it is relayed through.
+    double transfer_bytes_per_ns() const { return has_router() ? router.actions_per_ns : offchip_bytes_per_ns(); }
     long long routers() const { return static_cast<long long>(mesh_rows) * mesh_cols; }
     /// Routers the tiles need: ceil(tiles / tiles_per_router).
     long long routers_needed() const { return (static_cast<long long>(tiles) + tiles_per_router - 1) / tiles_per_router; }

@@ -4,12 +4,9 @@
 
 #include <cmath>
 
-#include "sw/common/input_file.h"
 #include "sw/common/yaml_section.h"
 
 namespace xbarsim {
-
-const char* builtin_component_library_yaml(const char* name);  // configs/components/<name>.yaml, compiled in
 
 double Figure::at(const Params& params, const std::string& where) const {
   auto param = [&](const std::string& p) {
@@ -180,22 +177,6 @@ NamedLibrary parse_named_library(const std::string& text, const std::string& ori
   comps.finish();
   top.finish();
   return lib;
-}
-
-NamedLibrary load_named_library(const ConfigTree& cfg) {
-  const std::string path = cfg.get_string("components.library");
-  const std::string name = path.empty() ? "isaac_paper" : path;
-  std::string text, origin;
-  if (const char* t = builtin_component_library_yaml(name.c_str())) {
-    text = t;
-    origin = "built-in configs/components/" + name + ".yaml";
-  } else {
-    text = read_input_file(path, "the component library (components.library)", kMaxYamlBytes);
-    origin = path;
-  }
-  if (!is_named_library(text))
-    throw InputError(origin + ": not a library of named components (a top-level 'components:' section)");
-  return parse_named_library(text, origin);
 }
 
 }  // namespace xbarsim

@@ -106,8 +106,4 @@ bool is_named_library(const std::string& yaml_text);
 /// Parses a named library; errors name `origin`, the component and the key.
 NamedLibrary parse_named_library(const std::string& yaml_text, const std::string& origin);
 
-/// The named library components.library names (a built-in by name, configs/components/<name>.yaml,
-/// or a file); InputError when it is not in the named form.
-NamedLibrary load_named_library(const ConfigTree& cfg);
-
 }  // namespace xbarsim

@@ -191,27 +191,24 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   l.add("interconnect", "transfer", a.bus_bytes);
   l.add("digital", "op", a.digital_ops);
   l.add("memory", "transfer", a.memory_bytes);
-  const auto unit = [](const char* name) { return Instance{name, name, name, 0, {}}; };
-  return by_part(price(components(),
-                       {unit("crossbar"), unit("adc"), unit("dac"), unit("accumulator"), unit("shift_register"),
-                        unit("sample_hold"), unit("shift_add"), unit("output_register"), unit("buffer"),
-                        unit("interconnect"), unit("digital"), unit("memory")},
-                       l, 0.0)
-                     .energy_pj);
+  std::vector<Instance> units;  // the actions' performers (their count prices only area and leakage)
+  for (const char* name : kPartNames) units.push_back({name, name, name, 0, {}});
+  return by_part(price(components(), units, l, 0.0).energy_pj);
+}
+
+Bill CostModel::platform_bill(int digital_units) const {
+  return price(components(),
+               {{"interconnect", "interconnect", "interconnect", 1, {}},
+                {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
+               Ledger{}, 0.0);
 }
 
 ComponentBreakdown CostModel::platform_area_mm2(int digital_units) const {
-  return by_part(price(components(), {{"interconnect", "interconnect", "interconnect", 1, {}},
-                                      {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
-                       Ledger{}, 0.0)
-                     .area_mm2);
+  return by_part(platform_bill(digital_units).area_mm2);
 }
 
 ComponentBreakdown CostModel::platform_leakage_mw(int digital_units) const {
-  return by_part(price(components(), {{"interconnect", "interconnect", "interconnect", 1, {}},
-                                      {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
-                       Ledger{}, 0.0)
-                     .leakage_mw);
+  return by_part(platform_bill(digital_units).leakage_mw);
 }
 
 long long CostModel::shift_add_units(const LayerInventory& v) const {

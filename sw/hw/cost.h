@@ -83,6 +83,7 @@ struct CostModel {
   /// and written to the output register when reads are sliced.
   ComponentBreakdown peak_power_mw(const LayerInventory& v, double conversions_per_ns) const;
   /// Area and leakage of the platform-level units: one interconnect, `digital_units` units.
+  Bill platform_bill(int digital_units) const;
   ComponentBreakdown platform_area_mm2(int digital_units) const;
   ComponentBreakdown platform_leakage_mw(int digital_units) const;
   /// Dynamic energy of the actions (pJ), without leakage.

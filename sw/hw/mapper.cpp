@@ -122,8 +122,7 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     if (pc.auto_replication && pc.replication_per_layer.empty()) p.replication = 1;
     p.cell_utilization = static_cast<double>(v.cells_used) / (static_cast<double>(p.imas) * cells_per_ima);
     // The input's arrival over a router link, or (cores without a mesh) the chip's port.
-    const double link = arch.chip.has_router() ? arch.chip.router.actions_per_ns
-                                               : arch.chip.offchip.actions_per_ns * arch.chip.offchip.count;
+    const double link = arch.chip.transfer_bytes_per_ns();
     p.input_ns = link > 0 ? static_cast<double>(v.input.size()) * pc.activation_bytes / link : 0.0;
     p.iteration_ns = timing.back().ii_ns.back();
     m.layers.push_back(p);

@@ -6,9 +6,13 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
 
 #include "sw/common/errors.h"
 #include "sw/study/chip_peak.h"
+#include "tests/app/cli_test_util.h"
 
 namespace xbarsim {
 namespace {
@@ -206,13 +210,6 @@ TEST(NeurramChip, OneFileEveryPrecision) {
 
 // The command: simulate without a network prints and writes the peak figures; a sweep gives
 // one point per precision; bad input is one error line (exit 2); a network runs on the cores.
-#include <fstream>
-#include <sstream>
-
-#include <nlohmann/json.hpp>
-
-#include "tests/app/cli_test_util.h"
-
 namespace xbarsim {
 namespace {
 
