@@ -47,16 +47,27 @@ ColumnFit fit_columns(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& idea
     const double delta = step.size() ? step(j) : 0.0;
     const double tol = std::max(0.5 * delta, kRoundingTolerance * actual.col(j).cwiseAbs().maxCoeff());
     const int distinct = distinct_values(actual.col(j), tol);
-    const Eigen::ArrayXd dx = actual.col(j).array() - mx;
-    const double sxx = dx.square().sum();
-    if (distinct < kMinDistinctOutputs) continue;
-    const double gain = (dx * (ideal.col(j).array() - my)).sum() / sxx;
+    // The errors are in the crossbar's outputs (ADC rounding, device and read noise), not in the
+    // ideal ones: fit actual ~ a ideal + b (the ideal outputs as the regressor, exact) and invert
+    // it, corrected = (actual - b) / a. Regressing ideal on the noisy actual outputs instead
+    // attenuates the gain by var(signal) / (var(signal) + var(noise)) (regression dilution): a
+    // 4-bit ADC's rounding shrank every calibrated output.
+    const Eigen::ArrayXd di = ideal.col(j).array() - my;
+    const double sii = di.square().sum();
+    if (distinct < kMinDistinctOutputs || !(sii > 0)) continue;
+    const double a = (di * (actual.col(j).array() - mx)).sum() / sii;
+    if (!(std::abs(a) > 0)) continue;
+    const double gain = 1.0 / a;
     const double offset = my - gain * mx;
-    // The gain's standard error: the residual variance (rows - 2 degrees of freedom) plus the
-    // ADC's quantization variance step^2 / 12, which the residuals of a few samples can miss.
-    const double ssr = (ideal.col(j).array() - gain * actual.col(j).array() - offset).square().sum();
-    const double se = std::sqrt((ssr / (rows - 2) + delta * delta / 12) / sxx);
+    // The gain's standard error (delta method, se(1/a) = se(a) / a^2): the residual variance of
+    // the actual outputs (rows - 2 degrees of freedom) plus the ADC's quantization variance
+    // step^2 / 12, which the residuals of a few samples can miss.
+    const double ssr = (actual.col(j).array() - mx - a * di).square().sum();
+    const double se = std::sqrt((ssr / (rows - 2) + delta * delta / 12) / sii) / (a * a);
     if (!(se <= kMaxGainStandardError)) continue;
+    // A gain no further from 1 than its noise says nothing: the offset alone, with gain 1
+    // (fitting it would add the estimate's error to every output).
+    if (!(std::abs(gain - 1.0) > kGainSignificance * se)) continue;
     f.gain(j) = gain;
     f.offset(j) = offset;
     f.gain_fitted(j) = true;

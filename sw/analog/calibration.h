@@ -19,9 +19,14 @@ struct ColumnFit {
 constexpr int kMinDistinctOutputs = 3;
 /// ... and only when the fitted gain's standard error is at most this.
 constexpr double kMaxGainStandardError = 1.0;
+/// ... and only when it differs from 1 by more than this many standard errors.
+constexpr double kGainSignificance = 2.0;
 
-/// Least-squares fit ideal ~ gain * actual + offset per column (closed form) where the
-/// calibration data determine a gain; elsewhere gain 1 and the mean difference as offset
+/// Least-squares fit actual ~ a * ideal + b per column (closed form; the errors are in the
+/// actual outputs, so regressing the other way would attenuate the gain), inverted to
+/// corrected = gain * actual + offset (gain = 1 / a), where the calibration data determine a
+/// gain that differs from 1 by more than kGainSignificance standard errors; elsewhere gain 1
+/// and the mean difference as offset
 /// (docs/physics.md, "Calibration"). `step` (per column, output units; empty = no ADC) is the
 /// actual outputs' resolution: one ADC code, combined over the column's reads and physical
 /// columns. The gain is fitted when the actual outputs take at least kMinDistinctOutputs

@@ -63,22 +63,25 @@ TEST(Calibration, RecoversAnExactAffineMap) {
 }
 
 TEST(Calibration, MatchesNormalEquations) {
+  // The fit is actual ~ a ideal + b (the errors are in the crossbar's outputs), inverted:
+  // gain = 1 / a, offset = -b / a. Checked against a QR solve of those normal equations.
   std::mt19937_64 rng(3);
   std::normal_distribution<double> n(0, 1);
   Eigen::MatrixXd actual(10, 3), ideal(10, 3);
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 3; ++j) {
-      actual(i, j) = n(rng);
-      ideal(i, j) = 1.5 * actual(i, j) + n(rng) * 0.1;
+      ideal(i, j) = n(rng);
+      actual(i, j) = ideal(i, j) / 1.5 + n(rng) * 0.1;
     }
   const ColumnFit f = fit_columns(actual, ideal);
   for (int j = 0; j < 3; ++j) {
     Eigen::MatrixXd a(10, 2);
-    a.col(0) = actual.col(j);
+    a.col(0) = ideal.col(j);
     a.col(1).setOnes();
-    const Eigen::Vector2d coef = a.colPivHouseholderQr().solve(ideal.col(j));
-    EXPECT_NEAR(f.gain(j), coef(0), 1e-12);
-    EXPECT_NEAR(f.offset(j), coef(1), 1e-12);
+    const Eigen::Vector2d coef = a.colPivHouseholderQr().solve(actual.col(j));
+    EXPECT_TRUE(f.gain_fitted(j));
+    EXPECT_NEAR(f.gain(j), 1 / coef(0), 1e-12);
+    EXPECT_NEAR(f.offset(j), -coef(1) / coef(0), 1e-12);
   }
   // Constant column: unit gain, mean offset.
   Eigen::MatrixXd c = Eigen::MatrixXd::Constant(3, 1, 2.0), t(3, 1);
@@ -124,9 +127,9 @@ TEST(Calibration, OutputsEqualToRoundingGiveNoGain) {
 }
 
 TEST(Calibration, UndeterminedGainFallsBackToOffset) {
-  // Four resolved outputs, but the ideal outputs do not follow them: gain sxy / sxx = -5 / 5 =
-  // -1, offset 1.5, residuals -1.5, 4.5, -4.5, 1.5 (SSR 45), standard error
-  // sqrt(45 / 2 / 5) = 2.1 > 1: no gain; offset mean(ideal) - mean(actual) = -1.5.
+  // Four resolved outputs, but the ideal outputs do not follow them: a = s_xi / s_ii = -5 / 50 =
+  // -0.1 (gain -10), residuals of actual -1.5, 0, 0, 1.5 (SSR 4.5), se(a) = sqrt(4.5 / 2 / 50)
+  // = 0.21, se(gain) = se(a) / a^2 = 21 > 1: no gain; offset mean(ideal) - mean(actual) = -1.5.
   Eigen::MatrixXd actual(4, 1), ideal(4, 1);
   actual << 0, 1, 2, 3;
   ideal << 0, 5, -5, 0;
@@ -138,7 +141,53 @@ TEST(Calibration, UndeterminedGainFallsBackToOffset) {
   ideal << 1.01, 2.99, 5.0, 7.0;
   const ColumnFit g = fit_columns(actual, ideal, Eigen::VectorXd::Constant(1, 0.01));
   EXPECT_TRUE(g.gain_fitted(0));
-  EXPECT_NEAR(g.gain(0), 1.998, 1e-12);  // sxy / sxx = 9.99 / 5
+  // di = -2.99, -1.01, 1, 3: s_ii = 19.9602, s_xi = 9.99, gain = 1 / a = s_ii / s_xi.
+  EXPECT_NEAR(g.gain(0), 19.9602 / 9.99, 1e-12);
+}
+
+// Issue 50, item 5: conversion + calibration with a 4-bit ADC fell below conversion alone
+// (ResNet-20 80.9 % against 85.7 %). The old fit regressed the ideal outputs on the actual ones,
+// whose errors (ADC rounding, device and read noise) are in the regressor: its gain is the true
+// gain times var(s) / (var(s) + var(noise)) (regression dilution), so every calibrated output
+// shrank. Here actual = ideal / g + noise with ideal ~ U(-1, 1) (variance 1/3) and noise sigma
+// 0.3: the old slope is cov(ideal, actual) / var(actual) = (1/3 / g) / (1/3 / g^2 + 0.09),
+// 0.787 for g = 1 (where nothing is wrong) and 1.099 for g = 1.25; the fit recovers 1 and 1.25.
+TEST(Calibration, NoisyOutputsDoNotAttenuateTheGain) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> noise(0, 0.3);
+  const int rows = 20000;
+  Eigen::MatrixXd actual(rows, 2), ideal(rows, 2);
+  const double g[2] = {1.0, 1.25};
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < 2; ++j) {
+      ideal(i, j) = u(rng);
+      actual(i, j) = ideal(i, j) / g[j] + noise(rng);
+    }
+  const ColumnFit f = fit_columns(actual, ideal);
+  EXPECT_NEAR(f.gain(0), 1.0, 0.02);  // old fit: 0.787
+  EXPECT_TRUE(f.gain_fitted(1));
+  EXPECT_NEAR(f.gain(1), 1.25, 0.02);  // old fit: 1.099
+  // The calibrated outputs' mean squared error against the ideal ones is the noise's, g^2 0.09,
+  // not more: the unit-gain column is left alone (its gain is not significantly off 1) or fitted
+  // to within a few per mille.
+  const Eigen::MatrixXd err = f.apply(actual) - ideal;
+  EXPECT_NEAR(err.col(0).squaredNorm() / rows, 0.09, 0.005);
+  EXPECT_NEAR(err.col(1).squaredNorm() / rows, 1.25 * 1.25 * 0.09, 0.008);
+}
+
+// A gain within its noise of 1 is not fitted: the estimate's error would be added to every
+// output, and the offset alone does as well.
+TEST(Calibration, AGainWithinItsNoiseOfOneIsNotFitted) {
+  // Ten outputs at 4-bit steps of 1/8 from ideal = the same values: a = 1, no gain.
+  Eigen::MatrixXd actual(10, 1), ideal(10, 1);
+  for (int i = 0; i < 10; ++i) {
+    ideal(i, 0) = (i - 5) / 8.0 + ((i % 3) - 1) * 0.01;
+    actual(i, 0) = std::round(ideal(i, 0) * 8) / 8;
+  }
+  const ColumnFit f = fit_columns(actual, ideal, Eigen::VectorXd::Constant(1, 1 / 8.0));
+  EXPECT_FALSE(f.gain_fitted(0));
+  EXPECT_EQ(f.gain(0), 1.0);
 }
 
 TEST(Calibration, StepsCountOnlyResolvedOutputs) {
