@@ -1,6 +1,6 @@
 #pragma once
 /// Digital back end of a tile: sum(X) for the shift correction, the calibration gain and
-/// offset of every column, and the sum of partial results of row-partitioned crossbars.
+/// offset of every column (with per-column weight scales, a multiply per output), and the sum of partial results of row-partitioned crossbars.
 /// Ends the datapath: answers the transaction.
 #include <systemc>
 #include <tlm>
@@ -19,6 +19,8 @@ class DigitalAccumulator : public sc_core::sc_module {
     adc2acc.register_b_transport(this, &DigitalAccumulator::b_transport);
   }
   long long accumulations() const { return accumulations_; }
+  /// Outputs multiplied by their column's digital gain (ranging.weight_scale: column).
+  long long scale_multiplies() const { return scale_multiplies_; }
 
   /// Bit-serial reads of crossbar b only: the block job.read_currents[b] holds added into its
   /// rows of job.y, which the caller has zeroed (no timing, no counters: safe on any thread).
@@ -50,12 +52,13 @@ class DigitalAccumulator : public sc_core::sc_module {
     const long long n = per_iteration * job->iterations();
     job->accumulations += n;
     accumulations_ += n;
+    if (job->analog->config().ranging.weight_scale == WeightScale::Column) scale_multiplies_ += n;
     job->stage_ns[kAccumulate].assign(job->iterations(), latency_ns_);
     if (job->detailed) delay += sim_delay(latency_ns_, delay);
     p.set_response_status(tlm::TLM_OK_RESPONSE);
   }
   double latency_ns_;
-  long long accumulations_ = 0;
+  long long accumulations_ = 0, scale_multiplies_ = 0;
 };
 
 }  // namespace xbarsim

@@ -85,6 +85,7 @@ class Tile : public sc_core::sc_module {
     a.shift_adds = static_cast<double>(adc_.shift_adds());
     a.cell_reads = static_cast<double>(xbar_.cell_reads());
     a.accumulates = static_cast<double>(acc_.accumulations());
+    a.scale_multiplies = static_cast<double>(acc_.scale_multiplies());
     a.shifts = static_cast<double>(sr_.shifted_entries());
     a.buffer_read_bytes = a.shifts;  // the shift register loads its entries from the layer's buffer
     a.buffer_write_bytes = static_cast<double>(outputs_written_);

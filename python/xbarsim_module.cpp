@@ -703,8 +703,14 @@ PYBIND11_MODULE(_core, m) {
         if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
         if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
         py::list out;
-        for (const Block& blk : crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), ac.mapping)) {
-          const MappedWeights m = map_weights(w.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, ac.mapping, ac.xbar);
+        // The ranges eval maps with (ranging.weights, weight_scale), from an unprogrammed layer.
+        const AnalogLayer layer(ac, w, 1.0, false);
+        const std::vector<WeightRanges> ranges = layer.block_ranges();
+        const std::vector<Block> blocks = crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), ac.mapping);
+        for (size_t b = 0; b < blocks.size(); ++b) {
+          const Block& blk = blocks[b];
+          const MappedWeights m =
+              map_weights(w.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, ac.mapping, ac.xbar, ranges[b]);
           const int weight_cols = blk.cols * m.per_weight;  // the sum(X) column, if any, follows them
           py::dict d;
           d["r0"] = blk.row0;
@@ -726,7 +732,8 @@ PYBIND11_MODULE(_core, m) {
       "(rows x cols * per_weight, S; weight column j, polarity p, slice t in column (j * polarities + p) * slices "
       "+ t; the sum(X) column left out), per column the scale s (S per weight unit) and sign, and the shift "
       "w_lo: weight (r, j) = w_lo + sum over its columns c of sign[c] (g[r, c] - g_min) / s[c]. With "
-      "mapping.weight_bits or crossbar.cell_bits these are the quantized weights.");
+      "mapping.weight_bits or crossbar.cell_bits these are the quantized weights; weights beyond their "
+      "column's range (ranging.weights) are held at its end.");
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
         "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
         "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "

@@ -96,7 +96,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     } else {
       a = pipe.tile(st.linear).actions();
       for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts, &a.samples,
-                        &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes})
+                        &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes, &a.scale_multiplies})
         *x /= images;
     }
     add_layer_cost(cost, hw, v, a);
@@ -277,7 +277,9 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   } else if (!given) {
     own = std::make_unique<CrossbarBackend>(model, ac);
     ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
-    own->program(data.calib, cfg.get_int32("eval.calibration_samples"), [&](int d, int) { bar.update(d); });
+    // As eval: at least calibration.samples rows kept, so both program the same crossbars.
+    own->program(data.calib, std::max(cfg.get_int32("eval.calibration_samples"), ac.calibration.samples),
+                 [&](int d, int) { bar.update(d); });
   }
   const CrossbarBackend& programmed = given ? *given : *own;
   std::vector<bool> signed_inputs;  // as the programmed layers stream them

@@ -33,8 +33,20 @@ AnalogConfig parse_analog_config(const ConfigTree& cfg, const std::string& metho
   c.calibration = parse_calibration_spec(cfg);
   if (c.calibration.samples < 2) throw InputError("configuration key 'calibration.samples' must be >= 2");
   c.converters = parse_converters_spec(cfg);
+  c.ranging = parse_ranging_spec(cfg);
   c.device = parse_device_spec(cfg);
   c = with_device_range(c);  // one key per physical quantity: a model's own range sets the crossbar's
+  // Per-column scales are digital gains after the ADC; the shift's analog removal of w_lo sum(X)
+  // (the sum(X) column, or the ADC's offset subtraction of analog cells) is one reference current
+  // for every column of a crossbar, which columns of other scales cannot share.
+  if (c.ranging.weight_scale == WeightScale::Column && !c.mapping.differential() &&
+      (c.mapping.analog_sum() || (c.converters.adc_offset_subtraction && c.mapping.cell_bits == 0)))
+    throw InputError(std::string("configuration key 'ranging.weight_scale' (column) with mapping.negative: shift and ") +
+                     (c.mapping.analog_sum() ? "mapping.sum_x: analog" : "converters.adc_offset_subtraction: true") +
+                     ": the shift's offset is removed in the analog domain with one reference current for every "
+                     "column of a crossbar, which columns of their own scales cannot share; use mapping.negative: "
+                     "differential, or ranging.weight_scale: crossbar or layer" +
+                     (c.mapping.analog_sum() ? ", or mapping.sum_x: digital" : ""));
   if (c.converters.adc_range == AdcRange::Full) {
     const char* missing = c.mapping.cell_bits == 0              ? "crossbar.cell_bits (a level to count)"
                           : c.converters.activation_bits() == 0 ? "converters.dac_bits or input_bits (a read step)"
@@ -102,7 +114,12 @@ bool programs_alike(const AnalogConfig& a_given, const AnalogConfig& b_given) {
                       va.read_sigma_s == vb.read_sigma_s && va.stuck_gmin == vb.stuck_gmin &&
                       va.stuck_gmax == vb.stuck_gmax && va.spare_columns == vb.spare_columns && va.seed == vb.seed &&
                       da.readout_noise_a == db.readout_noise_a;
-  return crossbar && solver && mapping && conversion && calibration && dacs && device;
+  // Weights and inputs are ranged before programming; the ADC ranges and the bias are readout.
+  const RangingSpec &ra = a.ranging, &rb = b.ranging;
+  const bool ranging = ra.weights == rb.weights && ra.weight_percentile == rb.weight_percentile &&
+                       ra.weight_scale == rb.weight_scale && ra.inputs == rb.inputs &&
+                       ra.input_percentile == rb.input_percentile;
+  return crossbar && solver && mapping && conversion && calibration && dacs && device && ranging;
 }
 
 AnalogLayer::AnalogLayer(const AnalogConfig& cfg, const Eigen::MatrixXd& w, double x_max, bool signed_inputs,
@@ -226,8 +243,53 @@ AnalogLayer::ProgrammingInputs AnalogLayer::crossbar_inputs(const LayerInputs& i
           in.cal.middleCols(blk.row0, blk.rows) * w_.block(blk.row0, blk.col0, blk.rows, blk.cols)};
 }
 
+std::vector<WeightRanges> AnalogLayer::block_ranges() const {
+  const CellVariance var = [this](double g) { return std::pow(device_.read_spread_s(g), 2); };
+  const CellVariance* v = cfg_.device.kind == DeviceKind::Ideal ? nullptr : &var;
+  std::vector<WeightRanges> out(blocks_.size());
+  const auto block_of = [&](const Block& b) { return w_.block(b.row0, b.col0, b.rows, b.cols); };
+  if (cfg_.ranging.weight_scale == WeightScale::Crossbar) {
+    for (size_t b = 0; b < blocks_.size(); ++b)
+      out[b] = weight_ranges(block_of(blocks_[b]), cfg_.mapping, cfg_.ranging, cfg_.xbar, v ? *v : nullptr);
+    return out;
+  }
+  // Layer or column: the range of every weight the layer's crossbars hold (a grouped layer's
+  // zeros between groups are on no crossbar), as one column or per output column.
+  const bool per_column = cfg_.ranging.weight_scale == WeightScale::Column;
+  const int n = per_column ? outputs() : 1;
+  std::vector<std::vector<double>> values(static_cast<size_t>(n));
+  for (const Block& b : blocks_) {
+    const Eigen::MatrixXd wb = block_of(b);
+    for (int j = 0; j < b.cols; ++j) {
+      std::vector<double>& dst = values[static_cast<size_t>(per_column ? b.col0 + j : 0)];
+      dst.insert(dst.end(), wb.col(j).data(), wb.col(j).data() + b.rows);
+    }
+  }
+  RangingSpec one = cfg_.ranging;
+  one.weight_scale = WeightScale::Layer;  // each gathered column is a group of its own
+  Eigen::VectorXd lo(n), hi(n);
+  for (int k = 0; k < n; ++k) {
+    const std::vector<double>& d = values[static_cast<size_t>(k)];
+    const Eigen::Map<const Eigen::MatrixXd> col(d.data(), static_cast<Eigen::Index>(d.size()), 1);
+    const WeightRanges r = weight_ranges(col, cfg_.mapping, one, cfg_.xbar, v ? *v : nullptr);
+    lo(k) = r.lo(0);
+    hi(k) = r.hi(0);
+  }
+  for (size_t b = 0; b < blocks_.size(); ++b) {
+    const Block& blk = blocks_[b];
+    WeightRanges& r = out[b];
+    r.lo = per_column ? Eigen::VectorXd(lo.segment(blk.col0, blk.cols)) : Eigen::VectorXd::Constant(blk.cols, lo(0));
+    r.hi = per_column ? Eigen::VectorXd(hi.segment(blk.col0, blk.cols)) : Eigen::VectorXd::Constant(blk.cols, hi(0));
+    const Eigen::MatrixXd wb = block_of(blk);
+    for (int j = 0; j < blk.cols; ++j)
+      r.clipped += ((wb.col(j).array() < r.lo(j)) || (wb.col(j).array() > r.hi(j))).count();
+  }
+  return out;
+}
+
 void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
   const LayerInputs layer_in = layer_inputs(calib_given);
+  const std::vector<WeightRanges> ranges = block_ranges();
   // All or nothing: the crossbars replace the layer's only once every one is programmed (an
   // error or a cancellation leaves the layer as it was).
   std::vector<std::unique_ptr<Crossbar>> xbars;
@@ -237,8 +299,8 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
     try {
       const Block& blk = blocks_[b];
       auto xb = std::make_unique<Crossbar>();
-      static_cast<MappedWeights&>(*xb) =
-          map_weights(w_.block(blk.row0, blk.col0, blk.rows, blk.cols), blk, cfg_.mapping, cfg_.xbar);
+      const Eigen::MatrixXd wb = w_.block(blk.row0, blk.col0, blk.rows, blk.cols);
+      static_cast<MappedWeights&>(*xb) = map_weights(wb, blk, cfg_.mapping, cfg_.xbar, ranges[b]);
       xb->index = static_cast<int>(b);
       xb->stream = derive_seed(cfg_.device.seed, {salt_, static_cast<uint64_t>(b)});
       xb->beta = Eigen::VectorXd::Ones(xb->pcols);
@@ -249,26 +311,87 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
       CrossbarReport rep;
       rep.block = blk;
       rep.physical_cols = xb->pcols;
+      rep.clipped_weights = ranges[b].clipped;
+      rep.weight_clip.resize(blk.cols);
+      for (int j = 0; j < blk.cols; ++j) {
+        const double top = std::max(-ranges[b].lo(j), std::abs(ranges[b].hi(j)));
+        const double biggest = wb.col(j).cwiseAbs().maxCoeff();
+        rep.weight_clip(j) = biggest > 0 ? std::min(top / biggest, 1.0) : 1.0;
+      }
       convert(*xb, in, rep);
       if (cfg_.device.has_read_noise() && cfg_.xbar.is_linear()) xb->noise_points = read_noise_points(in);
       write_cells(*xb, rep);
-      read_out(*xb, in);
-      xb->in0 = blk.row0;
       xbars.push_back(std::move(xb));
       reports.push_back(rep);
     } catch (const std::exception&) {
       rethrow_with_context("programming its " + crossbar_name(blocks_[b]));
     }
   }
+  const Eigen::VectorXd bias_before = bias_;
+  bias_.resize(0);  // new crossbars: no output offsets until they are measured on them
+  try {
+    read_out_all(xbars, layer_in);
+  } catch (...) {
+    bias_ = bias_before;
+    throw;
+  }
+  for (size_t b = 0; b < xbars.size(); ++b) xbars[b]->in0 = blocks_[b].row0;
   xbars.swap(xbars_);
+  const std::vector<CrossbarReport> reports_before = reports_;
   reports_ = std::move(reports);
   time_s_ = 0;
   try {
     move_to_time(layer_in);
   } catch (...) {
     xbars.swap(xbars_);  // all or nothing: the layer as it was
+    reports_ = reports_before;
+    bias_ = bias_before;
     throw;
   }
+}
+
+void AnalogLayer::set_output_offsets(const Eigen::VectorXd& offset) {
+  if (offset.size() != outputs()) throw std::invalid_argument("analog layer: output offsets of another width");
+  if (xbars_.empty()) throw std::invalid_argument("analog layer: output offsets before program()");
+  const Eigen::VectorXd before = bias_.size() ? bias_ : Eigen::VectorXd::Zero(outputs());
+  fold_output_offsets(xbars_, offset - before);
+  bias_ = offset;
+}
+
+AnalogLayer::RangeSummary AnalogLayer::range_summary() const {
+  RangeSummary r;
+  double clip_sum = 0, adc_sum = 0;
+  long long clip_n = 0, adc_n = 0;
+  for (size_t b = 0; b < reports_.size(); ++b) {
+    const CrossbarReport& rep = reports_[b];
+    r.weights += static_cast<long long>(rep.block.rows) * rep.block.cols;
+    r.clipped_weights += rep.clipped_weights;
+    clip_sum += rep.weight_clip.sum();
+    clip_n += rep.weight_clip.size();
+  }
+  for (const auto& x : xbars_)
+    for (Eigen::Index k = 0; k < x->adc_span.size(); ++k) {
+      r.adc_full_scale_a = std::max(r.adc_full_scale_a, x->adc_hi.data()[k] - x->adc_lo.data()[k]);
+      if (!(x->adc_span.data()[k] > 0)) continue;
+      adc_sum += std::min(x->adc_chosen.data()[k] / x->adc_span.data()[k], 1.0);
+      ++adc_n;
+    }
+  r.weight_clip = clip_n ? clip_sum / static_cast<double>(clip_n) : 1.0;
+  r.adc_clip = adc_n ? adc_sum / static_cast<double>(adc_n) : 0.0;
+  r.output_offset_rms = bias_.size() ? std::sqrt(bias_.squaredNorm() / static_cast<double>(bias_.size())) : 0.0;
+  return r;
+}
+
+void AnalogLayer::fold_output_offsets(std::vector<std::unique_ptr<Crossbar>>& xbars, const Eigen::VectorXd& add) const {
+  // Each output column's offset in the first crossbar holding it.
+  std::vector<char> done(static_cast<size_t>(outputs()), 0);
+  for (size_t b = 0; b < blocks_.size() && b < xbars.size(); ++b)
+    for (int j = 0; j < blocks_[b].cols; ++j) {
+      const int col = blocks_[b].col0 + j;
+      if (done[static_cast<size_t>(col)]) continue;
+      done[static_cast<size_t>(col)] = 1;
+      xbars[b]->fit.offset(j) += add(col);
+    }
 }
 
 void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& calib) {
@@ -280,9 +403,11 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
     // Only the time or the compensation changes, and the readout at t = 0 is still the one
     // programming made (no recalibration at another time since): move in time only.
     const ConvertersSpec &ca = cfg_.converters, &cb = cfg.converters;
+    const RangingSpec &ra = cfg_.ranging, &rb = cfg.ranging;
     const bool same_readout = ca.adc_bits == cb.adc_bits && ca.adc_range == cb.adc_range &&
                               ca.adc_margin == cb.adc_margin && ca.adc_offset_subtraction == cb.adc_offset_subtraction &&
-                              cfg_.mitigation.calibrate() == cfg.mitigation.calibrate() &&
+                              cfg_.mitigation.calibrate() == cfg.mitigation.calibrate() && ra.adc == rb.adc &&
+                              ra.adc_percentile == rb.adc_percentile && ra.adc_scope == rb.adc_scope &&
                               cfg_.device.compensation != Compensation::Recalibrate;
     cfg_ = with_device_range(cfg);
     cfg_.solver = before->cfg.solver;  // the options the crossbars' solvers were made with
@@ -291,21 +416,20 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
       move_to_time(layer_in);
       return;
     }
-    for (size_t b = 0; b < xbars_.size(); ++b) {
+    // As program(): the crossbars at t = 0, each reading its own rows of every input (in0 = 0).
+    for (auto& x : xbars_) {
       check_cancel();
-      Crossbar& x = *xbars_[b];
-      try {
-        // As program(): the crossbar's own rows of every input (in0 = 0).
-        x.in0 = 0;
-        if (time_s_ != 0) settle(x, 0);
-        read_out(x, crossbar_inputs(layer_in, blocks_[b]));
-        x.in0 = blocks_[b].row0;
-      } catch (const std::exception&) {
-        x.in0 = blocks_[b].row0;
-        rethrow_with_context("reading out its " + crossbar_name(blocks_[b]));
-      }
+      x->in0 = 0;
+      if (time_s_ != 0) settle(*x, 0);
     }
     time_s_ = 0;
+    try {
+      read_out_all(xbars_, layer_in);
+    } catch (...) {
+      for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
+      throw;
+    }
+    for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
     move_to_time(layer_in);
   } catch (...) {
     restore_readout(*before);
@@ -317,9 +441,11 @@ std::shared_ptr<const AnalogLayer::SavedReadout> AnalogLayer::save_readout() con
   auto s = std::make_shared<SavedReadout>();
   s->cfg = cfg_;
   s->time_s = time_s_;
+  s->bias = bias_;
   s->xbars.reserve(xbars_.size());
   for (const auto& x : xbars_)
-    s->xbars.push_back({x->adc_lo, x->adc_hi, x->adc_offset, x->fit, x->adc_f, x->adc_d, x->ref0, x->comp});
+    s->xbars.push_back(
+        {x->adc_lo, x->adc_hi, x->adc_span, x->adc_chosen, x->adc_offset, x->fit, x->adc_f, x->adc_d, x->ref0, x->comp});
   return s;
 }
 
@@ -327,11 +453,14 @@ void AnalogLayer::restore_readout(const SavedReadout& saved) {
   if (saved.xbars.size() != xbars_.size())
     throw std::invalid_argument("analog layer: restore_readout of another layer's crossbars");
   cfg_ = saved.cfg;
+  bias_ = saved.bias;
   for (size_t b = 0; b < xbars_.size(); ++b) {
     Crossbar& x = *xbars_[b];
     const SavedReadout::Readout& r = saved.xbars[b];
     x.adc_lo = r.adc_lo;
     x.adc_hi = r.adc_hi;
+    x.adc_span = r.adc_span;
+    x.adc_chosen = r.adc_chosen;
     x.adc_offset = r.adc_offset;
     x.fit = r.fit;
     x.adc_f = r.adc_f;

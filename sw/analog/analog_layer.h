@@ -18,6 +18,7 @@
 #include "sw/analog/input_slicing.h"
 #include "sw/analog/partition.h"
 #include "sw/analog/quantizer.h"
+#include "sw/analog/ranging.h"
 #include "sw/analog/weight_mapping.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/common/config.h"
@@ -35,6 +36,7 @@ struct AnalogConfig {
   ConversionSpec conversion;
   CalibrationSpec calibration;
   ConvertersSpec converters;
+  RangingSpec ranging;
   DeviceSpec device;
   /// Sets the mitigation from a method name; throws InputError naming `key`.
   void set_method(const std::string& name, const std::string& key) { mitigation = mitigation_from_name(name, key); }
@@ -70,6 +72,10 @@ struct CrossbarReport {
   double conversion_residual = 0;   ///< matrix conversion max |G_eff - T| / max T
   int stuck_cells = 0;              ///< cells stuck at g_min or g_max (device.stuck_at_*), after spares
   int spare_columns_used = 0;       ///< columns replaced by spare columns
+  long long clipped_weights = 0;    ///< weights outside their column's range (ranging.weights), held at its end
+  /// Per weight column of the block: the magnitude mapped to the top of the conductance span
+  /// over the largest |w| of the column (1 = nothing clipped).
+  Eigen::VectorXd weight_clip;
 };
 
 /// A grouped convolution's rows (Conv `group`): rows r = p * channels + c (window position p,
@@ -253,6 +259,28 @@ class AnalogLayer {
   const InputSlicing& input_slicing() const { return slicing_; }
   /// The DAC stage quantizes (activation bits are set).
   bool quantizes_inputs() const { return dac_q_.enabled(); }
+  /// Adds `offset` (per output column, output units) to the layer's outputs, replacing the
+  /// offsets given before: the digital bias's correction (ranging.bias_correction, measured by
+  /// the network's backend), kept when the readout is set again (calibration refitted). A new
+  /// program() starts without. std::invalid_argument before program() or for another width.
+  void set_output_offsets(const Eigen::VectorXd& offset);
+  /// The offsets set_output_offsets gave (empty: none).
+  const Eigen::VectorXd& output_offsets() const { return bias_; }
+  /// The ranges the layer is programmed and read out with (ranging.*), for reports.
+  struct RangeSummary {
+    long long weights = 0, clipped_weights = 0;  ///< weights on the crossbars, and held at their range's end
+    double weight_clip = 1;  ///< mean over weight columns of the magnitude mapped to the span's top over the column's largest |w|
+    /// Mean over the measured ADC ranges (columns, references) of the range without its margin
+    /// over the extent of the column's calibration currents (1: nothing clipped; 0 without ADC ranges).
+    double adc_clip = 0;
+    double adc_full_scale_a = 0;   ///< the widest ADC range of the layer (A, margin included)
+    double output_offset_rms = 0;  ///< root mean square of the output offsets (output units)
+  };
+  RangeSummary range_summary() const;
+  /// Per crossbar (block order), the ranges of its weight columns (ranging.weights and
+  /// weight_scale, the mse clip with the device's programming and read spread): what program()
+  /// maps, before anything is programmed.
+  std::vector<WeightRanges> block_ranges() const;
 
  private:
   struct Crossbar;
@@ -297,15 +325,33 @@ class AnalogLayer {
                                uint64_t image) const;
   template <typename S>
   void compensate(const Crossbar& x, S* currents, Eigen::Index reads, Eigen::Index ld, bool row_major) const;
-  void set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const;
+  /// The offset each column's ADC subtracts (adc_offset), before its range is measured.
+  void set_adc_offsets(Crossbar& x) const;
+  /// The ADC ranges come from measured currents (an ADC, and converters.adc_range not full).
+  bool measures_adc_ranges() const;
+  /// The range-estimation reads' offset-subtracted currents of a crossbar (reads x columns) and
+  /// the ADC reference each read uses; empty when the ranges are not measured.
+  struct AdcSamples {
+    Eigen::MatrixXd cur;
+    Eigen::VectorXi range;
+  };
+  AdcSamples adc_samples(const Crossbar& x, const Eigen::MatrixXd& range_x) const;
+  /// Column c's samples of reference g (of `ranges`).
+  static std::vector<double> column_samples(const AdcSamples& a, int c, int g, int ranges);
+  /// Sets x's ADC ranges (ranging.adc on its samples, or the layer's `pooled` range: rows lo, hi
+  /// by reference) and the converters' tables.
+  void set_adc_ranges(Crossbar& x, const AdcSamples& samples, const Eigen::MatrixXd* pooled) const;
   void set_full_adc_ranges(Crossbar& x) const;
   void calibrate(Crossbar& x, const ProgrammingInputs& in) const;
   /// Per weight column of x: the resolution of its recovered output (output units), one ADC
   /// code of each of its reads and physical columns combined as independent errors (root sum
   /// of squares); zeros without an ADC.
   Eigen::VectorXd output_steps(const Crossbar& x) const;
-  /// The readout steps (set_adc_ranges, then calibrate) of a crossbar whose conductances are written.
-  void read_out(Crossbar& x, const ProgrammingInputs& in) const;
+  /// The readout steps of crossbars whose conductances are written (the layer's, in block
+  /// order): ADC offsets and ranges (per column, or one for the layer), then calibration.
+  void read_out_all(std::vector<std::unique_ptr<Crossbar>>& xbars, const LayerInputs& in) const;
+  /// Adds `add` (per output column) to the offset of the first crossbar holding each column.
+  void fold_output_offsets(std::vector<std::unique_ptr<Crossbar>>& xbars, const Eigen::VectorXd& add) const;
   template <typename S>
   void analog_of(const Crossbar& x, const RowMat<S>& xq, Mat<S>& currents, uint64_t image) const;
   template <typename S, typename XQ>
@@ -353,6 +399,7 @@ class AnalogLayer {
   Device device_;
   double time_s_ = 0;
   long long compensation_reads_ = 0;
+  Eigen::VectorXd bias_;
 };
 
 }  // namespace xbarsim

@@ -45,6 +45,9 @@ struct AnalogLayer::Crossbar : MappedWeights {
   /// A, per physical column (rows) and per read of an input vector (columns: one, or the
   /// input slices with converters.adc_range: per_read).
   Eigen::MatrixXd adc_lo, adc_hi;
+  /// The same shape: the extent (max - min) of the calibration currents each range was measured
+  /// on (0 where the range is not measured) and the range before its margin.
+  Eigen::MatrixXd adc_span, adc_chosen;
   Eigen::VectorXd adc_offset;  ///< per physical column: offset current per unit sum(X) removed before the ADC
   ColumnFit fit;
   /// For bit-serial reads, the ADC of every column and range (adc_lo, adc_hi) in the
@@ -74,7 +77,7 @@ struct AnalogLayer::SavedReadout {
   AnalogConfig cfg;
   double time_s = 0;
   struct Readout {
-    Eigen::MatrixXd adc_lo, adc_hi;
+    Eigen::MatrixXd adc_lo, adc_hi, adc_span, adc_chosen;
     Eigen::VectorXd adc_offset;
     ColumnFit fit;
     Crossbar::AdcTable<float> adc_f;
@@ -82,6 +85,7 @@ struct AnalogLayer::SavedReadout {
     Eigen::VectorXd ref0, comp;
   };
   std::vector<Readout> xbars;
+  Eigen::VectorXd bias;
 };
 
 /// What programming reads for the whole layer (DAC values, the crossbars' row order).

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <tuple>
+
+#include "sw/common/cancel.h"
 
 #include "sw/analog/analog_layer_impl.h"
 #include "sw/analog/error_metrics.h"
@@ -280,10 +283,7 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
     }
     x.ref0 = references ? reference_sums(x, in) : Eigen::VectorXd();
     if (state != t) settle(x, t);
-    if (d.compensation == Compensation::Recalibrate) {
-      read_out(x, in);
-      compensation_reads_ += in.cal_b.rows() + in.range_b.rows();
-    }
+    if (d.compensation == Compensation::Recalibrate) compensation_reads_ += in.cal_b.rows() + in.range_b.rows();
     if (references) {
       const Eigen::VectorXd now = reference_sums(x, in);
       compensation_reads_ += in.cal_b.rows();
@@ -292,6 +292,17 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
     x.in0 = blocks_[b].row0;
   }
   time_s_ = t;
+  if (d.compensation == Compensation::Recalibrate) {
+    // The readout again at t: every crossbar reads its own rows (in0 = 0), then the bias.
+    for (auto& x : xbars_) x->in0 = 0;
+    try {
+      read_out_all(xbars_, layer_in);
+    } catch (...) {
+      for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
+      throw;
+    }
+    for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
+  }
   if (!references) return;
   // global: one gain for the layer, sum of |references at 0| / sum at t; column: per column.
   double r0 = 0, rt = 0;
@@ -331,7 +342,7 @@ Eigen::MatrixXd AnalogLayer::noisy_solves(const Crossbar& x, const Eigen::Matrix
   return out;
 }
 
-void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) const {
+void AnalogLayer::set_adc_offsets(Crossbar& x) const {
   // Offset subtraction before the ADC: the shift current (g_min - beta s w_lo) sum(X) of each
   // column (g_min sum(X) with differential pairs or multi-level cells), mirrored from the
   // sum(X) reference, so the ADC range spans the weight part only.
@@ -341,32 +352,53 @@ void AnalogLayer::set_adc_ranges(Crossbar& x, const Eigen::MatrixXd& range_x) co
       if (cfg_.mapping.analog_sum() && c == x.pcols - 1) continue;  // the reference column itself
       x.adc_offset(c) = alpha_ * (cfg_.xbar.g_min_s - (x.offset_has_w_lo ? x.beta(c) * x.s(c) * x.w_lo : 0.0));
     }
+}
+
+bool AnalogLayer::measures_adc_ranges() const {
+  return cfg_.converters.adc_bits > 0 && cfg_.converters.adc_range != AdcRange::Full;
+}
+
+AnalogLayer::AdcSamples AnalogLayer::adc_samples(const Crossbar& x, const Eigen::MatrixXd& range_x) const {
+  AdcSamples a;
+  if (measures_adc_ranges()) a.cur = offset_currents(x, range_x, a.range, kRangeReads);
+  return a;
+}
+
+void AnalogLayer::set_adc_ranges(Crossbar& x, const AdcSamples& samples, const Eigen::MatrixXd* pooled) const {
   const int ranges = cfg_.converters.adc_range == AdcRange::PerRead ? slicing_.slices : 1;
   x.adc_lo = Eigen::MatrixXd::Zero(x.pcols, ranges);
   x.adc_hi = Eigen::MatrixXd::Zero(x.pcols, ranges);
+  x.adc_span = Eigen::MatrixXd::Zero(x.pcols, ranges);
+  x.adc_chosen = Eigen::MatrixXd::Zero(x.pcols, ranges);
   if (cfg_.converters.adc_bits > 0 && cfg_.converters.adc_range == AdcRange::Full) {
     set_full_adc_ranges(x);
   } else if (cfg_.converters.adc_bits > 0) {
     // ADC ranges from the (offset-subtracted) currents of the range-estimation reads (per read
-    // of a vector with a reference per read).
-    Eigen::VectorXi range;
-    const Eigen::MatrixXd cur = offset_currents(x, range_x, range, kRangeReads);
-    x.adc_lo.setConstant(std::numeric_limits<double>::infinity());
-    x.adc_hi.setConstant(-std::numeric_limits<double>::infinity());
-    for (int c = 0; c < x.pcols; ++c)
-      for (Eigen::Index r = 0; r < cur.rows(); ++r) {
-        const int g = ranges == 1 ? 0 : range(r);
-        x.adc_lo(c, g) = std::min(x.adc_lo(c, g), cur(r, c));
-        x.adc_hi(c, g) = std::max(x.adc_hi(c, g), cur(r, c));
-      }
-    for (int c = 0; c < x.pcols; ++c)
+    // of a vector with a reference per read), by ranging.adc; with ranging.adc_scope: layer one
+    // range for every column of the layer but a sum(X) reference (`pooled`: lo, hi per range).
+    const double levels = std::ldexp(1.0, cfg_.converters.adc_bits) - 1;
+    for (int c = 0; c < x.pcols; ++c) {
+      const bool reference = cfg_.mapping.analog_sum() && c == x.pcols - 1;
       for (int g = 0; g < ranges; ++g) {
-        const double lo = x.adc_lo(c, g), hi = x.adc_hi(c, g);
+        double lo, hi;
+        const std::vector<double> v = column_samples(samples, c, g, ranges);
+        if (!v.empty()) {
+          const auto [mn, mx] = std::minmax_element(v.begin(), v.end());
+          x.adc_span(c, g) = *mx - *mn;
+        }
+        if (pooled && !reference) {
+          lo = (*pooled)(0, g);
+          hi = (*pooled)(1, g);
+        } else {
+          std::tie(lo, hi) = value_range(v, cfg_.ranging.adc, cfg_.ranging.adc_percentile, levels);
+        }
+        x.adc_chosen(c, g) = hi - lo;
         const double pad = std::max(cfg_.converters.adc_margin * (hi - lo),
                                     ConversionController::kMinAdcPadRelative * std::max(std::abs(hi), 1e-12));
         x.adc_lo(c, g) = lo - pad;
         x.adc_hi(c, g) = hi + pad;
       }
+    }
   }
   // FastQuantizer's parameters of every column and range, for the bit-serial reads.
   Crossbar::AdcTable<double>& t = x.adc_d;
@@ -410,9 +442,62 @@ void AnalogLayer::set_full_adc_ranges(Crossbar& x) const {
   }
 }
 
-void AnalogLayer::read_out(Crossbar& x, const ProgrammingInputs& in) const {
-  set_adc_ranges(x, in.range_b);
-  calibrate(x, in);
+std::vector<double> AnalogLayer::column_samples(const AdcSamples& a, int c, int g, int ranges) {
+  std::vector<double> v;
+  v.reserve(static_cast<size_t>(ranges == 1 ? a.cur.rows() : a.cur.rows() / ranges + 1));
+  for (Eigen::Index r = 0; r < a.cur.rows(); ++r)
+    if (ranges == 1 || a.range(r) == g) v.push_back(a.cur(r, c));
+  return v;
+}
+
+void AnalogLayer::read_out_all(std::vector<std::unique_ptr<Crossbar>>& xbars, const LayerInputs& in) const {
+  // Every crossbar reads its own rows of the inputs while it is read out (in0 = 0).
+  std::vector<AdcSamples> samples(xbars.size());
+  std::vector<ProgrammingInputs> inputs;
+  inputs.reserve(xbars.size());
+  for (size_t b = 0; b < xbars.size(); ++b) {
+    check_cancel();
+    Crossbar& x = *xbars[b];
+    try {
+      inputs.push_back(crossbar_inputs(in, blocks_[b]));
+      set_adc_offsets(x);
+      samples[b] = adc_samples(x, inputs.back().range_b);
+    } catch (const std::exception&) {
+      rethrow_with_context("reading out its " + crossbar_name(blocks_[b]));
+    }
+  }
+  // One ADC range for the layer: every weight column's samples of every crossbar, per range.
+  Eigen::MatrixXd pooled;
+  const bool layer_scope = cfg_.ranging.adc_scope == AdcScope::Layer && measures_adc_ranges();
+  if (layer_scope) {
+    const int ranges = cfg_.converters.adc_range == AdcRange::PerRead ? slicing_.slices : 1;
+    const double levels = std::ldexp(1.0, cfg_.converters.adc_bits) - 1;
+    pooled.resize(2, ranges);
+    for (int g = 0; g < ranges; ++g) {
+      std::vector<double> v;
+      for (size_t b = 0; b < xbars.size(); ++b) {
+        const int weight_cols = xbars[b]->pcols - (cfg_.mapping.analog_sum() ? 1 : 0);
+        for (int c = 0; c < weight_cols; ++c) {
+          const std::vector<double> col = column_samples(samples[b], c, g, ranges);
+          v.insert(v.end(), col.begin(), col.end());
+        }
+      }
+      const auto [lo, hi] = value_range(std::move(v), cfg_.ranging.adc, cfg_.ranging.adc_percentile, levels);
+      pooled(0, g) = lo;
+      pooled(1, g) = hi;
+    }
+  }
+  for (size_t b = 0; b < xbars.size(); ++b) {
+    check_cancel();
+    Crossbar& x = *xbars[b];
+    try {
+      set_adc_ranges(x, samples[b], layer_scope ? &pooled : nullptr);
+      calibrate(x, inputs[b]);
+    } catch (const std::exception&) {
+      rethrow_with_context("reading out its " + crossbar_name(blocks_[b]));
+    }
+  }
+  if (bias_.size()) fold_output_offsets(xbars, bias_);  // the digital bias's correction stays
 }
 
 void AnalogLayer::calibrate(Crossbar& x, const ProgrammingInputs& in) const {

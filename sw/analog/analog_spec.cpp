@@ -68,10 +68,32 @@ MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar
   MappingSpec m;
   m.max_rows = require_size_or_unbounded(cfg, "mapping.max_rows");
   m.max_cols = require_size_or_unbounded(cfg, "mapping.max_cols");
-  m.negative = require_enum<NegativeWeights>(
-      cfg, "mapping.negative", {{"shift", NegativeWeights::Shift}, {"differential", NegativeWeights::Differential}});
+  // auto: the shift with exact cells, differential pairs under a device model. The shift holds
+  // every zero weight mid-range, where a real device's spread is largest, on one range of twice
+  // the largest |w|: under any device model it loses most of the accuracy (docs/physics.md,
+  // "Shift or differential under a device"), so it is refused there rather than run.
+  const std::string device = cfg.get_string("device.model");
+  const std::string negative = cfg.get_string("mapping.negative");
+  if (negative == "auto") {
+    m.negative = device == "ideal" ? NegativeWeights::Shift : NegativeWeights::Differential;
+  } else {
+    m.negative = require_enum<NegativeWeights>(
+        cfg, "mapping.negative",
+        {{"auto", NegativeWeights::Shift}, {"shift", NegativeWeights::Shift}, {"differential", NegativeWeights::Differential}});
+    if (m.negative == NegativeWeights::Shift && device != "ideal")
+      throw InputError(
+          "configuration key 'mapping.negative' (shift) with device.model " + excerpt(device) +
+          ": the shift mapping holds every zero weight mid-range, where the device's spread is largest, on a range "
+          "twice as wide as a differential pair's, and loses most of the accuracy under any device model (ResNet-20: "
+          "13 % against 71 % for differential pairs under rram-wan2022; docs/physics.md, shift or differential under "
+          "a device); set mapping.negative: differential, or auto (the default: differential under a device model)");
+  }
   m.sum_x = require_enum<SumX>(cfg, "mapping.sum_x", {{"digital", SumX::Digital}, {"analog", SumX::Analog}});
-  m.g_headroom = cfg.get_double("mapping.g_headroom");
+  // auto: 0.2 with exact cells (room for conversion's gains above 1), none under a device model,
+  // whose spread is a fraction of the conductance: the widest span has the best signal to spread
+  // (docs/results.md, "Ranging under real devices", the table that chose it).
+  m.g_headroom = cfg.get_string("mapping.g_headroom") == "auto" ? (device == "ideal" ? kIdealHeadroom : 0.0)
+                                                                 : cfg.get_double("mapping.g_headroom");
   if (xbar.g_max_s * (1 - m.g_headroom) <= xbar.g_min_s)
     throw InputError(
         "configuration key 'mapping.g_headroom' leaves no conductance range (needs g_max (1 - h) > g_min)");

@@ -125,6 +125,8 @@ struct ConvertersSpec {
 };
 
 
+/// mapping.g_headroom: auto with device.model ideal.
+constexpr double kIdealHeadroom = 0.2;
 MappingSpec parse_mapping_spec(const ConfigTree& cfg, const CrossbarParams& xbar);
 ConversionSpec parse_conversion_spec(const ConfigTree& cfg);
 CalibrationSpec parse_calibration_spec(const ConfigTree& cfg);

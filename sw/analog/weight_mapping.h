@@ -10,8 +10,10 @@
 /// Physical column layout: weight column j, polarity p (0 = positive / shift, 1 = negative),
 /// slice t is column (j * polarities + p) * slices + t; the sum(X) column is the last.
 #include <Eigen/Dense>
+#include <functional>
 
 #include "sw/analog/analog_spec.h"
+#include "sw/analog/ranging.h"
 #include "sw/analog/partition.h"
 #include "sw/circuit/crossbar_params.h"
 
@@ -32,9 +34,32 @@ struct MappedWeights {
   Eigen::MatrixXd g_target;  ///< S, g_min + a diag(s)
 };
 
-/// Maps `wb` (the weights of block `blk`) onto [g_min, g_max (1 - g_headroom)].
+/// The range of weight values each weight column maps onto the conductance span (ranging.weights):
+/// lo <= 0 <= hi per column. Differential pairs map max(-lo, hi) to the top of each polarity's span;
+/// the shift maps [min lo, hi] of a crossbar's columns (one offset per crossbar, a span per column).
+/// Weights outside are clipped to it.
+struct WeightRanges {
+  Eigen::VectorXd lo, hi;
+  long long clipped = 0;  ///< weights outside their column's range
+};
+
+/// The variance (S^2) around its target g (S) of a cell's conductance as the network reads it
+/// (the device's spread); null = exact cells.
+using CellVariance = std::function<double(double)>;
+
+/// The ranges of the columns of `w` (a crossbar's block, or a whole layer), with one range for
+/// all of them (crossbar and layer scale) or one per column (column scale), by ranging.weights:
+/// max (the columns' extremes), a percentile of |w|, or the mse clip: the clip c of |w| that
+/// minimises the summed squared error of the weights as the cells hold them: the weight code's
+/// rounding (mapping.weight_bits on cell levels), the clipping, and the cells' variance `var`
+/// scaled to weight units (docs/physics.md, "Ranging").
+WeightRanges weight_ranges(const Eigen::MatrixXd& w, const MappingSpec& mapping, const RangingSpec& ranging,
+                           const CrossbarParams& xbar, const CellVariance& var = nullptr);
+
+/// Maps `wb` (the weights of block `blk`) onto [g_min, g_max (1 - g_headroom)]; `ranges` (of the
+/// block's columns) from weight_ranges; empty: the block's own extremes (nothing clipped).
 MappedWeights map_weights(const Eigen::MatrixXd& wb, const Block& blk, const MappingSpec& mapping,
-                          const CrossbarParams& xbar);
+                          const CrossbarParams& xbar, const WeightRanges& ranges = {});
 
 /// The crossbar blocks of a rows x cols weight matrix: the inventory's partition rule
 /// (max_rows, and the weight columns one array of max_cols physical columns holds).

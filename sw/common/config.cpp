@@ -155,8 +155,10 @@ std::map<std::string, NumericRange> parse_documented_ranges(const std::string& t
       const std::string text = b == std::string::npos ? "" : value.substr(b, e - b + 1);
       long long n = 0;
       double d = 0;
-      r.integer = parse_int64(text, n) ||
-                  (!parse_finite_double(text, d) && r.lo == std::floor(r.lo) && r.hi == std::floor(r.hi));
+      // A word default (none, all, auto) with whole bounds is an integer key, unless its bounds
+      // are those of a fraction ([0, 1), [0, 1]: mapping.g_headroom, explore.min_accuracy).
+      r.integer = parse_int64(text, n) || (!parse_finite_double(text, d) && r.lo == std::floor(r.lo) &&
+                                           r.hi == std::floor(r.hi) && r.hi - r.lo > 1);
       out[key] = r;
     }
   }

@@ -530,4 +530,24 @@ Eigen::MatrixXd Device::read_sigma(const Eigen::MatrixXd& g) const {
   return Eigen::MatrixXd::Zero(g.rows(), g.cols());
 }
 
+double Device::read_sigma_s(double g) const {
+  switch (spec_.kind) {
+    case DeviceKind::Ideal:
+      return 0;
+    case DeviceKind::Constant:
+      return spec_.read_sigma_s;
+    case DeviceKind::Statistical: {
+      const StatisticalModel& m = spec_.stat;
+      return std::sqrt(g * g * (m.read_relative * m.read_relative) +
+                       std::abs(g) * (m.read_sqrt_relative * m.read_sqrt_relative * spec_.g_max_s) +
+                       m.read_sigma_s * m.read_sigma_s);
+    }
+  }
+  return 0;
+}
+
+double Device::read_spread_s(double g_target) const {
+  return std::hypot(program_sigma_s(g_target), read_sigma_s(g_target));
+}
+
 }  // namespace xbarsim

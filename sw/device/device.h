@@ -121,6 +121,13 @@ class Device {
                           double t, uint64_t stream) const;
   /// One read's standard deviation of every cell's conductance (S), at state `g`.
   Eigen::MatrixXd read_sigma(const Eigen::MatrixXd& g) const;
+  /// The same for one cell.
+  double read_sigma_s(double g) const;
+  /// The standard deviation (S) around its target of what one read sees of a cell programmed to
+  /// g_target, right after programming: the programming error and one read's fluctuation (what
+  /// ranging.weights: mse weighs against the weight code's rounding and clipping; later drift
+  /// and relaxation are the compensation's). 0 for ideal cells.
+  double read_spread_s(double g_target) const;
   /// The stream of the reads image `image` makes of crossbar `crossbar` of layer `layer` (its salt).
   uint64_t read_noise_key(uint64_t image, uint64_t layer, uint64_t crossbar) const;
   /// The conductances one read sees: g plus read_sigma(g) times read `read`'s draws of stream

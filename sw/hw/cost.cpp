@@ -71,6 +71,7 @@ ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
   bus_bytes += o.bus_bytes;
   digital_ops += o.digital_ops;
   memory_bytes += o.memory_bytes;
+  scale_multiplies += o.scale_multiplies;
   return *this;
 }
 
@@ -189,7 +190,7 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   l.add("buffer", "read", a.buffer_read_bytes);
   l.add("buffer", "write", a.buffer_write_bytes);
   l.add("interconnect", "transfer", a.bus_bytes);
-  l.add("digital", "op", a.digital_ops);
+  l.add("digital", "op", a.digital_ops + a.scale_multiplies);
   l.add("memory", "transfer", a.memory_bytes);
   std::vector<Instance> units;  // the actions' performers (their count prices only area and leakage)
   for (const char* name : kPartNames) units.push_back({name, name, name, 0, {}});
@@ -224,6 +225,7 @@ ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_
   a.samples = a.adc_conversions;
   a.shift_adds = v.sliced() ? a.adc_conversions : 0.0;
   a.accumulates = n * v.row_blocks * v.cols;
+  a.scale_multiplies = v.column_scales ? a.accumulates : 0.0;  // each crossbar output by its column's gain
   a.shifts = static_cast<double>(shifted_entries);
   // Inputs come from the layer's buffer (into the shift register, or straight to the DACs
   // of a sparse layer); outputs are written to the next layer's buffer.

@@ -48,6 +48,9 @@ struct ActionCounts {
   double shift_adds = 0;  ///< converted values shifted and added (sliced reads), each written to the output register
   double buffer_read_bytes = 0, buffer_write_bytes = 0;
   double bus_bytes = 0, digital_ops = 0, memory_bytes = 0;  ///< platform-level actions
+  /// Per-column weight scales (ranging.weight_scale: column): one digital multiply per
+  /// accumulated crossbar output, priced as a digital unit's operation.
+  double scale_multiplies = 0;
   ActionCounts& operator+=(const ActionCounts& o);
 };
 

@@ -33,6 +33,7 @@ LayerInventory& LayerInventory::operator+=(const LayerInventory& o) {
                  &LayerInventory::cells_used, &LayerInventory::iterations, &LayerInventory::shift_register_entries,
                  &LayerInventory::buffer_bytes, &LayerInventory::sample_holds, &LayerInventory::output_register_bytes})
     this->*f = add(this->*f, o.*f);
+  column_scales = column_scales || o.column_scales;
   return *this;
 }
 

@@ -39,6 +39,9 @@ struct LayerInventory {
   long long shift_register_entries = 0;  ///< dense: the unrolled window; sparse: none
   long long buffer_bytes = 0;            ///< the layer's input activations (one byte per value)
   int columns_per_adc = 128;
+  /// ranging.weight_scale: column: every crossbar output is multiplied by its column's digital
+  /// gain before it is accumulated.
+  bool column_scales = false;
   /// Reads are combined by shift-and-add (input or weight slices).
   bool sliced() const { return input_slices > 1 || weight_slices > 1; }
   long long reads() const { return iterations * input_slices; }  ///< crossbar reads per image

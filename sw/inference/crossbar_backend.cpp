@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "sw/analog/calibration.h"
+#include "sw/common/cancel.h"
 
 namespace xbarsim {
 
@@ -23,7 +24,77 @@ CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg) : mode
 
 void CrossbarBackend::program(const Dataset& calib, int max_samples, const std::function<void(int, int)>& progress) {
   gather_statistics(calib, max_samples);
-  program_layers(progress);
+  calib_ = &calib;
+  if (!cfg_.ranging.bias_correction) {
+    program_layers(progress);
+    return;
+  }
+  // Programmed and read out at t = 0, where the offsets are measured; then moved to the time.
+  const AnalogConfig target = cfg_;
+  cfg_.device.time_s = 0;
+  try {
+    program_layers(progress);
+    read_out_layers(target, nullptr);
+  } catch (...) {
+    cfg_ = target;
+    throw;
+  }
+}
+
+void CrossbarBackend::correct_biases() {
+  const Dataset& calib = *calib_;
+  const int L = static_cast<int>(model_.linear.size());
+  const int images = std::min(calib.count(), kBiasImagesMax);
+  const int threads = std::max(1, std::min(resolve_threads(cfg_.solver.threads), images));
+  // Layer by layer in network order, each pass ending at its layer: layer l's offsets are
+  // measured on the inputs the corrected layers before it give it.
+  std::vector<Eigen::VectorXd> sums(static_cast<size_t>(images));
+  std::vector<Eigen::Index> rows(static_cast<size_t>(images));
+  for (int l = 0; l < L; ++l) {
+    check_cancel();
+    parallel_for(threads, threads, [&](int t) {
+      LayerTrace trace;
+      trace.record_inputs = false;
+      trace.stop_after_linear = l;
+      std::vector<float> x(model_.input.size());
+      for (int k = t; k < images; k += threads) {
+        calib.preprocess(k, model_.pre, x.data());
+        set_image(kBiasImages + static_cast<uint64_t>(k));
+        run_image(model_, x.data(), *this, &trace);
+        sums[static_cast<size_t>(k)] = trace.outputs[l].colwise().sum().transpose().cast<double>();
+        rows[static_cast<size_t>(k)] = trace.outputs[l].rows();
+      }
+    });
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(model_.linear[l].c_out);
+    double n = 0;
+    for (int k = 0; k < images; ++k) {  // in image order: the same sums on any thread count
+      mean += sums[static_cast<size_t>(k)];
+      n += static_cast<double>(rows[static_cast<size_t>(k)]);
+    }
+    mean /= std::max(n, 1.0);
+    const Eigen::VectorXd& before = layers_[l].output_offsets();
+    layers_[l].set_output_offsets((before.size() ? before : Eigen::VectorXd::Zero(mean.size())) +
+                                  stats_[l].bias_mean - mean);
+  }
+}
+
+void CrossbarBackend::read_out_layers(const AnalogConfig& target, const std::function<void(int, int)>& progress) {
+  const auto set_all = [&](const AnalogConfig& c, const std::function<void(int, int)>& p) {
+    for_layers([&](int l) { layers_[l].set_readout(c, stats_[l].samples); }, p);
+    cfg_ = c;
+  };
+  for (AnalogLayer& layer : layers_) layer.set_output_offsets(Eigen::VectorXd::Zero(layer.outputs()));
+  if (!target.ranging.bias_correction || !calib_) {
+    set_all(target, progress);
+    return;
+  }
+  AnalogConfig at0 = target;
+  at0.device.time_s = 0;
+  set_all(at0, progress);
+  correct_biases();
+  set_all(target, nullptr);
+  // A compensation that recalibrates at the time reads there anyway: the offsets too.
+  if (target.device.compensation == Compensation::Recalibrate && target.device.time_s != 0) correct_biases();
 }
 
 void CrossbarBackend::structure_only() {
@@ -64,7 +135,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     std::vector<char> sign;
     std::vector<char> bad_out;  // per layer: its software output held inf or NaN
     std::vector<Eigen::MatrixXd> rows;  // per layer: the sampled im2col rows
-    std::vector<Eigen::VectorXd> lo, hi;
+    std::vector<Eigen::VectorXd> lo, hi, sum;
+    std::vector<Eigen::Index> out_rows;
   };
   std::vector<ImageTally> tally(images);
   const int per_image = calibration_rows_per_image(max_samples, images);
@@ -83,6 +155,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       ty.rows.resize(L);
       ty.lo.resize(L);
       ty.hi.resize(L);
+      ty.sum.resize(L);
+      ty.out_rows.resize(L);
       for (int l = 0; l < L; ++l) {
         const RowMatrixXf& in = trace.inputs[l];
         // A value a float cannot hold (an unbounded Clip, a huge LeakyRelu slope, pixels of
@@ -99,6 +173,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
         ty.bad_out[l] = !out.allFinite();
         ty.lo[l] = out.colwise().minCoeff().transpose().cast<double>();
         ty.hi[l] = out.colwise().maxCoeff().transpose().cast<double>();
+        ty.sum[l] = out.colwise().sum().transpose().cast<double>();
+        ty.out_rows[l] = out.rows();
       }
     }
   });
@@ -108,6 +184,8 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     LayerStatistics& st = stats_[l];
     st.out_lo = tally[0].lo[l];
     st.out_hi = tally[0].hi[l];
+    st.bias_mean = Eigen::VectorXd::Zero(st.out_lo.size());
+    double out_rows = 0;
     const int n = std::min(per_image * images, max_samples);
     st.samples.resize(n, model_.linear[l].rows());
     for (int k = 0; k < images; ++k) {
@@ -131,12 +209,31 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
       st.signed_inputs = st.signed_inputs || ty.sign[l];
       st.out_lo = st.out_lo.cwiseMin(ty.lo[l]);
       st.out_hi = st.out_hi.cwiseMax(ty.hi[l]);
+      if (k < kBiasImagesMax) {  // the images the bias correction runs
+        st.bias_mean += ty.sum[l];
+        out_rows += static_cast<double>(ty.out_rows[l]);
+      }
       for (int s = 0; s < per_image && k * per_image + s < n; ++s)
         st.samples.row(k * per_image + s) = ty.rows[l].row(s);
     }
     // Signedness is the network's (the same reads in every command); the data can only add it.
     st.signed_inputs = st.signed_inputs || may_be_negative[l];
     if (!(st.x_max > 0)) st.x_max = 1.0;  // a layer that only ever sees zeros
+    st.bias_mean /= std::max(out_rows, 1.0);
+    st.input_max = st.x_max;
+    // The DAC's full scale by ranging.inputs, from the sampled inputs' magnitudes (never above
+    // the largest input): the DAC quantizes them to its levels (a sign and bits - 1 magnitude
+    // bits for signed inputs) and clips above.
+    const RangingSpec& rs = cfg_.ranging;
+    const int bits = cfg_.converters.activation_bits();
+    if (rs.inputs != RangeMethod::Max && bits > 0 && st.samples.size() > 0) {
+      const int qbits = st.signed_inputs ? std::max(bits - 1, 1) : bits;
+      std::vector<double> mags(static_cast<size_t>(st.samples.size()));
+      Eigen::Map<Eigen::MatrixXd>(mags.data(), st.samples.rows(), st.samples.cols()) = st.samples.cwiseAbs();
+      const double c = magnitude_range(std::move(mags), rs.inputs, rs.input_percentile, std::ldexp(1.0, qbits) - 1);
+      if (c > 0) st.x_max = std::min(c, st.x_max);
+      st.input_clipped = static_cast<double>((st.samples.array().abs() > st.x_max).count()) / st.samples.size();
+    }
   }
 }
 
@@ -156,13 +253,14 @@ void CrossbarBackend::set_readout(const AnalogConfig& cfg, const std::function<v
   // All or nothing: on an error the layers read out already go back to the readout they had.
   std::vector<std::shared_ptr<const AnalogLayer::SavedReadout>> before;
   for (const AnalogLayer& layer : layers_) before.push_back(layer.save_readout());
+  const AnalogConfig cfg_before = cfg_;
   try {
-    for_layers([&](int l) { layers_[l].set_readout(cfg, stats_[l].samples); }, progress);
+    read_out_layers(cfg, progress);
   } catch (...) {
     for (size_t l = 0; l < layers_.size(); ++l) layers_[l].restore_readout(*before[l]);
+    cfg_ = cfg_before;
     throw;
   }
-  cfg_ = cfg;
 }
 
 void CrossbarBackend::for_layers(const std::function<void(int)>& f,

@@ -13,10 +13,15 @@ namespace xbarsim {
 
 /// Per-layer input ranges and calibration vectors gathered from software activations.
 struct LayerStatistics {
-  double x_max = 0;  ///< largest |input| over the calibration images
+  double x_max = 0;      ///< the inputs' full scale (ranging.inputs; the DAC clips above it)
+  double input_max = 0;  ///< largest |input| over the calibration images
+  double input_clipped = 0;  ///< fraction of the sampled inputs' values above x_max
   bool signed_inputs = false;
   Eigen::MatrixXd samples;         ///< up to `max_samples` im2col rows (real inputs)
   Eigen::VectorXd out_lo, out_hi;  ///< per output channel: range of the software outputs
+  /// Per output channel: the software outputs' mean (bias included) over the first
+  /// CrossbarBackend::kBiasImagesMax calibration images, what the bias correction aims at.
+  Eigen::VectorXd bias_mean;
 };
 
 class CrossbarBackend : public LinearBackend {
@@ -50,6 +55,12 @@ class CrossbarBackend : public LinearBackend {
   void multiply_activation(int layer, const LinearLayer& L, const float* chw, RowMatrixXf& scratch,
                            Eigen::MatrixXf& out) const override;
 
+  /// The bias correction's calibration images (the first of the set): L passes, each ending at
+  /// its layer, over this many images.
+  static constexpr int kBiasImagesMax = 64;
+  /// The image ids the bias passes read with (read noise): calibration image k is kBiasImages + k.
+  static constexpr uint64_t kBiasImages = 1ull << 63;
+
   const AnalogLayer& layer(int l) const { return layers_.at(l); }
   const LayerStatistics& statistics(int l) const { return stats_.at(l); }
   int layers() const { return static_cast<int>(layers_.size()); }
@@ -61,6 +72,17 @@ class CrossbarBackend : public LinearBackend {
   void make_layers();
   /// Builds and programs one AnalogLayer per linear layer (in parallel, deterministic).
   void program_layers(const std::function<void(int, int)>& progress);
+  /// Gives the programmed layers the readout of `target` (AnalogLayer::set_readout); with
+  /// ranging.bias_correction the output offsets are measured first, at t = 0 (or at
+  /// device.time_s when the compensation recalibrates there).
+  void read_out_layers(const AnalogConfig& target, const std::function<void(int, int)>& progress);
+  /// Bias correction (ranging.bias_correction): layer by layer in network order, a pass of the
+  /// crossbars over the first kBiasImagesMax calibration images up to the layer moves its output
+  /// offsets by the software's mean output per channel minus the crossbars' (so a layer's
+  /// correction includes what the corrected layers before it shift: the empirical bias
+  /// correction of Nagel et al., ICCV 2019).
+  void correct_biases();
+  const Dataset* calib_ = nullptr;  ///< the calibration images of the last program() (not owned)
   /// Runs f(l) for every layer on all threads, largest first, each serially; the first failure
   /// in network order is rethrown with the layer's name.
   void for_layers(const std::function<void(int)>& f, const std::function<void(int, int)>& progress) const;

@@ -271,9 +271,10 @@ Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBacken
   RowMatrixXf cols;
   Eigen::MatrixXf prod;
   for (const Op& op : m.ops) {
-    if (op.kind == OpKind::Linear)
+    if (op.kind == OpKind::Linear) {
       linear_op(m, op, backend, v[op.in[0]], v[op.out], trace, cols, prod);
-    else {
+      if (trace && trace->stop_after_linear == op.linear) return Eigen::VectorXf();
+    } else {
       std::vector<const std::vector<float>*> xs;
       for (int i : op.in) xs.push_back(&v[i]);
       digital_op(op, m.values, xs, v[op.out]);

@@ -45,6 +45,8 @@ void im2col(const LinearLayer& L, const float* chw, RowMatrixXf& cols);
 /// bias; iterations x c_out).
 struct LayerTrace {
   bool record_inputs = true;  ///< false: outputs only (saves one im2col copy per layer)
+  /// >= 0: the pass stops after this linear layer (run_image then returns no logits).
+  int stop_after_linear = -1;
   std::vector<RowMatrixXf> inputs;
   std::vector<Eigen::MatrixXf> outputs;
 };

@@ -834,6 +834,37 @@ std::string drop_text(const json& r) {
   return s;
 }
 
+/// The full scales eval chose (ranging.*) for the first selected row, per layer: the inputs'
+/// (DAC) against their largest value, the weights' clip, the ADCs' range, the bias correction.
+Part ranges_part(const std::vector<const json*>& sel) {
+  const json* r = nullptr;
+  for (const json* s : sel)
+    if (has_layers_with(*s, "weight_clip")) {
+      r = s;
+      break;
+    }
+  if (!r) return absent("ranges used (the rows carry no ranges: eval's do)");
+  std::string h = "<p>";
+  if (r->contains("ranging") && (*r)["ranging"].is_object()) {
+    const json& g = (*r)["ranging"];
+    h += "Weights: " + html_escape(text(g, "weights")) + " per " + html_escape(text(g, "weight_scale")) +
+         "; inputs: " + html_escape(text(g, "inputs")) + "; ADCs: " + html_escape(text(g, "adc")) + " per " +
+         html_escape(text(g, "adc_scope")) + "; bias correction " +
+         (g.value("bias_correction", false) ? "on" : "off") + "; " + html_escape(text(*r, "negative")) + " mapping. ";
+  }
+  h += "Inputs and ADCs are ranged on the calibration images, never the test set.</p>\n"
+       "<table><tr><th>layer</th><th>input full scale</th><th>largest input</th><th>inputs clipped %</th>"
+       "<th>weights clipped</th><th>weight clip (of max |w|)</th><th>ADC full scale &micro;A</th>"
+       "<th>ADC range (of calibration span)</th><th>output offset rms</th></tr>\n";
+  for (const auto& l : (*r)["layers"]) {
+    h += "<tr><td>" + html_escape(text(l, "name")) + "</td>" + cell(num(l, "input_full_scale")) +
+         cell(num(l, "input_max")) + cell(num(l, "input_clipped"), 100) + cell(num(l, "clipped_weights")) +
+         cell(num(l, "weight_clip")) + cell(num(l, "adc_full_scale_ua")) + cell(num(l, "adc_clip")) +
+         cell(num(l, "output_offset_rms")) + "</tr>\n";
+  }
+  return Part{h + "</table>\n", ""};
+}
+
 Part accuracy_part(const json& rows) {
   std::string h;
   for (const auto& r : rows) {
@@ -962,6 +993,7 @@ std::string render_html_report(const ReportInput& in) {
   const auto timing = [&] { return timing_plot(sel); };
   const auto energy = [&] { return breakdown_plot(sel, true); };
   const auto area = [&] { return breakdown_plot(sel, false); };
+  const auto ranges = [&] { return ranges_part(sel); };
   if (in.command == "explore") {
     sections = {{"Pareto front", front},
                 {"All points", table},
@@ -978,11 +1010,13 @@ std::string render_html_report(const ReportInput& in) {
                 {"Area by component", area},
                 {"Accuracy", accuracy},
                 {"Per-layer error propagation", layers},
+                {"Ranges used", ranges},
                 {"All points", table},
                 {"Pareto front", front}};
   } else if (in.command == "eval") {
     sections = {{"Accuracy", accuracy},           {"Per-layer error propagation", layers},
-                {"Accuracy vs ADC bits", adc},    {"Accuracy vs DAC bits", dac},
+                {"Ranges used", ranges},          {"Accuracy vs ADC bits", adc},
+                {"Accuracy vs DAC bits", dac},
                 {"Energy by component", energy},  {"Area by component", area},
                 {"All points", table},            {"Throughput and latency", performance},
                 {"Pareto front", front}};

@@ -311,10 +311,10 @@ void gather_tallies(ImageTallies& t, int images, int L, const ImageShard& shard)
 
 CrossbarBackend program_crossbars(const Model& model, const EvalPoint& point, const EvalSpec& spec,
                                   const Dataset& calib, const std::function<void(int, int)>& progress) {
-  if (spec.calibration_samples < point.ac.calibration.samples)
-    throw InputError("configuration key 'eval.calibration_samples' must be >= calibration.samples");
+  // Every calibration vector is one of the kept rows: at least calibration.samples of them (as
+  // the Python layers keep max(eval.calibration_samples, calibration.samples)).
   CrossbarBackend xb(model, point.ac);
-  xb.program(calib, spec.calibration_samples, progress);
+  xb.program(calib, std::max(spec.calibration_samples, point.ac.calibration.samples), progress);
   return xb;
 }
 
@@ -382,6 +382,9 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     el.mean_relative_error = sum.mean();
     el.worst_relative_error = sum.worst;
     el.input_full_scale = xb.statistics(l).x_max;
+    el.input_max = xb.statistics(l).input_max;
+    el.input_clipped = xb.statistics(l).input_clipped;
+    el.ranges = xb.layer(l).range_summary();
     el.signed_inputs = xb.statistics(l).signed_inputs;
     el.compensation_reads = xb.layer(l).compensation_reads();
     for (const auto& rep : xb.layer(l).reports()) {
@@ -467,6 +470,20 @@ nlohmann::json EvalResult::to_json() const {
   j["cell_bits"] = bits(ac->mapping.cell_bits);
   j["weight_bits"] = bits(ac->mapping.weight_bits);
   j["adc_range"] = to_string(ac->converters.adc_range);
+  j["negative"] = ac->mapping.differential() ? "differential" : "shift";
+  const RangingSpec& rs = ac->ranging;
+  j["ranging"] = {{"weights", to_string(rs.weights)},
+                  {"weight_percentile", rs.weight_percentile},
+                  {"weight_scale", to_string(rs.weight_scale)},
+                  {"inputs", to_string(rs.inputs)},
+                  {"input_percentile", rs.input_percentile},
+                  {"adc", to_string(rs.adc)},
+                  {"adc_percentile", rs.adc_percentile},
+                  {"adc_scope", to_string(rs.adc_scope)},
+                  {"bias_correction", rs.bias_correction}};
+  long long clipped_weights = 0;
+  for (const auto& l : layers) clipped_weights += l.ranges.clipped_weights;
+  j["clipped_weights"] = clipped_weights;
   j["device_model"] = ac->device.model;
   j["device_time_s"] = ac->device.time_s;
   j["device_compensation"] = to_string(ac->device.compensation);
@@ -496,6 +513,13 @@ nlohmann::json EvalResult::to_json() const {
                            {"dacs", l.inventory.dacs},
                            {"iterations", l.inventory.iterations},
                            {"input_full_scale", l.input_full_scale},
+                           {"input_max", l.input_max},
+                           {"input_clipped", l.input_clipped},
+                           {"weight_clip", l.ranges.weight_clip},
+                           {"clipped_weights", l.ranges.clipped_weights},
+                           {"adc_clip", l.ranges.adc_clip},
+                           {"adc_full_scale_ua", l.ranges.adc_full_scale_a * 1e6},
+                           {"output_offset_rms", l.ranges.output_offset_rms},
                            {"signed_inputs", l.signed_inputs},
                            {"out_of_range_cells", l.out_of_range_cells},
                            {"stuck_cells", l.stuck_cells},

@@ -54,6 +54,9 @@ struct EvalLayer {
   long long spare_columns_used = 0;  ///< columns replaced by spare columns (device.spare_columns)
   long long compensation_reads = 0;  ///< reads drift compensation made at device.time_s (per crossbar, summed)
   long long cells = 0;  ///< programmed cells of the layer's crossbars (physical columns included)
+  double input_max = 0;      ///< largest |input| over the calibration images (input_full_scale clips below it)
+  double input_clipped = 0;  ///< fraction of the sampled calibration inputs above input_full_scale
+  AnalogLayer::RangeSummary ranges;  ///< weight, ADC and output-offset ranging
 };
 
 /// A layer whose conversion clipped more than this fraction of its cells is named in a warning:

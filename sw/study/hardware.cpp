@@ -10,6 +10,7 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
   HardwareContext hw;
   hw.mapping = ac.mapping;
   hw.converters = ac.converters;
+  hw.column_scales = ac.ranging.weight_scale == WeightScale::Column;
   hw.lib = load_component_library(cfg);
   hw.arch = load_architecture(cfg);
   check_crossbar_geometry(hw.arch, ac.mapping);

@@ -17,6 +17,7 @@ struct HardwareContext {
   PlatformConfig platform;
   Architecture arch;          ///< architecture.machine (layer-sized: arch.machine is false)
   int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library or the machine
+  bool column_scales = false;  ///< ranging.weight_scale: column (a digital multiply per crossbar output)
   CostModel cost;
   /// Neuron cores (arch.neuron_cores()): the steps of one read at the configured precision and
   /// the solved energy (pJ) of one magnitude bit's input pulses on a whole core.
@@ -26,6 +27,7 @@ struct HardwareContext {
   /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's).
   LayerInventory inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs) const {
     LayerInventory v = layer_inventory(L, scheme, mapping, columns_per_adc);
+    v.column_scales = column_scales;
     return stream_inputs(v, converters, signed_inputs);
   }
 };

@@ -23,7 +23,7 @@ class BitSerialCli : public ::testing::Test {
     xbarsim_test::write_tiny_cifar(dir_ + "/data", 8);
     xbarsim_test::write_tiny_model(dir_ + "/models/tiny.onnx");
     std::ofstream(cfg()) << "data:\n  dir: " << dir_ << "/data\n  models_dir: " << dir_
-                         << "/models\neval:\n  calibration_images: 4\n  calibration_samples: 64\n"
+                         << "/models\neval:\n  calibration_images: 4\n  calibration_samples: 64\ncalibration:\n  samples: 10\n"
                             "crossbar:\n  cell_bits: 2\nmapping:\n  weight_bits: 8\n  max_rows: 64\n"
                             "converters:\n  input_bits: 8\n  dac_bits: 1\n";
   }

@@ -49,7 +49,7 @@ class Safety : public ::testing::Test {
     xbarsim_test::write_tiny_model(model());
     spit(library(), slurp(std::string(XBARSIM_SOURCE_DIR) + "/configs/components/isaac_paper.yaml"));
     spit(config(), "data:\n  dir: " + dir_ + "/data\n  models_dir: " + dir_ + "/models\ncomponents:\n  library: " +
-                       library() + "\neval:\n  calibration_images: 4\n  calibration_samples: 64\n");
+                       library() + "\neval:\n  calibration_images: 4\n  calibration_samples: 64\ncalibration:\n  samples: 10\n");
   }
   void TearDown() override {
     if (!HasFailure()) std::system(("rm -rf '" + dir_ + "'").c_str());
@@ -344,7 +344,7 @@ TEST_F(Safety, MessagesNameTheKeyAndComeBeforeTheWork) {
                             " --set crossbar.memristor.model=sinh --set solver.nonlinear=newton "
                             "--set solver.newton_max_iterations=1");
   EXPECT_EQ(solver.code, 3) << solver.out;
-  EXPECT_NE(solver.out.find("layer Conv_c1: programming its crossbar of rows 0..26"), std::string::npos) << solver.out;
+  EXPECT_NE(solver.out.find("layer Conv_c1: reading out its crossbar of rows 0..26"), std::string::npos) << solver.out;
   // A huge CSV value is quoted in part.
   spit(path("g.csv"), std::string(1 << 20, 'x') + "\n");
   spit(path("v.csv"), "0.1\n");

@@ -246,8 +246,8 @@ TEST(ExploreCommand, PointsDifferingInTheirReadoutShareOneProgramming) {
   const std::string cfg = dir + "/space.yaml";
   std::ofstream(cfg) << "data:\n  dir: " << dir << "/data\n  models_dir: " << dir
                      << "/models\nexplore:\n  model: tiny\neval:\n  images: 12\n  calibration_images: 6\n"
-                        "  calibration_samples: 64\nmapping:\n  max_rows: 16\n  max_cols: 4\ndevice:\n"
-                        "  model: constant\n  program_sigma_us: 0.5\nsolver:\n  threads: 1\n";
+                        "  calibration_samples: 64\ncalibration:\n  samples: 10\nmapping:\n  max_rows: 16\n  max_cols: 4\n"
+                        "device:\n  model: constant\n  program_sigma_us: 0.5\nsolver:\n  threads: 1\n";
   const std::vector<std::pair<std::string, std::vector<std::string>>> dims = {
       {"mapping.g_headroom", {"0.1", "0.3"}},
       {"converters.adc_bits", {"3", "6"}},

@@ -260,7 +260,10 @@ def test_device_read_draws_a_nonlinear_crossbars_reads():
     # the crossbar's salt, image and read gives those conductances. Without converters or mitigation
     # each output is affine in its column current with one slope for every column and vector, so the
     # outputs of four images follow the currents xbarsim.solve computes from Device.read's arrays.
+    # Differential pairs (mapping.negative: auto under a device): an output is affine in its pair's
+    # current difference (physical columns 2j and 2j + 1).
     cfg = {"crossbar.memristor.model": "sinh", "device.model": "constant", "device.read_sigma_us": 3.0,
+           "ranging.weight_scale": "crossbar",  # one slope for every column
            "converters.adc_bits": "none", "converters.dac_bits": "none", "mitigation.method": "none"}
     rng = np.random.default_rng(0)
     x = rng.uniform(0, 1, size=(2, 16))
@@ -271,6 +274,7 @@ def test_device_read_draws_a_nonlinear_crossbars_reads():
     y = np.array([xb.matvec(x, image=i) for i in range(4)])
     i = np.array([[xbarsim.solve(d.read(g, image=k, read=r, layer=3), volts[r:r + 1], config)[0] for r in range(2)]
                   for k in range(4)])
+    i = i[..., 0::2] - i[..., 1::2]
     dy, di = y - y.mean(axis=0), i - i.mean(axis=0)  # each output's and current's change over the reads
     slope = (dy * di).sum() / (di * di).sum()
     assert np.ptp(y, axis=0).min() > 0  # the reads did differ

@@ -24,6 +24,9 @@ import xbarsim.onnx as xonnx  # noqa: E402
 SHARED = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared")
 RESNET20 = os.path.join(SHARED, "models", "resnet20_cifar10.onnx")
 G_SPAN = 6.6666666666666667e-5 * 0.8 - 3.3333333333333333e-6  # default g_max (1 - headroom) - g_min: 50 uS
+# The seed paper's ranging (max|W| per crossbar, 20 % headroom), which the closed forms below
+# assume; under a device model the defaults are the mse clip per column without headroom.
+MAX_RANGING = {"ranging.weights": "max", "ranging.weight_scale": "crossbar", "mapping.g_headroom": 0.2}
 
 
 def _conv(seed=0, cin=3, cout=4, k=3):
@@ -137,7 +140,7 @@ def test_programming_noise_in_weight_units():
     lin = torch.nn.Linear(100, 60, bias=False).double()
     sigma = 1e-6
     hw = _quiet({"device.model": "constant", "device.program_sigma_us": 1.0, "mapping.negative": "differential",
-                 "mitigation.method": "none"})
+                 "mitigation.method": "none", **MAX_RANGING})
     analog = xnn.convert(lin, hw)
     w = lin.weight.detach().numpy().ravel()
     s = G_SPAN / np.abs(w).max()
@@ -164,7 +167,7 @@ def test_read_noise_of_the_outputs():
     torch.manual_seed(5)
     lin = torch.nn.Linear(40, 8, bias=False).double()
     hw = _quiet({"device.model": "constant", "device.read_sigma_us": 1.5, "mapping.negative": "differential",
-                 "mitigation.method": "none"}, read_noise=True)
+                 "mitigation.method": "none", **MAX_RANGING}, read_noise=True)
     x = torch.rand(1, 40, dtype=torch.float64)
     analog = xnn.convert(lin, hw)
     analog.x_max.fill_(1.0)
