@@ -335,7 +335,6 @@ void AnalogLayer::program(const Eigen::MatrixXd& calib_given) {
     bias_ = bias_before;
     throw;
   }
-  for (size_t b = 0; b < xbars.size(); ++b) xbars[b]->in0 = blocks_[b].row0;
   xbars.swap(xbars_);
   const std::vector<CrossbarReport> reports_before = reports_;
   reports_ = std::move(reports);
@@ -416,20 +415,13 @@ void AnalogLayer::set_readout(const AnalogConfig& cfg, const Eigen::MatrixXd& ca
       move_to_time(layer_in);
       return;
     }
-    // As program(): the crossbars at t = 0, each reading its own rows of every input (in0 = 0).
+    // As program(): the crossbars read out at t = 0.
     for (auto& x : xbars_) {
       check_cancel();
-      x->in0 = 0;
       if (time_s_ != 0) settle(*x, 0);
     }
     time_s_ = 0;
-    try {
-      read_out_all(xbars_, layer_in);
-    } catch (...) {
-      for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
-      throw;
-    }
-    for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
+    read_out_all(xbars_, layer_in);
     move_to_time(layer_in);
   } catch (...) {
     restore_readout(*before);

@@ -348,7 +348,9 @@ class AnalogLayer {
   /// of squares); zeros without an ADC.
   Eigen::VectorXd output_steps(const Crossbar& x) const;
   /// The readout steps of crossbars whose conductances are written (the layer's, in block
-  /// order): ADC offsets and ranges (per column, or one for the layer), then calibration.
+  /// order): ADC offsets and ranges (per column, or one for the layer), then calibration, each
+  /// crossbar reading its own rows of `in`; afterwards (also on a throw) every crossbar reads
+  /// the layer's inputs at its rows again (in0 = its block's row0).
   void read_out_all(std::vector<std::unique_ptr<Crossbar>>& xbars, const LayerInputs& in) const;
   /// Adds `add` (per output column) to the offset of the first crossbar holding each column.
   void fold_output_offsets(std::vector<std::unique_ptr<Crossbar>>& xbars, const Eigen::VectorXd& add) const;

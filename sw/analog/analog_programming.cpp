@@ -294,14 +294,7 @@ void AnalogLayer::move_to_time(const LayerInputs& layer_in) {
   time_s_ = t;
   if (d.compensation == Compensation::Recalibrate) {
     // The readout again at t: every crossbar reads its own rows (in0 = 0), then the bias.
-    for (auto& x : xbars_) x->in0 = 0;
-    try {
-      read_out_all(xbars_, layer_in);
-    } catch (...) {
-      for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
-      throw;
-    }
-    for (size_t b = 0; b < xbars_.size(); ++b) xbars_[b]->in0 = blocks_[b].row0;
+    read_out_all(xbars_, layer_in);
   }
   if (!references) return;
   // global: one gain for the layer, sum of |references at 0| / sum at t; column: per column.
@@ -451,7 +444,16 @@ std::vector<double> AnalogLayer::column_samples(const AdcSamples& a, int c, int 
 }
 
 void AnalogLayer::read_out_all(std::vector<std::unique_ptr<Crossbar>>& xbars, const LayerInputs& in) const {
-  // Every crossbar reads its own rows of the inputs while it is read out (in0 = 0).
+  // Every crossbar reads its own rows of the inputs while it is read out (in0 = 0), and the
+  // whole layer's inputs at its rows afterwards, also when the readout throws.
+  struct AtLayerRows {
+    std::vector<std::unique_ptr<Crossbar>>& xbars;
+    const std::vector<Block>& blocks;
+    ~AtLayerRows() {
+      for (size_t b = 0; b < xbars.size(); ++b) xbars[b]->in0 = blocks[b].row0;
+    }
+  } at_layer_rows{xbars, blocks_};
+  for (auto& x : xbars) x->in0 = 0;
   std::vector<AdcSamples> samples(xbars.size());
   std::vector<ProgrammingInputs> inputs;
   inputs.reserve(xbars.size());
