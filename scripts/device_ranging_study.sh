@@ -39,7 +39,7 @@ for m in rram-wan2022 pcm-joshi2020 rram-cmo; do
 done
 # NeuRRAM's precisions with ideal devices, 10 000 images.
 ev neurram_ideal_10k "$X" --config configs/neurram.yaml --set device.model=ideal
-# ISAAC's cell precisions under rram-wan2022 at one day, 2000 images.
-ev isaac_rram_1day "$X" --config configs/isaac.yaml --images 2000 --set architecture.machine=layer-sized --set device.model=rram-wan2022 \
-  --set device.time_s=86400 --set device.compensation=column --set "crossbar.cell_bits=[1,2,4]" \
-  --set "converters.adc_bits=[6,8]" --set "device.seed=[11,12,13]"
+# ISAAC's cell precisions under rram-wan2022 at one day, 500 images, each with 8-bit ADCs.
+ev isaac_rram_1day "$X" --config configs/isaac.yaml --images 500 --set architecture.machine=layer-sized \
+  --set device.model=rram-wan2022 --set device.time_s=86400 --set device.compensation=column \
+  --set "crossbar.cell_bits=[1,2,4]" --set converters.adc_bits=8 --set "device.seed=[11,12,13]"
