@@ -57,6 +57,18 @@ CASES = {
 }
 
 
+def assert_only_ties_differ(logits, ours, theirs, most, tie):
+    """At most `most` predictions differ, and each only where our logits are near a tie: the top
+    two within `tie` of the image's logit spread (float rounding moves a few DAC/ADC codes; a
+    wrong mapping or readout moves clear predictions too)."""
+    differ = np.nonzero(ours != theirs)[0]
+    top = logits.sort(dim=1, descending=True).values
+    margin = ((top[:, 0] - top[:, 1]) / (top[:, 0] - top[:, -1])).numpy()
+    assert len(differ) <= most, f"differ at images {differ.tolist()} (margins {margin[differ].round(4).tolist()})"
+    assert (margin[differ] < tie).all(), f"clear predictions differ: images {differ.tolist()}, margins " \
+                                         f"{margin[differ].round(4).tolist()} of the logit spread"
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_converted_predictions_agree_with_eval(case, tmp_path):
     data = shared_dir()
@@ -79,11 +91,14 @@ def test_converted_predictions_agree_with_eval(case, tmp_path):
 
     analog = xtorch.convert(net, xbarsim.Config(), calibration=torch.utils.data.DataLoader(cx, batch_size=100))
     with torch.no_grad():
-        ours = torch.cat([analog(x[i:i + 100]).argmax(1) for i in range(0, images, 100)]).numpy()
+        logits = torch.cat([analog(x[i:i + 100]) for i in range(0, images, 100)])
+    ours = logits.argmax(1).numpy()
     agree = int((ours == eval_classes).sum())
     print(f"{case}: {agree} of {images} predictions agree with eval's (eval {result['crossbar_accuracy']:.3f}, "
           f"converted {(ours == labels).mean():.3f})")
-    assert agree >= images - 1, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"
+    # measured with 200 calibration vectors per crossbar (calibration.samples): ResNet-20 3 of 500
+    # differ, at margins of 0.2-1.4 % of the logit spread (10 vectors: 1); LeNet none
+    assert_only_ties_differ(logits, ours, eval_classes, most=5, tie=0.02)
 
 
 def test_fine_tuned_export_agrees_with_eval(tmp_path):
@@ -128,10 +143,12 @@ def test_fine_tuned_export_agrees_with_eval(tmp_path):
     exact = inference.convert(reread.eval(), xbarsim.Config(overrides=overrides),
                               calibration=torch.utils.data.DataLoader(cx, batch_size=100))
     with torch.no_grad():
-        ours = torch.cat([exact(x[i:i + 100]).argmax(1) for i in range(0, images, 100)]).numpy()
+        logits = torch.cat([exact(x[i:i + 100]) for i in range(0, images, 100)])
+    ours = logits.argmax(1).numpy()
     agree = int((ours == eval_classes).sum())
     print(f"fine-tuned: {agree} of {images} predictions agree with eval's (eval {result['crossbar_accuracy']:.3f})")
     # float rounding moves a few DAC/ADC codes, as for the shared models above; under the device's
-    # noise more predictions sit near a tie (measured: this model 498 of 500, scripts/hwa_study.py's
-    # HWA models 498 and 499, the original ResNet-20 under rram-wan2022 492)
-    assert agree >= images - 3, f"differ at images {np.nonzero(ours != eval_classes)[0].tolist()}"
+    # noise more predictions sit near a tie (measured with 10 calibration vectors: this model 498
+    # of 500, scripts/hwa_study.py's HWA models 498 and 499, the original ResNet-20 under
+    # rram-wan2022 492; with 200, this model 496)
+    assert_only_ties_differ(logits, ours, eval_classes, most=6, tie=0.03)
