@@ -697,6 +697,22 @@ PYBIND11_MODULE(_core, m) {
       "Which of a calibration image's `rows` input vectors eval samples for linear layer `layer` (its "
       "place among the network's Conv/Gemm layers): `count` indices from calibration.seed's stream");
   m.def(
+      "input_full_scale",
+      [](const Eigen::MatrixXd& samples, bool signed_inputs, const py::object& config, double input_max) {
+        const AnalogConfig ac = parse_analog_config(config_of(config));
+        if (!samples.allFinite()) throw InputError("the input samples hold a non-finite value");
+        if (!(input_max > 0)) {  // not given: the samples' largest magnitude
+          const double top = samples.size() ? samples.cwiseAbs().maxCoeff() : 0.0;
+          input_max = top > 0 ? top : 1.0;
+        }
+        return input_full_scale(samples, input_max, signed_inputs, ac.ranging, ac.converters.activation_bits());
+      },
+      py::arg("samples"), py::arg("signed_inputs"), py::arg("config") = py::none(), py::arg("input_max") = 0.0,
+      "The DAC's full scale eval gives a layer whose sampled input vectors are `samples` (rows) and whose "
+      "largest input magnitude is `input_max` (0: the samples'; 1 for all zeros): ranging.inputs (max, "
+      "percentile or mse for the activation bits; signed: a sign and bits - 1 magnitude bits), never above "
+      "input_max");
+  m.def(
       "weight_cells",
       [](const Eigen::MatrixXd& w, const py::object& config) {
         const AnalogConfig ac = parse_analog_config(config_of(config));

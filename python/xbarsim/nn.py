@@ -541,15 +541,19 @@ def calibrate(model, inputs, adc=True):
         x = seen.get(id(m))
         if x is None:
             continue
-        m.x_max.fill_(float(x.abs().max()) or 1.0)
         m.signed_inputs.fill_(bool((x < 0).any()))
         m._adc = None
         with torch.no_grad():
-            # eval keeps eval.calibration_samples input vectors of a layer for its ADC ranges and
-            # picks calibration.samples of them for the calibration fit
-            rows = m._rows(m._dac(x))
-            keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(rows.shape[0])[:hw.ranging_samples]
-            rows = rows[torch.as_tensor(keep)].double()
+            # eval keeps eval.calibration_samples input vectors of a layer for its DAC and ADC
+            # ranges (the DAC's by ranging.inputs, never above the largest input) and picks
+            # calibration.samples of them for the calibration fit
+            raw = m._rows(x)
+            keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(raw.shape[0])[:hw.ranging_samples]
+            raw = raw[torch.as_tensor(keep)].double()
+            top = float(x.abs().max()) or 1.0
+            m.x_max.fill_(_core.input_full_scale(raw.numpy(), bool(m.signed_inputs), hw.config, top)
+                          if hw.converters and hw.dac_bits else top)
+            rows = m._rows(m._dac(x))[torch.as_tensor(keep)].double()
             m._calib_rows = rows[:hw.calibration_samples].numpy()
         m._delta_step = None  # the next forward draws (and calibrates) afresh
         if adc and hw.converters and hw.adc_bits:

@@ -194,4 +194,15 @@ std::pair<double, double> value_range(std::vector<double> v, RangeMethod method,
   return {lo, hi};
 }
 
+double input_full_scale(const Eigen::MatrixXd& samples, double input_max, bool signed_inputs,
+                        const RangingSpec& ranging, int activation_bits) {
+  if (ranging.inputs == RangeMethod::Max || activation_bits <= 0 || samples.size() == 0) return input_max;
+  const int qbits = signed_inputs ? std::max(activation_bits - 1, 1) : activation_bits;
+  std::vector<double> mags(static_cast<size_t>(samples.size()));
+  Eigen::Map<Eigen::MatrixXd>(mags.data(), samples.rows(), samples.cols()) = samples.cwiseAbs();
+  const double c = magnitude_range(std::move(mags), ranging.inputs, ranging.input_percentile,
+                                   std::ldexp(1.0, qbits) - 1);
+  return c > 0 ? std::min(c, input_max) : input_max;
+}
+
 }  // namespace xbarsim

@@ -72,4 +72,10 @@ double magnitude_range(std::vector<double> m, RangeMethod method, double p, doub
 /// that minimises the summed squared error of the quantized values (levels = 0: [min, max]).
 std::pair<double, double> value_range(std::vector<double> v, RangeMethod method, double p, double levels);
 
+/// The DAC's full scale for input vectors `samples` (rows) whose largest magnitude is
+/// `input_max`, by ranging.inputs for `activation_bits`-bit activations (a sign and bits - 1
+/// magnitude bits when `signed_inputs`; 0 = analog inputs: `input_max`): never above input_max.
+double input_full_scale(const Eigen::MatrixXd& samples, double input_max, bool signed_inputs,
+                        const RangingSpec& ranging, int activation_bits);
+
 }  // namespace xbarsim

@@ -224,16 +224,10 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     // The DAC's full scale by ranging.inputs, from the sampled inputs' magnitudes (never above
     // the largest input): the DAC quantizes them to its levels (a sign and bits - 1 magnitude
     // bits for signed inputs) and clips above.
-    const RangingSpec& rs = cfg_.ranging;
-    const int bits = cfg_.converters.activation_bits();
-    if (rs.inputs != RangeMethod::Max && bits > 0 && st.samples.size() > 0) {
-      const int qbits = st.signed_inputs ? std::max(bits - 1, 1) : bits;
-      std::vector<double> mags(static_cast<size_t>(st.samples.size()));
-      Eigen::Map<Eigen::MatrixXd>(mags.data(), st.samples.rows(), st.samples.cols()) = st.samples.cwiseAbs();
-      const double c = magnitude_range(std::move(mags), rs.inputs, rs.input_percentile, std::ldexp(1.0, qbits) - 1);
-      if (c > 0) st.x_max = std::min(c, st.x_max);
+    st.x_max = input_full_scale(st.samples, st.x_max, st.signed_inputs, cfg_.ranging,
+                                cfg_.converters.activation_bits());
+    if (st.x_max < st.input_max && st.samples.size() > 0)
       st.input_clipped = static_cast<double>((st.samples.array().abs() > st.x_max).count()) / st.samples.size();
-    }
   }
 }
 
