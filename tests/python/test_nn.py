@@ -428,7 +428,12 @@ def test_hwa_ctrl_c_leaves_no_output(tiny_setup):
         raise
     assert proc.returncode == 130, rest
     assert "not written" in rest
-    assert sorted(os.listdir(tmp)) == ["data", "tiny.onnx"]
+    # no output and no partial file: at most the last whole epoch's checkpoint
+    left = sorted(os.listdir(tmp))
+    assert left in (["data", "tiny.onnx"], ["data", "out.onnx.ckpt", "tiny.onnx"]), left
+    if "out.onnx.ckpt" in left:
+        assert "--resume goes on from it" in rest
+        assert torch.load(tmp / "out.onnx.ckpt")["epoch"] >= 1
 
 
 def test_clip_weights_to_sigmas_of_the_layer():
@@ -443,3 +448,92 @@ def test_clip_weights_to_sigmas_of_the_layer():
         bound = 2.0 * w0.std(ddof=1)
         assert np.allclose(w.detach().numpy(), np.clip(w0, -bound, bound), rtol=1e-6)
     hwa.clip_weights(model, 0)  # 0: no clipping
+
+
+# --- recipes, schedules, checkpoints (issue 51) ---------------------------------------------------
+
+def test_learning_rate_warms_up_then_follows_its_schedule():
+    import xbarsim.hwa as hwa
+    # 10 steps of warm-up of 110: (k + 1) / 10, then a cosine over the other 100 (by hand)
+    assert hwa._lr_factor(0, 110, 10, "cosine") == pytest.approx(0.1)
+    assert hwa._lr_factor(9, 110, 10, "cosine") == pytest.approx(1.0)
+    assert hwa._lr_factor(10, 110, 10, "cosine") == pytest.approx(1.0)
+    assert hwa._lr_factor(60, 110, 10, "cosine") == pytest.approx(0.5)
+    assert hwa._lr_factor(85, 110, 10, "cosine") == pytest.approx(0.5 * (1 + math.cos(math.pi * 0.75)))
+    assert [hwa._lr_factor(k, 110, 10, "step") for k in (59, 60, 84, 85)] == [1.0, 0.1, 0.1, 0.01]
+    with pytest.raises(ValueError, match="cosine or step"):
+        hwa._lr_factor(0, 10, 0, "linear")
+
+
+def test_a_recipe_is_overridden_option_by_option():
+    import xbarsim.hwa as hwa
+    args = hwa._parser().parse_args(["--model", "m", "--train", "d", "--out", "o", "--recipe", "neurram",
+                                     "--lr", "1e-3"])
+    s = hwa._settings(args)
+    assert s["lr"] == 1e-3  # the user's
+    assert s["epochs"] == hwa.RECIPES["neurram"]["epochs"] and s["weight_noise"] == 0.05  # the recipe's
+    assert hwa._settings(hwa._parser().parse_args(["--model", "m", "--train", "d", "--out", "o"]))["epochs"] == 1
+
+
+def test_a_resumed_run_ends_where_the_whole_run_ends(tiny_setup):
+    import xbarsim.hwa as hwa
+    tmp, data = tiny_setup
+
+    def run(checkpoint, resume=None, stop_at=None):
+        model = xonnx.load(tmp / "tiny.onnx")
+        train = xdata.Cifar10(data, train=True, preprocessing=model.preprocessing, seed=3)
+        hw = xnn.Hardware({"device.model": "rram-wan2022"}, seed=3, weight_noise=0.02)
+        net = xnn.convert(model, hw, calibration=train.preprocess(train.images[:16]))
+
+        def progress(line):
+            if stop_at and line.startswith(stop_at):
+                raise KeyboardInterrupt
+        hwa.fine_tune(net, hw, train, epochs=3, batch_size=16, lr=1e-3, warmup=1, calibration=None,
+                      checkpoint=checkpoint, resume=resume, signature="s", progress=progress, seed=3)
+        return [p.detach().clone() for p in net.parameters()]
+
+    whole = run(tmp / "whole.ckpt")
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp / "part.ckpt", stop_at="epoch 3/3")
+    assert torch.load(tmp / "part.ckpt")["epoch"] == 2 and not (tmp / "part.ckpt.tmp").exists()
+    resumed = run(tmp / "part.ckpt", resume=tmp / "part.ckpt")
+    assert all(torch.equal(a, b) for a, b in zip(whole, resumed))
+    with pytest.raises(ValueError, match="another model"):
+        model = xonnx.load(tmp / "tiny.onnx")
+        train = xdata.Cifar10(data, train=True, preprocessing=model.preprocessing)
+        hwa.fine_tune(model, None, train, epochs=3, resume=tmp / "part.ckpt", signature="other")
+
+
+@pytest.mark.parametrize("case", ["epochs 0", "lr 0", "lr nan", "warmup too long", "checkpoint is out",
+                                  "resume without checkpoint", "resume other config"])
+def test_hwa_refuses_bad_training_settings(tiny_setup, case):
+    tmp, data = tiny_setup
+    out = tmp / "out.onnx"
+    extra = {"epochs 0": ["--epochs", 0], "lr 0": ["--lr", 0], "lr nan": ["--lr", "nan"],
+             "warmup too long": ["--epochs", 1, "--warmup", 2], "checkpoint is out": ["--checkpoint", out],
+             "resume without checkpoint": ["--resume"], "resume other config": ["--resume"]}[case]
+    if case == "resume other config":
+        torch.save({"signature": "not this run"}, f"{out}.ckpt")
+    r = _hwa("--model", tmp / "tiny.onnx", "--train", data, "--out", out, *extra)
+    assert r.returncode == 2, r.stderr
+    lines = [l for l in r.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and lines[0].startswith("xbarsim.hwa: error: "), r.stderr
+    assert not out.exists()
+
+
+def test_hwa_refuses_an_unknown_recipe(tiny_setup):
+    tmp, data = tiny_setup
+    r = _hwa("--model", tmp / "tiny.onnx", "--train", data, "--out", tmp / "out.onnx", "--recipe", "magic")
+    assert r.returncode == 2 and "invalid choice: 'magic'" in r.stderr
+    assert not (tmp / "out.onnx").exists()
+
+
+def test_hwa_keeps_the_best_validation_epoch_and_removes_its_checkpoint(tiny_setup):
+    tmp, data = tiny_setup
+    r = _hwa("--model", tmp / "tiny.onnx", "--train", data, "--epochs", 2, "--batch-size", 16,
+             "--validation-images", 16, "--set", "device.model=rram-wan2022", "--out", tmp / "out.onnx")
+    assert r.returncode == 0, r.stderr
+    assert "48 images" in r.stderr and "16 held out for validation" in r.stderr
+    assert r.stderr.count("validation ") >= 2 and "images/s" in r.stderr
+    assert "kept" in xonnx.load(tmp / "out.onnx").metadata["xbarsim_hwa"]
+    assert sorted(os.listdir(tmp)) == ["data", "out.onnx", "tiny.onnx"]
