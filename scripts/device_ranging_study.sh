@@ -15,8 +15,11 @@ cd "$root"
 times='[1,3600,86400,2592000,31536000]'
 ev() {  # tag binary args...
   local tag=$1 bin=$2; shift 2
-  [ -f "$out/$tag.json" ] || "$bin" eval --model resnet20_cifar10 --json "$out/$tag.json.tmp" "$@" \
-    > "$out/$tag.txt" 2> "$out/$tag.err" && mv "$out/$tag.json.tmp" "$out/$tag.json"
+  if [ ! -f "$out/$tag.json" ]; then
+    "$bin" eval --model resnet20_cifar10 --json "$out/$tag.json.tmp" "$@" \
+    > "$out/$tag.txt" 2> "$out/$tag.err"
+    mv "$out/$tag.json.tmp" "$out/$tag.json"
+  fi
   echo "$tag done"
 }
 X=$build/sw/xbarsim

@@ -1,0 +1,53 @@
+#!/bin/bash
+# Issue 51's rows (docs/results.md, "Training recipes"): ResNet-20 trained by `python3 -m xbarsim.hwa`
+# with each recipe on the 20 000 shared training images (2000 of them held out for model
+# selection), then evaluated by `xbarsim eval` on all 10 000 test images over three device seeds.
+# Resumable: a finished model or result is kept, an interrupted training goes on from its
+# checkpoint. About 50 minutes on 2 cores alone (training 19 + 6 min, the evaluations the rest).
+# Usage: scripts/hwa_recipe.sh OUT_DIR [BUILD_DIR (build)] [DATA_DIR (../shared/data)] [IMAGES (10000)]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+out=${1:?usage: scripts/hwa_recipe.sh OUT_DIR [BUILD_DIR] [DATA_DIR] [IMAGES]}
+build=$(cd "${2:-$root/build}" && pwd)
+data=$(cd "${3:-$root/../shared/data}" && pwd)
+images=${4:-10000}
+mkdir -p "$out/train"
+for f in data_batch_1.bin data_batch_2.bin calib_batch.bin; do
+  [ -e "$out/train/$f" ] || ln -s "$data/cifar10/$f" "$out/train/$f"
+done
+cd "$root"
+X=$build/sw/xbarsim
+original=$data/../models/resnet20_cifar10.onnx
+[ -f "$original" ] || original=$root/../shared/models/resnet20_cifar10.onnx
+train() {  # name args...: the model $out/$name.onnx
+  local name=$1; shift
+  [ -f "$out/$name.onnx" ] && { echo "$name trained"; return; }
+  local resume=()
+  [ -f "$out/$name.onnx.ckpt" ] && resume=(--resume)
+  local t0=$SECONDS
+  PYTHONPATH=$build/python /usr/bin/python3 -m xbarsim.hwa --model "$original" --train "$out/train" \
+    --out "$out/$name.onnx" "${resume[@]}" "$@" 2> >(tee -a "$out/$name.train.log" >&2)
+  echo "$name: $((SECONDS - t0)) s of training" | tee -a "$out/times.txt"
+}
+ev() {  # tag model args...
+  local tag=$1 model=$2; shift 2
+  if [ ! -f "$out/$tag.json" ]; then
+    "$X" eval --model "$model" --images "$images" --json "$out/$tag.json.tmp" "$@" \
+    > "$out/$tag.txt" 2> "$out/$tag.err"
+    mv "$out/$tag.json.tmp" "$out/$tag.json"
+  fi
+  echo "$tag done"
+}
+times='[1,3600,86400,2592000,31536000]'
+seeds='[11,12,13]'
+# NeuRRAM's precisions under rram-wan2022 at 1 s.
+train neurram --recipe neurram --config configs/neurram.yaml --set device.model=rram-wan2022 --set device.time_s=1
+ev neurram_trained "$out/neurram.onnx" --config configs/neurram.yaml --set device.model=rram-wan2022 \
+  --set device.time_s=1 --set "device.seed=$seeds"
+ev neurram_original "$original" --config configs/neurram.yaml --set device.model=rram-wan2022 \
+  --set device.time_s=1 --set "device.seed=$seeds"
+# pcm-joshi2020 with global compensation, over time: the recipe at 3 epochs (~2 minutes each on 2
+# cores; the untrained rows are issue 50's, scripts/device_ranging_study.sh).
+train pcm --recipe pcm-joshi2020 --epochs 3 --set device.model=pcm-joshi2020 --set device.compensation=global
+ev pcm_trained "$out/pcm.onnx" --set device.model=pcm-joshi2020 --set device.compensation=global \
+  --set "device.time_s=$times" --set "device.seed=$seeds"
