@@ -549,11 +549,11 @@ def calibrate(model, inputs, adc=True):
             # calibration.samples of them for the calibration fit
             raw = m._rows(x)
             keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(raw.shape[0])[:hw.ranging_samples]
-            raw = raw[torch.as_tensor(keep)].double()
+            raw = raw[torch.as_tensor(keep)]
             top = float(x.abs().max()) or 1.0
-            m.x_max.fill_(_core.input_full_scale(raw.numpy(), bool(m.signed_inputs), hw.config, top)
+            m.x_max.fill_(_core.input_full_scale(raw.double().numpy(), bool(m.signed_inputs), hw.config, top)
                           if hw.converters and hw.dac_bits else top)
-            rows = m._rows(m._dac(x))[torch.as_tensor(keep)].double()
+            rows = m._dac(raw).double()  # the DAC is elementwise and keeps 0 (the padding): rows of _dac(x)
             m._calib_rows = rows[:hw.calibration_samples].numpy()
         m._delta_step = None  # the next forward draws (and calibrates) afresh
         if adc and hw.converters and hw.adc_bits:

@@ -166,8 +166,8 @@ std::pair<double, double> value_range(std::vector<double> v, RangeMethod method,
     case RangeMethod::Max:
       return {lo, hi};
     case RangeMethod::Percentile: {
-      std::vector<double> w = v;
-      const double a = percentile_of(w, 100.0 - p), b = percentile_of(v, p);
+      // percentile_of only reorders v, so both percentiles come from the same vector
+      const double a = percentile_of(v, 100.0 - p), b = percentile_of(v, p);
       return b > a ? std::make_pair(a, b) : std::make_pair(lo, hi);
     }
     case RangeMethod::Mse: {
