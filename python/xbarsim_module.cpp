@@ -18,6 +18,7 @@
 #include "sw/analog/analog_layer.h"
 #include "sw/analog/calibration.h"
 #include "sw/analog/error_metrics.h"
+#include "sw/analog/training_draw.h"
 #include "sw/circuit/crossbar_params.h"
 #include "sw/circuit/crossbar_solver.h"
 #include "sw/circuit/spice_netlist.h"
@@ -714,15 +715,32 @@ PYBIND11_MODULE(_core, m) {
       "input_max");
   m.def(
       "weight_cells",
-      [](const Eigen::MatrixXd& w, const py::object& config) {
+      [](const Eigen::MatrixXd& w, const py::object& config, const py::object& given) {
         const AnalogConfig ac = parse_analog_config(config_of(config));
         if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
         if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
         py::list out;
-        // The ranges eval maps with (ranging.weights, weight_scale), from an unprogrammed layer.
-        const AnalogLayer layer(ac, w, 1.0, false);
-        const std::vector<WeightRanges> ranges = layer.block_ranges();
         const std::vector<Block> blocks = crossbar_blocks(static_cast<int>(w.rows()), static_cast<int>(w.cols()), ac.mapping);
+        std::vector<WeightRanges> ranges;
+        if (given.is_none()) {
+          // The ranges eval maps with (ranging.weights, weight_scale), from an unprogrammed layer.
+          const AnalogLayer layer(ac, w, 1.0, false);
+          ranges = layer.block_ranges();
+        } else {  // a previous call's (lo, hi) per block: the search skipped
+          const auto list = given.cast<py::list>();
+          if (list.size() != blocks.size())
+            throw InputError("weight_cells: ranges has " + std::to_string(list.size()) + " blocks, the matrix " +
+                             std::to_string(blocks.size()));
+          for (size_t b = 0; b < blocks.size(); ++b) {
+            const auto pair = list[b].cast<py::tuple>();
+            WeightRanges r;
+            r.lo = pair[0].cast<Eigen::VectorXd>();
+            r.hi = pair[1].cast<Eigen::VectorXd>();
+            if (r.lo.size() != blocks[b].cols || r.hi.size() != blocks[b].cols)
+              throw InputError("weight_cells: ranges of block " + std::to_string(b) + " do not match its columns");
+            ranges.push_back(std::move(r));
+          }
+        }
         for (size_t b = 0; b < blocks.size(); ++b) {
           const Block& blk = blocks[b];
           const MappedWeights m =
@@ -738,18 +756,80 @@ PYBIND11_MODULE(_core, m) {
           d["s"] = Eigen::VectorXd(m.s.head(weight_cols));
           d["sign"] = Eigen::VectorXd(m.sign.head(weight_cols));
           d["w_lo"] = m.w_lo;
+          d["ranges"] = py::make_tuple(ranges[b].lo, ranges[b].hi);
           out.append(d);
         }
         return out;
       },
-      py::arg("W"), py::arg("config") = py::none(),
+      py::arg("W"), py::arg("config") = py::none(), py::arg("ranges") = py::none(),
       "The cells a weight matrix (inputs x outputs) is written to, as eval maps a layer before conversion: per "
       "crossbar (mapping.max_rows/max_cols) a dict of its block (r0, rows, c0, cols), its target conductances g "
       "(rows x cols * per_weight, S; weight column j, polarity p, slice t in column (j * polarities + p) * slices "
       "+ t; the sum(X) column left out), per column the scale s (S per weight unit) and sign, and the shift "
       "w_lo: weight (r, j) = w_lo + sum over its columns c of sign[c] (g[r, c] - g_min) / s[c]. With "
       "mapping.weight_bits or crossbar.cell_bits these are the quantized weights; weights beyond their "
-      "column's range (ranging.weights) are held at its end.");
+      "column's range (ranging.weights) are held at its end. Each dict's `ranges` is its block's (lo, hi) per weight column; passing a previous "
+      "call's list of them as `ranges` maps with those instead of searching them again (ranging.weights: mse "
+      "searches every column).");
+  py::class_<AnalogConfig>(m, "TrainingMapper",
+                           "A configuration's mapping, parsed once, for xbarsim.nn's per-step draws (draw)")
+      .def(py::init([](const py::object& config) { return parse_analog_config(config_of(config)); }),
+           py::arg("config") = py::none())
+      .def(
+          "draw",
+          [](const AnalogConfig& ac, const PyDevice& d, const Eigen::MatrixXd& w, const py::object& given,
+             const Eigen::MatrixXd& calib_rows, uint64_t layer, uint64_t step, bool device, double time_s,
+             const std::string& compensation, bool read_noise, double readout_noise_a, double v_in_max,
+             double noise_scale) {
+            TrainingDrawSpec spec;
+            spec.device = device;
+            spec.time_s = time_s;
+            spec.layer = layer;
+            spec.step = step;
+            spec.gain = compensation == "none"     ? TrainingGain::None
+                        : compensation == "global" ? TrainingGain::Global
+                                                   : TrainingGain::Column;
+            spec.read_noise = read_noise;
+            spec.readout_noise_a = readout_noise_a;
+            spec.v_in_max = v_in_max;
+            spec.noise_scale = noise_scale;
+            std::vector<WeightRanges> ranges;
+            if (!given.is_none())
+              for (const auto& item : given.cast<py::list>()) {
+                const auto pair = item.cast<py::tuple>();
+                ranges.push_back({pair[0].cast<Eigen::VectorXd>(), pair[1].cast<Eigen::VectorXd>(), 0});
+              }
+            TrainingDraw r;
+            {
+              py::gil_scoped_release free;  // the layers of a step draw on every core
+              r = training_draw(ac, d.device, w, given.is_none() ? nullptr : &ranges, calib_rows, spec);
+            }
+            py::list blocks, out_ranges;
+            for (size_t b = 0; b < r.blocks.size(); ++b) {
+              const TrainingBlock& tb = r.blocks[b];
+              blocks.append(py::make_tuple(tb.r0, tb.rows, tb.c0, tb.cols,
+                                           tb.readout_var.size() ? py::cast(tb.readout_var) : py::none()));
+              out_ranges.append(py::make_tuple(r.ranges[b].lo, r.ranges[b].hi));
+            }
+            py::dict out;
+            out["delta"] = r.delta;
+            out["sigma2"] = r.sigma2.size() ? py::cast(r.sigma2) : py::none();
+            out["readout_var"] = r.readout_var;
+            out["offset"] = r.offset;
+            out["blocks"] = blocks;
+            out["ranges"] = out_ranges;
+            return out;
+          },
+          py::arg("device"), py::arg("W"), py::arg("ranges"), py::arg("calibration"), py::arg("layer"),
+          py::arg("step"), py::arg("program"), py::arg("time_s"), py::arg("compensation"), py::arg("read_noise"),
+          py::arg("readout_noise_a"), py::arg("v_in_max"), py::arg("noise_scale"),
+          "One training step's draw of the weight matrix W (inputs x outputs, eval's row order): mapped as "
+          "weight_cells (with `ranges`, a previous draw's, or searched: None), programmed by `device` with keys "
+          "(layer, (step << 20) + crossbar) when `program`, read time_s after programming with the compensation's "
+          "gains (none, global, column), each crossbar column calibrated on `calibration` (vectors x inputs as "
+          "the DAC applies them; 0 rows: none). A dict: delta (held - W), sigma2 (one read's variance per weight "
+          "with read_noise, else None), readout_var and offset per output column, blocks (r0, rows, c0, cols, "
+          "readout variance per column or None), ranges. Releases the GIL.");
   m.def("solve", &solve, py::arg("G"), py::arg("V"), py::arg("config") = ConfigTree(),
         "Column currents (A), one row per input vector, of the crossbar with conductances G (rows x cols, "
         "S) for the input voltages V (vectors x rows, V): the exact circuit of crossbar.* with solver.*. "

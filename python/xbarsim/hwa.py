@@ -104,6 +104,7 @@ def accuracy(model, data, hardware=None, batch_size=256):
         for x, y in data.batches(batch_size, shuffle=False):
             if hardware is not None:
                 hardware.new_batch()
+                _nn.draw(model)
             correct += int((model(x).argmax(1) == y).sum())
     model.train(was)
     return correct / len(data)
@@ -168,9 +169,10 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
     start = time.monotonic()
     step = first * steps_per_epoch
     done_here = 0
+    calibrated = None  # the step the model was last calibrated at (validation's serves the next epoch)
     try:
         for epoch in range(first, epochs):
-            if analog:
+            if analog and calibrated != step:
                 _nn.calibrate(model, calibration)
             model.train()
             seen, correct, loss_sum = 0, 0, 0.0
@@ -179,6 +181,7 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
                 if hardware is not None:
                     hardware.weight_noise = noise * min(1.0, (step + 1) / warmup_steps) if warmup_steps else noise
                     hardware.new_batch()
+                    _nn.draw(model)
                 out = model(x)
                 loss = F.cross_entropy(out, y)
                 opt.zero_grad(set_to_none=True)
@@ -203,6 +206,7 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
             if validation is not None:
                 if analog:
                     _nn.calibrate(model, calibration)
+                    calibrated = step
                 val = accuracy(model, validation, hardware)
                 if val > best:
                     best = val

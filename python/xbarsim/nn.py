@@ -33,7 +33,7 @@ import torch.nn.functional as F
 
 from . import Config, Device, _core
 
-__all__ = ["Hardware", "AnalogConv2d", "AnalogLinear", "convert", "calibrate", "to_software", "analog_layers"]
+__all__ = ["Hardware", "AnalogConv2d", "AnalogLinear", "convert", "calibrate", "to_software", "analog_layers", "draw"]
 
 
 def _bits(config, key):
@@ -55,12 +55,17 @@ class Hardware:
     number, or a pair (t0, t1): drawn log-uniformly per batch. `seed`: every draw's stream, with
     the batch counter and the layer. `noise_scale`: the held weights' deviation from the trained
     ones (programming error, drift, calibration's residue, read noise) times this in training (1:
-    as the device; more trains for a noisier device). `exact_adc`: see _readout.
+    as the device; more trains for a noisier device). `exact_adc`: see _readout. `range_every`:
+    under ranging.weights mse (the default under a device model) each layer's weight ranges are
+    searched again every this many steps and after every calibrate(), and kept in between (the
+    search costs more than the rest of a step's draw; 1: every step, as eval maps the final weights).
     """
 
     def __init__(self, config=None, weight_noise=0.0, device=True, converters=True, read_noise=True, time_s=None,
-                 seed=0, exact_adc=False, noise_scale=1.0):
+                 seed=0, exact_adc=False, noise_scale=1.0, range_every=16):
         self.exact_adc = bool(exact_adc)
+        if not (isinstance(range_every, int) and range_every >= 1):
+            raise ValueError(f"range_every must be an integer >= 1, got {range_every}")
         if not (noise_scale >= 0 and math.isfinite(noise_scale)):
             raise ValueError(f"noise_scale must be a number >= 0, got {noise_scale}")
         self.noise_scale = float(noise_scale)
@@ -79,6 +84,9 @@ class Hardware:
         self.use_read_noise = bool(read_noise) and (self.device_model.has_read_noise or
                                                     cfg.get("converters.readout_noise_na") > 0)
         self.readout_noise_a = cfg.get("converters.readout_noise_na") * 1e-9
+        weights = cfg.get("ranging.weights")
+        searched = weights == "mse" or (weights == "auto" and self.device_model.kind != "ideal")
+        self.range_every = int(range_every) if searched else 1
         self.v_in_max = cfg.get("crossbar.v_in_max")
         self.converters = bool(converters)
         self.dac_bits = _bits(cfg, "converters.input_bits") or _bits(cfg, "converters.dac_bits")
@@ -101,6 +109,7 @@ class Hardware:
         self.seed = int(seed)
         self.step = 0
         self.enabled = True
+        self.mapper = _core.TrainingMapper(cfg)
         self._quantizes = (_bits(cfg, "mapping.weight_bits") is not None or
                            _bits(cfg, "crossbar.cell_bits") is not None)
 
@@ -139,6 +148,7 @@ def _quantize(v, lo, hi, levels):
 
 
 _UNIFORM = {}
+_NO_ROWS = np.zeros((0, 1 << 20))  # no calibration vectors (a view of 0 rows of any width)
 
 
 def _uniform(shape, gen, dtype):
@@ -216,6 +226,8 @@ class _AnalogMixin:
         self._calib_rows = None  # calibration vectors (eval's row order), float64 NumPy
         self._adc_lohi = None  # one block of rows: (lo, hi) per output column
         self._adc_var = None  # several: the quantization's variance per output column, summed over blocks
+        self._ranges = None  # the weight ranges of the last search, per block (lo, hi), and its step
+        self._ranges_step = None
 
     # --- the weight as eval's matrix (inputs x outputs) and back --------------------------------
     def _to_matrix(self, w):
@@ -233,97 +245,34 @@ class _AnalogMixin:
     # --- per-step weight noise --------------------------------------------------------------
     def _draw(self):
         """This step's weight as the cells hold it, less the weight (delta, weight units) and
-        the variance of one read's weight per weight (sigma2), both in eval's matrix layout."""
+        the variance of one read's weight per weight (sigma2), both in eval's matrix layout:
+        eval's mapping, the device's programming and drift, the compensation's and calibration's
+        gains per crossbar column (xbarsim._core.TrainingMapper.draw, which releases the GIL:
+        draw() runs a step's layers on every core)."""
         hw = self.hw
         w = self._to_matrix(self.weight.detach()).double().cpu().numpy()
-        cells = _core.weight_cells(w, hw.config)
-        device = hw.device_model if hw.use_device else None
-        t = hw.time_of_step() if hw.use_device else 0.0
-        g_min = hw.g_min
-        held = []
-        for b, c in enumerate(cells):
-            h = c["g"]
-            if device is not None:
-                layer, key = hw.device_key(self.index, b)
-                h = device.program(c["g"], layer=layer, crossbar=key)
-                if t > 0:
-                    h = device.at_time(c["g"], h, t=t, layer=layer, crossbar=key)
-            held.append(h)
-        gains = self._compensation_gains(cells, held, g_min) if t > 0 else [1.0] * len(cells)
-        delta = np.zeros_like(w)
-        sigma2 = np.zeros_like(w) if hw.use_read_noise else None
-        ro_var = torch.zeros(w.shape[1], dtype=torch.float64)  # the readout noise per output column, all blocks
-        offset = np.zeros(w.shape[1])  # calibration's offsets per output column, all blocks
-        blocks = []
-        for c, h, gain in zip(cells, held, gains):
-            r0, rows, c0, cols, per = c["r0"], c["rows"], c["c0"], c["cols"], c["per_weight"]
-            # weight units per siemens, per column, times the readout's compensation gain
-            scale = c["sign"] / c["s"] * gain
-            w_cells = c["w_lo"] + ((h - g_min) * scale).reshape(rows, cols, per).sum(axis=2)
-            w_block = w[r0:r0 + rows, c0:c0 + cols]
-            if hw.calibrates and self._calib_rows is not None:
-                gain_c, offset_c = self._calibration_fit(self._calib_rows[:, r0:r0 + rows], w_block, w_cells)
-                w_cells = w_cells * gain_c
-                scale = scale * np.repeat(gain_c, per)
-                offset[c0:c0 + cols] += offset_c
-            delta[r0:r0 + rows, c0:c0 + cols] = w_cells - w_block
-            ro = None
-            if sigma2 is not None:
-                var = hw.device_model.read_sigma(h) ** 2 if hw.device_model.has_read_noise else np.zeros_like(h)
-                sigma2[r0:r0 + rows, c0:c0 + cols] = (var * scale ** 2).reshape(rows, cols, per).sum(axis=2)
-                # the readout's current noise per physical column in output units (x_max = 1; the
-                # forward scales it): I = V G with V = x v_in_max / x_max reads as i x_max / (v_in_max s)
-                if hw.readout_noise_a:
-                    ro = torch.from_numpy(((hw.readout_noise_a * scale / hw.v_in_max) ** 2).reshape(cols, per).sum(axis=1))
-                    ro_var[c0:c0 + cols] += ro
-            blocks.append((r0, rows, c0, cols, ro))
-        if hw.noise_scale != 1:
-            delta *= hw.noise_scale
-            if sigma2 is not None:
-                sigma2 *= hw.noise_scale ** 2
+        reuse = (self._ranges is not None and hw.range_every > 1 and 0 <= hw.step - self._ranges_step < hw.range_every)
+        calib = self._calib_rows if hw.calibrates and self._calib_rows is not None else _NO_ROWS[:, :w.shape[0]]
+        layer, _ = hw.device_key(self.index, 0)
+        r = hw.mapper.draw(hw.device_model, w, self._ranges if reuse else None, calib, layer, hw.step,
+                           hw.use_device, hw.time_of_step() if hw.use_device else 0.0, hw.compensation,
+                           hw.use_read_noise, hw.readout_noise_a, hw.v_in_max, hw.noise_scale)
+        if not reuse:
+            self._ranges, self._ranges_step = r["ranges"], hw.step
+        delta, sigma2 = r["delta"], r["sigma2"]
         if hw.weight_noise > 0:
             rng = np.random.default_rng([hw.seed, hw.step, self.index, 0x4e])
             delta += hw.weight_noise * np.abs(w).max() * rng.standard_normal(w.shape)
         dev = self.weight.device
         self._delta = self._from_matrix(torch.from_numpy(delta).to(dev, self.weight.dtype))
         self._sigma2 = None if sigma2 is None else torch.from_numpy(sigma2).to(dev, self.weight.dtype)
-        self._blocks = blocks
-        self._single_row_block = len({b[0] for b in blocks}) == 1  # the layer's output is its crossbars' sums
-        self._ro_var = ro_var if hw.readout_noise_a and sigma2 is not None else None
+        self._blocks = [(r0, rows, c0, cols, None if ro is None else torch.from_numpy(ro))
+                        for r0, rows, c0, cols, ro in r["blocks"]]
+        self._single_row_block = len({b[0] for b in self._blocks}) == 1  # the layer's output is its crossbars' sums
+        self._ro_var = torch.from_numpy(r["readout_var"]) if hw.readout_noise_a and sigma2 is not None else None
+        offset = r["offset"]
         self._offset = torch.from_numpy(offset).to(dev, self.weight.dtype) if offset.any() else None
         self._delta_step = hw.step
-
-    @staticmethod
-    def _calibration_fit(x, w_ideal, w_cells):
-        """eval's calibration of one crossbar (docs/physics.md, calibration): per column the gain
-        and offset that map the crossbar's outputs on the calibration vectors `x` to the ideal
-        ones (least squares); a column whose outputs do not vary gets its offset only."""
-        ideal, measured = x @ w_ideal, x @ w_cells
-        m_mean, i_mean = measured.mean(axis=0), ideal.mean(axis=0)
-        dm = measured - m_mean
-        var = (dm * dm).sum(axis=0)
-        cov = (dm * (ideal - i_mean)).sum(axis=0)
-        scale = np.abs(measured).max(axis=0)
-        gain = np.where(var > 1e-24 * np.maximum(scale, 1e-300) ** 2 * len(x), cov / np.where(var > 0, var, 1), 1.0)
-        return gain, i_mean - gain * m_mean
-
-    def _compensation_gains(self, cells, held, g_min):
-        """device.compensation at training time, a gain of the readout per crossbar column: the
-        programmed conductance above g_min over the drifted one, summed over the layer (global)
-        or per column (column, recalibrate); none: 1."""
-        mode = self.hw.compensation
-        if mode == "none":
-            return [1.0] * len(cells)
-        if mode == "global":
-            want = sum(float((c["g"] - g_min).sum()) for c in cells)
-            have = sum(float((h - g_min).sum()) for h in held)
-            gain = want / have if have > 0 else 1.0
-            return [gain] * len(cells)
-        out = []
-        for c, h in zip(cells, held):
-            want, have = (c["g"] - g_min).sum(axis=0), (h - g_min).sum(axis=0)
-            out.append(np.where(have > 0, want / np.where(have > 0, have, 1.0), 1.0))
-        return out
 
     # --- the forward --------------------------------------------------------------------------
     def _dac(self, x):
@@ -446,6 +395,25 @@ class AnalogConv2d(_AnalogMixin, torch.nn.Conv2d):
         # torch's rows: channel, kernel row, kernel column; eval's: kernel column, kernel row, channel
         return cols.reshape(n, c, kh, kw, positions).permute(0, 4, 3, 2, 1).reshape(n * positions, kw * kh * c)
 
+    def _out_size(self, x):
+        (kh, kw), (sh, sw), (ph, pw), (dh, dw) = self.kernel_size, self.stride, self.padding, self.dilation
+        return ((x.shape[2] + 2 * ph - dh * (kh - 1) - 1) // sh + 1, (x.shape[3] + 2 * pw - dw * (kw - 1) - 1) // sw + 1)
+
+    def _row_count(self, x):
+        oh, ow = self._out_size(x)
+        return x.shape[0] * oh * ow
+
+    def _rows_at(self, x, idx):
+        """_rows(x)[idx]: the input vectors `idx` (image-major, then output position), gathered."""
+        (kh, kw), (sh, sw), (ph, pw), (dh, dw) = self.kernel_size, self.stride, self.padding, self.dilation
+        oh, ow = self._out_size(x)
+        img, pos = idx // (oh * ow), idx % (oh * ow)
+        xp = F.pad(x, (pw, pw, ph, ph))
+        iy = ((pos // ow) * sh)[:, None, None] + (torch.arange(kh) * dh)[None, :, None]
+        ix = ((pos % ow) * sw)[:, None, None] + (torch.arange(kw) * dw)[None, None, :]
+        patch = xp[img[:, None, None], :, iy, ix]  # (vectors, kh, kw, channels)
+        return patch.permute(0, 2, 1, 3).reshape(len(idx), kw * kh * self.in_channels)
+
     def _to_layout(self, v, y):
         """(vectors, columns) -> N x columns x H x W, as y."""
         n, _, h, wd = y.shape
@@ -468,11 +436,39 @@ class AnalogLinear(_AnalogMixin, torch.nn.Linear):
     def _rows(self, x):
         return x.reshape(-1, x.shape[-1])
 
+    def _row_count(self, x):
+        return x.numel() // x.shape[-1]
+
+    def _rows_at(self, x, idx):
+        return self._rows(x)[idx]
+
     def _to_layout(self, v, y):
         return v.reshape(*y.shape[:-1], -1)
 
     def forward(self, x):
         return self._analog_forward(x)
+
+
+_POOL = None
+
+
+def draw(model):
+    """Draws this step's device state of every analog layer of `model` now, the layers in
+    parallel on torch's threads (each layer's draw is its own: the same for any thread count);
+    the forward otherwise draws each layer when it first meets a new step."""
+    layers = [m for m in analog_layers(model) if m.hw.active and (m._delta_step != m.hw.step or m._delta is None)]
+    threads = min(torch.get_num_threads(), len(layers))
+    if threads <= 1:
+        for m in layers:
+            m._draw()
+        return
+    global _POOL
+    if _POOL is None or _POOL._max_workers < threads:
+        import concurrent.futures
+        _POOL = concurrent.futures.ThreadPoolExecutor(max_workers=threads)
+    # the largest first, so that the last to finish is a small one
+    for f in [_POOL.submit(m._draw) for m in sorted(layers, key=lambda m: -m.weight.numel())]:
+        f.result()
 
 
 def analog_layers(model):
@@ -547,15 +543,15 @@ def calibrate(model, inputs, adc=True):
             # eval keeps eval.calibration_samples input vectors of a layer for its DAC and ADC
             # ranges (the DAC's by ranging.inputs, never above the largest input) and picks
             # calibration.samples of them for the calibration fit
-            raw = m._rows(x)
-            keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(raw.shape[0])[:hw.ranging_samples]
-            raw = raw[torch.as_tensor(keep)]
+            keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(m._row_count(x))[:hw.ranging_samples]
+            raw = m._rows_at(x, torch.as_tensor(keep))  # = m._rows(x)[keep], without unfolding every position
             top = float(x.abs().max()) or 1.0
             m.x_max.fill_(_core.input_full_scale(raw.double().numpy(), bool(m.signed_inputs), hw.config, top)
                           if hw.converters and hw.dac_bits else top)
             rows = m._dac(raw).double()  # the DAC is elementwise and keeps 0 (the padding): rows of _dac(x)
             m._calib_rows = rows[:hw.calibration_samples].numpy()
         m._delta_step = None  # the next forward draws (and calibrates) afresh
+        m._ranges = None  # and searches the weight ranges again
         if adc and hw.converters and hw.adc_bits:
             with torch.no_grad():
                 w = m._to_matrix(m.weight.detach()).double()

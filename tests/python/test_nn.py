@@ -200,6 +200,76 @@ def test_drift_with_global_compensation_restores_the_scale():
     assert scales["global"] == pytest.approx(1.0, abs=0.08)
 
 
+def test_calibration_gains_are_the_least_squares_fit_of_the_crossbar():
+    """One crossbar, programming error, mitigation.method calibration: on the calibration vectors
+    X the calibrated outputs X (W + delta) + offset satisfy the normal equations of a per-column
+    least-squares fit of gain and offset to the ideal X W: the residual has zero mean and is
+    orthogonal to the uncalibrated outputs."""
+    torch.manual_seed(8)
+    lin = torch.nn.Linear(30, 6, bias=False).double()
+    hw = _quiet({"device.model": "constant", "device.program_sigma_us": 2.0, "mapping.negative": "differential",
+                 "mitigation.method": "calibration", "calibration.samples": 80, **MAX_RANGING})
+    calib = torch.rand(200, 30, dtype=torch.float64)
+    analog = xnn.convert(lin, hw, calibration=calib)
+    hw.new_batch()
+    analog._draw()
+    x = analog._calib_rows
+    assert x.shape == (80, 30)
+    w = lin.weight.detach().numpy().T
+    held = w + analog._delta.numpy().T
+    ideal, calibrated = x @ w, x @ held + analog._offset.numpy()
+    residual = calibrated - ideal
+    assert np.abs(residual.mean(axis=0)).max() < 1e-10 * np.abs(ideal).max()
+    # the calibrated outputs are gain x the raw ones + offset: orthogonal to the calibrated ones too
+    raw = calibrated - calibrated.mean(axis=0)
+    assert np.abs((residual * raw).sum(axis=0)).max() < 1e-9 * (ideal ** 2).sum()
+    assert np.abs(residual).max() > 0  # the device's error is not all calibrated away
+
+
+def test_calibration_rows_gathered_as_unfolded():
+    """calibrate() gathers only the picked input vectors: the same rows as unfolding every
+    position, for strides, paddings and 1x1 kernels."""
+    for args in (dict(kernel_size=3, padding=1, stride=1), dict(kernel_size=3, padding=1, stride=2),
+                 dict(kernel_size=1, padding=0, stride=2), dict(kernel_size=(3, 1), padding=(1, 0), stride=1)):
+        torch.manual_seed(9)
+        conv = xnn.AnalogConv2d.from_module(torch.nn.Conv2d(5, 7, **args), xnn.Hardware(), 0)
+        x = torch.randn(4, 5, 9, 8)
+        rows = conv._rows(x)
+        assert conv._row_count(x) == rows.shape[0]
+        idx = torch.randperm(rows.shape[0])[:60]
+        assert torch.equal(conv._rows_at(x, idx), rows[idx]), args
+
+
+def test_parallel_draw_equals_each_layer_drawing_alone():
+    """xbarsim.nn.draw draws a step's layers on every thread: the same state as each layer
+    drawing in its own forward, one thread."""
+    model = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3, padding=1), torch.nn.ReLU(), torch.nn.Flatten(),
+                                torch.nn.Linear(8 * 6 * 6, 10))
+    calib = torch.rand(20, 3, 6, 6)
+    states = []
+    for threads in (1, 2):
+        hw = xnn.Hardware({"device.model": "rram-wan2022", "mapping.negative": "differential"})
+        net = xnn.convert(model, hw, calibration=calib)
+        was = torch.get_num_threads()
+        torch.set_num_threads(threads)
+        try:
+            for _ in range(3):
+                hw.new_batch()
+                xnn.draw(net)
+        finally:
+            torch.set_num_threads(was)
+        states.append([m._delta.clone() for m in xnn.analog_layers(net)])
+    hw = xnn.Hardware({"device.model": "rram-wan2022", "mapping.negative": "differential"})
+    net = xnn.convert(model, hw, calibration=calib)
+    for _ in range(3):
+        hw.new_batch()
+        with torch.no_grad():
+            net(calib)
+    states.append([m._delta.clone() for m in xnn.analog_layers(net)])
+    for other in states[1:]:
+        assert all(torch.equal(a, b) for a, b in zip(states[0], other))
+
+
 def test_adc_outputs_on_the_calibrated_grid():
     """One crossbar, a 3-bit ADC: every output (less the bias) is one of the 8 levels of its
     column's range, the calibration outputs' span widened by adc_margin on each side."""
