@@ -775,6 +775,9 @@ PYBIND11_MODULE(_core, m) {
                            "A configuration's mapping, parsed once, for xbarsim.nn's per-step draws (draw)")
       .def(py::init([](const py::object& config) { return parse_analog_config(config_of(config)); }),
            py::arg("config") = py::none())
+      .def_property_readonly(
+          "negative", [](const AnalogConfig& ac) { return ac.mapping.differential() ? "differential" : "shift"; },
+          "mapping.negative as resolved (auto: differential under a device model)")
       .def(
           "draw",
           [](const AnalogConfig& ac, const PyDevice& d, const Eigen::MatrixXd& w, const py::object& given,

@@ -3,7 +3,7 @@
 # with each recipe on the 20 000 shared training images (2000 of them held out for model
 # selection), then evaluated by `xbarsim eval` on all 10 000 test images over three device seeds.
 # Resumable: a finished model or result is kept, an interrupted training goes on from its
-# checkpoint. About 50 minutes on 2 cores alone (training 19 + 6 min, the evaluations the rest).
+# checkpoint. About N minutes on 2 cores alone (training M min, the evaluations the rest).
 # Usage: scripts/hwa_recipe.sh OUT_DIR [BUILD_DIR (build)] [DATA_DIR (../shared/data)] [IMAGES (10000)]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -40,14 +40,20 @@ ev() {  # tag model args...
 }
 times='[1,3600,86400,2592000,31536000]'
 seeds='[11,12,13]'
-# NeuRRAM's precisions under rram-wan2022 at 1 s.
-train neurram --recipe neurram --config configs/neurram.yaml --set device.model=rram-wan2022 --set device.time_s=1
-ev neurram_trained "$out/neurram.onnx" --config configs/neurram.yaml --set device.model=rram-wan2022 \
-  --set device.time_s=1 --set "device.seed=$seeds"
-ev neurram_original "$original" --config configs/neurram.yaml --set device.model=rram-wan2022 \
-  --set device.time_s=1 --set "device.seed=$seeds"
-# pcm-joshi2020 with global compensation, over time: the recipe at 3 epochs (~2 minutes each on 2
-# cores; the untrained rows are issue 50's, scripts/device_ranging_study.sh).
-train pcm --recipe pcm-joshi2020 --epochs 3 --set device.model=pcm-joshi2020 --set device.compensation=global
-ev pcm_trained "$out/pcm.onnx" --set device.model=pcm-joshi2020 --set device.compensation=global \
-  --set "device.time_s=$times" --set "device.seed=$seeds"
+neurram=(--config configs/neurram.yaml --set device.model=rram-wan2022 --set device.time_s=1)
+pcm=(--set device.model=pcm-joshi2020 --set device.compensation=global)
+rram=(--set device.model=rram-wan2022 --set device.compensation=column)
+# Each training is resumable; NeuRRAM's rows first, precisions under rram-wan2022 at 1 s.
+train neurram --recipe neurram "${neurram[@]}"
+ev neurram_trained "$out/neurram.onnx" "${neurram[@]}" --set "device.seed=$seeds"
+ev neurram_original "$original" "${neurram[@]}" --set "device.seed=$seeds"
+train pcm --recipe pcm-joshi2020 "${pcm[@]}"
+# rram-wan2022 with column compensation (issue 50's best at a day): the PCM recipe with the times
+# drawn over 1 s .. 1 day, the user's settings over a recipe.
+train rram --recipe pcm-joshi2020 --time 1,86400 "${rram[@]}"
+# Over time (programmed once per seed, read at each time), trained and untrained side by side.
+for dev in pcm rram; do
+  declare -n keys=$dev
+  ev "${dev}_trained" "$out/$dev.onnx" "${keys[@]}" --set "device.time_s=$times" --set "device.seed=$seeds"
+  ev "${dev}_original" "$original" "${keys[@]}" --set "device.time_s=$times" --set "device.seed=$seeds"
+done

@@ -36,25 +36,29 @@ RECIPES = {
     "default": {
         "what": "issue 41's fine-tune: Adam at 1e-4, cosine decay, +-3 sigma clipping, the device's own noise",
         "epochs": 1, "optimizer": "adam", "lr": 1e-4, "warmup": 0.0, "schedule": "cosine",
-        "weight_noise": 0.0, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None,
+        "weight_noise": 0.0, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None, "distill": 0.0, "temperature": 4.0,
     },
     "neurram": {
         "what": "Wan et al. 2022 (Nature 608, NeuRRAM): Gaussian weight noise of a fraction of each layer's "
                 "largest |weight| in the forward, the chip's quantizers in the loop. They trained from scratch "
                 "with 0.2; fine-tuning a clean model with 0.2 collapses in one epoch (docs/results.md), so the "
                 "noise is 0.05 here, ramped in over the warm-up epoch, on top of the device model's own "
-                "spread; 8 epochs, Adam 3e-4 with a one-epoch warm-up and cosine decay, +-3 sigma clipping",
-        "epochs": 8, "optimizer": "adam", "lr": 3e-4, "warmup": 1.0, "schedule": "cosine",
-        "weight_noise": 0.05, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None,
+                "spread; 16 epochs, Adam 3e-4 with a one-epoch warm-up and cosine decay, +-3 sigma clipping, "
+                "and distillation from the software model (0.7 at T 4; Hinton et al. 2015, as quantization-aware "
+                "training uses it: the fine-tune starts from a full-precision model that can teach)",
+        "epochs": 16, "optimizer": "adam", "lr": 3e-4, "warmup": 1.0, "schedule": "cosine",
+        "weight_noise": 0.05, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None, "distill": 0.7, "temperature": 4.0,
     },
     "pcm-joshi2020": {
         "what": "Joshi et al. 2020 (Nat. Commun. 11, 2473): noise injection during training (3.8 % of each "
                 "layer's largest |weight| for ResNet-32 on CIFAR-10), weight clipping, global drift "
                 "compensation at inference. Here the device model's own programming, drift and 1/f deviations "
                 "are injected instead, at times drawn log-uniformly over 1 s .. 1 year, plus the 3.8 %; "
-                "8 epochs, Adam 3e-4, one warm-up epoch, cosine decay, +-3 sigma clipping",
+                "8 epochs, Adam 3e-4, one warm-up epoch, cosine decay, +-3 sigma clipping; distillation from "
+                "the software model (0.7 at T 4), which they did not use (they trained from scratch)",
         "epochs": 8, "optimizer": "adam", "lr": 3e-4, "warmup": 1.0, "schedule": "cosine",
-        "weight_noise": 0.038, "noise_scale": 1.0, "clip_sigma": 3.0, "time": "1,31536000",
+        "weight_noise": 0.038, "noise_scale": 1.0, "clip_sigma": 3.0, "time": "1,31536000", "distill": 0.7,
+        "temperature": 4.0,
     },
 }
 
@@ -112,7 +116,8 @@ def accuracy(model, data, hardware=None, batch_size=256):
 
 def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimizer="adam", momentum=0.9,
               weight_decay=0.0, clip_sigma=3.0, calibration=None, progress=None, seed=0, warmup=0.0,
-              schedule="cosine", validation=None, checkpoint=None, resume=None, signature=None):
+              schedule="cosine", validation=None, checkpoint=None, resume=None, signature=None, teacher=None,
+              distill=0.0, temperature=4.0):
     """Trains `model` (a module with xbarsim.nn analog layers, or a plain one: trained in
     software) on `train` (an xbarsim.data.Cifar10 set) for `epochs` epochs: Adam (or SGD with
     momentum), the learning rate `lr` warmed up linearly over the first `warmup` epochs and then
@@ -126,8 +131,19 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
     scored after every epoch in the training forward; the model of the best epoch is the one
     returned (model selection). `checkpoint`: a path written whole after every epoch (os.replace
     of a finished file); `resume`: a checkpoint's path to go on from (its `signature` must equal
-    this run's). `progress(text)` gets a line about every 10 % of an epoch. Returns a list of
-    per-epoch (loss, training accuracy, validation accuracy or None)."""
+    this run's). `teacher` (a module, e.g. the software model; with `distill` in (0, 1]):
+    knowledge distillation (Hinton et al. 2015), the loss (1 - distill) x cross-entropy + distill x
+    temperature^2 x KL(teacher || model) of their outputs softened by `temperature`.
+    `progress(text)` gets a line about every 10 % of an epoch. Returns a list of per-epoch (loss,
+    training accuracy, validation accuracy or None)."""
+    if not (0 <= distill <= 1):
+        raise ValueError(f"distill must be in [0, 1], got {distill}")
+    if not (temperature > 0 and math.isfinite(temperature)):
+        raise ValueError(f"temperature must be a number > 0, got {temperature}")
+    if distill > 0 and teacher is None:
+        raise ValueError("distill > 0 needs a teacher")
+    if teacher is not None:
+        teacher.eval()
     torch.manual_seed(seed)
     analog = _nn.analog_layers(model)
     if hardware is None and analog:
@@ -184,6 +200,11 @@ def fine_tune(model, hardware, train, epochs=1, batch_size=128, lr=1e-4, optimiz
                     _nn.draw(model)
                 out = model(x)
                 loss = F.cross_entropy(out, y)
+                if distill > 0:
+                    with torch.no_grad():
+                        soft = F.softmax(teacher(x) / temperature, dim=1)
+                    kd = F.kl_div(F.log_softmax(out / temperature, dim=1), soft, reduction="batchmean")
+                    loss = (1 - distill) * loss + distill * temperature ** 2 * kd
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
                 opt.step()
@@ -271,6 +292,11 @@ def _parser():
     p.add_argument("--time", metavar="T|T0,T1",
                    help="seconds after programming each batch reads at: T, or T0,T1 drawn log-uniformly per batch "
                         "(the recipe's, else device.time_s)")
+    p.add_argument("--distill", type=float, metavar="F",
+                   help="knowledge distillation from the input model in software: the loss is (1 - F) x "
+                        "cross-entropy + F x T^2 x KL divergence from its softened outputs (0: none; the recipe's)")
+    p.add_argument("--temperature", type=float, metavar="T",
+                   help="the distillation's softening temperature (> 0; the recipe's)")
     p.add_argument("--batch-size", type=int, default=128, metavar="B", help="images per batch (default 128)")
     p.add_argument("--optimizer", choices=("adam", "sgd"), help="adam or sgd (with momentum; the recipe's)")
     p.add_argument("--lr", type=float,
@@ -336,7 +362,8 @@ def _times(text):
 def _settings(args):
     """The recipe's settings with the options given on the command line over them."""
     recipe = dict(RECIPES[args.recipe])
-    for key in ("epochs", "optimizer", "lr", "warmup", "schedule", "weight_noise", "noise_scale", "clip_sigma", "time"):
+    for key in ("epochs", "optimizer", "lr", "warmup", "schedule", "weight_noise", "noise_scale", "clip_sigma", "time",
+                "distill", "temperature"):
         value = getattr(args, key)
         if value is not None:
             recipe[key] = value
@@ -374,6 +401,10 @@ def _run(args, say):
                       ("--noise-scale", "noise_scale"), ("--warmup", "warmup")):
         if not (s[key] >= 0 and math.isfinite(s[key])):
             raise _Usage(f"{name} must be a number >= 0, got {s[key]}")
+    if not (0 <= s["distill"] <= 1):
+        raise _Usage(f"--distill must be in [0, 1], got {s['distill']}")
+    if not (s["temperature"] > 0 and math.isfinite(s["temperature"])):
+        raise _Usage(f"--temperature must be a number > 0, got {s['temperature']}")
     if s["warmup"] > s["epochs"]:
         raise _Usage(f"--warmup ({s['warmup']} epochs) is longer than the training ({s['epochs']} epochs)")
     out_dir = os.path.dirname(os.path.abspath(args.out))
@@ -428,7 +459,8 @@ def _run(args, say):
         f"{f' ({len(validation)} held out for validation)' if validation is not None else ''}: recipe {args.recipe}, "
         f"{s['epochs']} epoch(s), {s['optimizer']} lr {s['lr']:g}, warm-up {s['warmup']:g}, {s['schedule']}" +
         (" in software" if hardware is None else f", device {cfg.get('device.model')}, "
-         f"{cfg.get('mapping.negative')} mapping, weight noise {s['weight_noise']:g}") +
+         f"{hardware.mapper.negative} mapping, weight noise {s['weight_noise']:g}") +
+        (f", distillation {s['distill']:g} at T {s['temperature']:g}" if s["distill"] > 0 and hardware is not None else "") +
         (f"; going on from {checkpoint}" if args.resume else ""))
     start = time.monotonic()
     history = fine_tune(net, hardware, train, epochs=s["epochs"], batch_size=args.batch_size, lr=s["lr"],
@@ -436,7 +468,9 @@ def _run(args, say):
                         clip_sigma=s["clip_sigma"], calibration=calibration,
                         progress=None if args.quiet else say, seed=args.seed, warmup=s["warmup"],
                         schedule=s["schedule"], validation=validation, checkpoint=checkpoint,
-                        resume=checkpoint if args.resume else None, signature=signature)
+                        resume=checkpoint if args.resume else None, signature=signature,
+                        teacher=model if s["distill"] > 0 and hardware is not None else None,
+                        distill=s["distill"] if hardware is not None else 0.0, temperature=s["temperature"])
     trained = net if hardware is None else _nn.to_software(net)
     best = max(range(len(history)), key=lambda k: history[k][2]) if validation is not None else len(history) - 1
     tmp = f"{args.out}.tmp"

@@ -574,14 +574,34 @@ def test_a_resumed_run_ends_where_the_whole_run_ends(tiny_setup):
         hwa.fine_tune(model, None, train, epochs=3, resume=tmp / "part.ckpt", signature="other")
 
 
+def test_distillation_from_itself_leaves_the_model_as_it_was(tiny_setup):
+    """distill = 1 with the model's own copy as the teacher: KL(p || p) = 0 and its gradient is 0,
+    so SGD takes no step (no clipping; Adam would blow up the rounding's gradient to a full step);
+    with distill = 0.5 the cross-entropy moves it."""
+    import xbarsim.hwa as hwa
+    tmp, data = tiny_setup
+    for distill, moves in ((1.0, False), (0.5, True)):
+        model = xonnx.load(tmp / "tiny.onnx")
+        train = xdata.Cifar10(data, train=True, preprocessing=model.preprocessing, seed=1)
+        teacher = xonnx.load(tmp / "tiny.onnx")
+        before = [p.detach().clone() for p in model.parameters()]
+        hwa.fine_tune(model, None, train, epochs=1, batch_size=16, lr=1e-2, optimizer="sgd", clip_sigma=0,
+                      teacher=teacher, distill=distill, temperature=3.0)
+        same = all(torch.allclose(a, b, atol=1e-6) for a, b in zip(before, model.parameters()))
+        assert same != moves, distill
+    with pytest.raises(ValueError, match="teacher"):
+        hwa.fine_tune(model, None, train, epochs=1, distill=0.5)
+
+
 @pytest.mark.parametrize("case", ["epochs 0", "lr 0", "lr nan", "warmup too long", "checkpoint is out",
-                                  "resume without checkpoint", "resume other config"])
+                                  "resume without checkpoint", "resume other config", "distill 2", "temperature 0"])
 def test_hwa_refuses_bad_training_settings(tiny_setup, case):
     tmp, data = tiny_setup
     out = tmp / "out.onnx"
     extra = {"epochs 0": ["--epochs", 0], "lr 0": ["--lr", 0], "lr nan": ["--lr", "nan"],
              "warmup too long": ["--epochs", 1, "--warmup", 2], "checkpoint is out": ["--checkpoint", out],
-             "resume without checkpoint": ["--resume"], "resume other config": ["--resume"]}[case]
+             "resume without checkpoint": ["--resume"], "resume other config": ["--resume"],
+             "distill 2": ["--distill", 2], "temperature 0": ["--distill", 0.5, "--temperature", 0]}[case]
     if case == "resume other config":
         torch.save({"signature": "not this run"}, f"{out}.ckpt")
     r = _hwa("--model", tmp / "tiny.onnx", "--train", data, "--out", out, *extra)
@@ -604,6 +624,7 @@ def test_hwa_keeps_the_best_validation_epoch_and_removes_its_checkpoint(tiny_set
              "--validation-images", 16, "--set", "device.model=rram-wan2022", "--out", tmp / "out.onnx")
     assert r.returncode == 0, r.stderr
     assert "48 images" in r.stderr and "16 held out for validation" in r.stderr
+    assert "differential mapping" in r.stderr  # mapping.negative auto, as resolved under the device
     assert r.stderr.count("validation ") >= 2 and "images/s" in r.stderr
     assert "kept" in xonnx.load(tmp / "out.onnx").metadata["xbarsim_hwa"]
     assert sorted(os.listdir(tmp)) == ["data", "out.onnx", "tiny.onnx"]
