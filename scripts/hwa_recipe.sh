@@ -3,7 +3,8 @@
 # with each recipe on the 20 000 shared training images (2000 of them held out for model
 # selection), then evaluated by `xbarsim eval` on all 10 000 test images over three device seeds.
 # Resumable: a finished model or result is kept, an interrupted training goes on from its
-# checkpoint. About N minutes on 2 cores alone (training M min, the evaluations the rest).
+# checkpoint. About 80 minutes on 2 cores alone (an estimate from its parts: training about 40 min,
+# NeuRRAM 16 epochs of ~75 s, the PCM and rram recipes 8 of ~60 s; the evaluations the rest).
 # Usage: scripts/hwa_recipe.sh OUT_DIR [BUILD_DIR (build)] [DATA_DIR (../shared/data)] [IMAGES (10000)]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
