@@ -455,12 +455,14 @@ def _run(args, say):
         calibration = train.preprocess(train.images[:200])
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     net = model if hardware is None else _nn.convert(model, hardware, calibration=calibration)
+    # The teacher is the input model in software; trained in software, it is the model itself.
+    distill = s["distill"] if hardware is not None else 0.0
     say(f"training {args.model} on {len(train)} images of {args.train}"
         f"{f' ({len(validation)} held out for validation)' if validation is not None else ''}: recipe {args.recipe}, "
         f"{s['epochs']} epoch(s), {s['optimizer']} lr {s['lr']:g}, warm-up {s['warmup']:g}, {s['schedule']}" +
         (" in software" if hardware is None else f", device {cfg.get('device.model')}, "
          f"{hardware.mapper.negative} mapping, weight noise {s['weight_noise']:g}") +
-        (f", distillation {s['distill']:g} at T {s['temperature']:g}" if s["distill"] > 0 and hardware is not None else "") +
+        (f", distillation {distill:g} at T {s['temperature']:g}" if distill > 0 else "") +
         (f"; going on from {checkpoint}" if args.resume else ""))
     start = time.monotonic()
     history = fine_tune(net, hardware, train, epochs=s["epochs"], batch_size=args.batch_size, lr=s["lr"],
@@ -469,8 +471,7 @@ def _run(args, say):
                         progress=None if args.quiet else say, seed=args.seed, warmup=s["warmup"],
                         schedule=s["schedule"], validation=validation, checkpoint=checkpoint,
                         resume=checkpoint if args.resume else None, signature=signature,
-                        teacher=model if s["distill"] > 0 and hardware is not None else None,
-                        distill=s["distill"] if hardware is not None else 0.0, temperature=s["temperature"])
+                        teacher=model if distill > 0 else None, distill=distill, temperature=s["temperature"])
     trained = net if hardware is None else _nn.to_software(net)
     best = max(range(len(history)), key=lambda k: history[k][2]) if validation is not None else len(history) - 1
     tmp = f"{args.out}.tmp"
