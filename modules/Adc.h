@@ -78,7 +78,7 @@ class Adc : public sc_core::sc_module {
         shift_adds_ += reads * cols;
       }
     }
-    job->stage_ns[kAdc].assign(job->iterations(), slowest * job->slices());
+    job->stage_ns[kAdc].assign(job->iterations(), slowest * job->read_times());
     if (job->detailed) delay += sim_delay(slowest, delay);
     adc2acc->b_transport(p, delay);
   }

@@ -46,7 +46,7 @@ class Dac : public sc_core::sc_module {
     job->dac_conversions += n;
     conversions_ += n;
     // One conversion per read; an iteration's reads follow one another.
-    job->stage_ns[kDac].assign(job->iterations(), latency_ns_ * job->slices());
+    job->stage_ns[kDac].assign(job->iterations(), latency_ns_ * job->read_times());
     if (job->detailed) delay += sim_delay(latency_ns_, delay);
     dac2xbar->b_transport(p, delay);
   }

@@ -53,8 +53,13 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
     shifted_entries = refills = dac_conversions = adc_conversions = accumulations = shift_adds = 0;
   }
   int iterations() const { return layer->out.h * layer->out.w; }
+  /// Datapath cycles one read takes: 1, or on neuron cores a read of the image at
+  /// converters.image_bits (PlatformConfig::image_read_cycles).
+  int read_cycles = 1;
   /// Crossbar reads per iteration (input slices).
   int slices() const { return analog->input_slicing().slices; }
+  /// The reads' time per iteration in read times: slices x read_cycles.
+  int read_times() const { return slices() * read_cycles; }
   /// Inputs are streamed bit-serially, several reads per iteration.
   bool serial() const { return analog->input_slicing().serial(); }
   /// Crossbar reads of this pass: input slices x iterations.

@@ -37,7 +37,7 @@ struct IterationTiming {
 inline IterationTiming iteration_timing(const LayerJob& job, double clock_ns, bool detailed) {
   const int n = job.iterations();
   IterationTiming t;
-  t.ii_ns.assign(n, clock_ns * job.slices());  // ideal: one read per cycle
+  t.ii_ns.assign(n, clock_ns * job.read_times());  // ideal: one read per cycle
   t.fill_ns = t.ii_ns.empty() ? clock_ns : t.ii_ns[0];
   if (!detailed || n == 0) return t;
   auto whole_cycles = [&](double ns) { return std::ceil(ns / clock_ns - 1e-9) * clock_ns; };
@@ -158,7 +158,7 @@ class Tile : public sc_core::sc_module {
       steady_ns = sum / r;
       delay = start + sim_delay(t.fill_ns, start);
     } else {
-      steady_ns = static_cast<double>((n + r - 1) / r) * job->slices() * clk;  // a read per cycle
+      steady_ns = static_cast<double>((n + r - 1) / r) * job->read_times() * clk;  // a read per cycle
     }
     delay += sim_delay(steady_ns, delay);
     iterations_ += n;

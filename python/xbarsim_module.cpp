@@ -214,6 +214,7 @@ struct PyCrossbar {
   std::unique_ptr<AnalogLayer> layer;
   ConfigTree config;
   Eigen::MatrixXd calib;  ///< what program() was given (empty: random vectors)
+  bool reads_image = false;  ///< the layer reads the network's image (converters.image_bits)
   uint64_t next_image = 0;
   /// matvec reads the layer (shared), set_time changes its readout (exclusive); both without the GIL.
   mutable std::shared_mutex mutex;
@@ -402,9 +403,11 @@ PYBIND11_MODULE(_core, m) {
                          "A weight matrix programmed onto crossbars as eval programs a layer: mapping, "
                          "mitigation, the device model (device.*), converters (config's sections).")
       .def(py::init([](const Eigen::MatrixXd& w, const py::object& config, double x_max, bool signed_inputs,
-                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt, int groups, int channels) {
+                       const std::optional<Eigen::MatrixXd>& calib, uint64_t salt, int groups, int channels,
+                       bool reads_image) {
              const ConfigTree cfg = config_of(config);
-             const AnalogConfig ac = parse_analog_config(cfg);
+             AnalogConfig ac = parse_analog_config(cfg);
+             ac.converters = ac.converters.for_layer(reads_image);
              if (w.rows() < 1 || w.cols() < 1) throw InputError("the weight matrix is empty");
              if (!w.allFinite()) throw InputError("the weight matrix holds a non-finite value");
              if (!(x_max > 0) || !std::isfinite(x_max)) throw InputError("x_max must be a finite number > 0");
@@ -418,13 +421,17 @@ PYBIND11_MODULE(_core, m) {
              auto xb = std::make_unique<PyCrossbar>();
              xb->layer = std::make_unique<AnalogLayer>(ac, w, x_max, signed_inputs, salt, RowGroups{groups, channels});
              xb->config = cfg;
+             xb->reads_image = reads_image;
              if (calib) xb->calib = *calib;
              interruptible([&] { xb->layer->program(xb->calib); });
              return xb;
            }),
            py::arg("W"), py::arg("config") = py::none(), py::arg("x_max") = 1.0, py::arg("signed_inputs") = false,
            py::arg("calibration") = std::nullopt, py::arg("salt") = 0, py::arg("groups") = 1, py::arg("channels") = 0,
-           "Crossbar(W, config=None, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0): W "
+           py::arg("reads_image") = false,
+           "Crossbar(W, config=None, x_max=1, signed_inputs=False, calibration=None, salt=0, groups=1, channels=0, "
+           "reads_image=False): reads_image: the layer reads the network's image, its inputs at "
+           "converters.image_bits (eval's layers that read the network's input). W "
            "is inputs x outputs; config a Config, a dict of overrides or None (the defaults); inputs span [0, x_max] "
            "([-x_max, x_max] signed); calibration (vectors x inputs) as eval's calibration images (random vectors "
            "when None). A grouped convolution (groups > 1) gives its block-diagonal W in im2col order (input "
@@ -455,7 +462,8 @@ PYBIND11_MODULE(_core, m) {
             next.set("device.time_s", value_text("device.time_s", py::float_(t)));
             if (compensation) next.set("device.compensation", *compensation);
             check_ranges(next);
-            const AnalogConfig ac = parse_analog_config(next);
+            AnalogConfig ac = parse_analog_config(next);
+            ac.converters = ac.converters.for_layer(x.reads_image);
             interruptible([&] {
               std::unique_lock lock(x.mutex);
               x.layer->set_readout(ac, x.calib);
@@ -699,20 +707,23 @@ PYBIND11_MODULE(_core, m) {
       "place among the network's Conv/Gemm layers): `count` indices from calibration.seed's stream");
   m.def(
       "input_full_scale",
-      [](const Eigen::MatrixXd& samples, bool signed_inputs, const py::object& config, double input_max) {
+      [](const Eigen::MatrixXd& samples, bool signed_inputs, const py::object& config, double input_max,
+         bool reads_image) {
         const AnalogConfig ac = parse_analog_config(config_of(config));
         if (!samples.allFinite()) throw InputError("the input samples hold a non-finite value");
         if (!(input_max > 0)) {  // not given: the samples' largest magnitude
           const double top = samples.size() ? samples.cwiseAbs().maxCoeff() : 0.0;
           input_max = top > 0 ? top : 1.0;
         }
-        return input_full_scale(samples, input_max, signed_inputs, ac.ranging, ac.converters.activation_bits());
+        return input_full_scale(samples, input_max, signed_inputs, ac.ranging,
+                                ac.converters.for_layer(reads_image).activation_bits());
       },
       py::arg("samples"), py::arg("signed_inputs"), py::arg("config") = py::none(), py::arg("input_max") = 0.0,
+      py::arg("reads_image") = false,
       "The DAC's full scale eval gives a layer whose sampled input vectors are `samples` (rows) and whose "
       "largest input magnitude is `input_max` (0: the samples'; 1 for all zeros): ranging.inputs (max, "
       "percentile or mse for the activation bits; signed: a sign and bits - 1 magnitude bits), never above "
-      "input_max");
+      "input_max; reads_image: the layer reads the network's image (converters.image_bits)");
   m.def(
       "weight_cells",
       [](const Eigen::MatrixXd& w, const py::object& config, const py::object& given) {

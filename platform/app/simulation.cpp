@@ -46,6 +46,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       const std::vector<int>& replication, const std::vector<bool>& signed_inputs, const Pipeline& pipe,
                       bool print, const MachineReport* machine) {
   const PlatformConfig& pc = hw.platform;
+  const std::vector<bool> reads_image = linear_reads_image(model);
   const double images = std::max<size_t>(r.image_out_ns.size(), 1), clk = pc.clock_ns();
   std::vector<std::string> names;
   for (const StageStats& st : r.stages)
@@ -89,7 +90,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     const LinearLayer& L = model.linear[st.linear];
     const bool sparse = hw.mapping.scheme == MappingScheme::Sparse;
     const LayerInventory v =
-        replicated(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear]), sparse ? 1 : replication[st.linear]);
+        replicated(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear], reads_image[st.linear]),
+                   sparse ? 1 : replication[st.linear]);
     ActionCounts a;
     if (sparse) {
       a = layer_actions_per_image(v, 0);  // counted from the Toeplitz inventory (one iteration)
@@ -283,6 +285,7 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   }
   const CrossbarBackend& programmed = given ? *given : *own;
   std::vector<bool> signed_inputs;  // as the programmed layers stream them
+  const std::vector<bool> reads_image = linear_reads_image(model);
   for (size_t l = 0; l < model.linear.size(); ++l)
     signed_inputs.push_back(programmed.statistics(static_cast<int>(l)).signed_inputs);
   // On a machine: the mapper's placement and replication; its datapath reads once per read_ns.
@@ -307,7 +310,9 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   if (hw.mapping.scheme == MappingScheme::Sparse)
     for (const LinearLayer& L : model.linear)
       sparse_ns.push_back(
-          sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()]), pc));
+          sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()],
+                                          reads_image[sparse_ns.size()]),
+                              pc));
   const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(pc.images, "simulating ");
   Pipeline pipe(

@@ -90,6 +90,8 @@ class Hardware:
         self.v_in_max = cfg.get("crossbar.v_in_max")
         self.converters = bool(converters)
         self.dac_bits = _bits(cfg, "converters.input_bits") or _bits(cfg, "converters.dac_bits")
+        # the layers that read the model's input itself take converters.image_bits (as eval's)
+        self.image_bits = _bits(cfg, "converters.image_bits") or self.dac_bits
         self.adc_bits = _bits(cfg, "converters.adc_bits")
         self.adc_margin = cfg.get("converters.adc_margin")
         self.calibrates = "calibration" in cfg.get("mitigation.method")
@@ -137,6 +139,11 @@ class Hardware:
     def active(self):
         return self.enabled and (self.use_device or self.use_read_noise or self.weight_noise > 0 or
                                  (self.converters and (self.dac_bits or self.adc_bits)) or self._quantizes)
+
+    def input_bits(self, layer):
+        """The bits of `layer`'s input codes: converters.image_bits for a layer that reads the
+        model's input (calibrate() finds them), else the activations' (None: no DAC)."""
+        return self.image_bits if bool(layer.reads_image) else self.dac_bits
 
 
 def _quantize(v, lo, hi, levels):
@@ -214,6 +221,7 @@ class _AnalogMixin:
         self.index = index  # the layer's place among the model's Conv2d/Linear: its stream and salt
         self.register_buffer("x_max", torch.ones(()))
         self.register_buffer("signed_inputs", torch.zeros((), dtype=torch.bool))
+        self.register_buffer("reads_image", torch.zeros((), dtype=torch.bool))  # set by calibrate()
         self._adc = None  # per crossbar block: (lo, hi) per column of its partial sums
         self._delta_step = None
         self._delta = None
@@ -284,8 +292,9 @@ class _AnalogMixin:
         signed = bool(self.signed_inputs)
         lo = -hi if signed else 0.0
         step = None
-        if hw.converters and hw.dac_bits:
-            step = hi / (2 ** max(hw.dac_bits - 1, 1) - 1) if signed else hi / (2 ** hw.dac_bits - 1)
+        bits = hw.input_bits(self)
+        if hw.converters and bits:
+            step = hi / (2 ** max(bits - 1, 1) - 1) if signed else hi / (2 ** bits - 1)
         return _Dac.apply(x, lo, hi, step)
 
     def _needs_readout(self):
@@ -520,8 +529,14 @@ def calibrate(model, inputs, adc=True):
     if not layers:
         raise ValueError("calibrate: the model has no analog layer (xbarsim.nn.convert it first)")
     hw = layers[0].hw
-    seen = {}
-    hooks = [m.register_forward_pre_hook(lambda mod, args: seen.setdefault(id(mod), args[0].detach())) for m in layers]
+    seen, image = {}, set()
+
+    def pre_hook(mod, args):
+        if args[0] is inputs:  # the layer reads the model's input itself: converters.image_bits
+            image.add(id(mod))
+        seen.setdefault(id(mod), args[0].detach())
+
+    hooks = [m.register_forward_pre_hook(pre_hook) for m in layers]
     was_enabled, was_training = hw.enabled, model.training
     hw.enabled = False
     try:
@@ -538,6 +553,7 @@ def calibrate(model, inputs, adc=True):
         if x is None:
             continue
         m.signed_inputs.fill_(bool((x < 0).any()))
+        m.reads_image.fill_(id(m) in image)
         m._adc = None
         with torch.no_grad():
             # eval keeps eval.calibration_samples input vectors of a layer for its DAC and ADC
@@ -546,8 +562,9 @@ def calibrate(model, inputs, adc=True):
             keep = np.random.default_rng([hw.seed, m.index, 0xca1]).permutation(m._row_count(x))[:hw.ranging_samples]
             raw = m._rows_at(x, torch.as_tensor(keep))  # = m._rows(x)[keep], without unfolding every position
             top = float(x.abs().max()) or 1.0
-            m.x_max.fill_(_core.input_full_scale(raw.double().numpy(), bool(m.signed_inputs), hw.config, top)
-                          if hw.converters and hw.dac_bits else top)
+            m.x_max.fill_(_core.input_full_scale(raw.double().numpy(), bool(m.signed_inputs), hw.config, top,
+                                                 bool(m.reads_image))
+                          if hw.converters and hw.input_bits(m) else top)
             rows = m._dac(raw).double()  # the DAC is elementwise and keeps 0 (the padding): rows of _dac(x)
             m._calib_rows = rows[:hw.calibration_samples].numpy()
         m._delta_step = None  # the next forward draws (and calibrates) afresh

@@ -222,9 +222,12 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
     seen = [[] for _ in layers]
     lo = [None] * len(layers)  # per layer and output channel: the calibration outputs' extremes
     hi = [None] * len(layers)
+    reads_image = [False] * len(layers)  # the layer's input is the model's input itself, as eval's
+    current = [None]
 
     def keep(l):
         def hook(module, inputs, output):  # returns None: the output stays the layer's
+            reads_image[l] = reads_image[l] or inputs[0] is current[0]
             seen[l].append(inputs[0].detach())
             per_channel = output.detach().double().transpose(0, 1).reshape(output.shape[1], -1)
             a, b = per_channel.amin(dim=1), per_channel.amax(dim=1)
@@ -239,7 +242,8 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
             for k, batch in enumerate(batches):
                 if max_calibration_batches is not None and k >= max_calibration_batches:
                     break
-                model(batch[0] if isinstance(batch, (tuple, list)) else batch)
+                current[0] = batch[0] if isinstance(batch, (tuple, list)) else batch
+                model(current[0])
     finally:
         for h in hooks:
             h.remove()
@@ -258,7 +262,7 @@ def convert(model, config=None, calibration=None, calibration_samples=None, max_
         signed = signed or name in signed_layers
         grouping = {} if isinstance(m, torch.nn.Linear) else {"groups": m.groups, "channels": m.in_channels}
         xb = Crossbar(_weight_matrix(m), config, x_max=x_max, signed_inputs=signed, calibration=calib, salt=l + 1,
-                      **grouping)
+                      reads_image=reads_image[l], **grouping)
         out_range = None if lo[l] is None else layer_output_range(lo[l].numpy(), hi[l].numpy())
         analog = (AnalogLinear if isinstance(m, torch.nn.Linear) else AnalogConv2d)(m, xb, out_range)
         parent = model

@@ -106,7 +106,8 @@ bool programs_alike(const AnalogConfig& a_given, const AnalogConfig& b_given) {
                            a.calibration.signal == b.calibration.signal && a.calibration.seed == b.calibration.seed;
   const ConvertersSpec &da = a.converters, &db = b.converters;
   const bool dacs =
-      da.input_bits == db.input_bits && da.dac_bits == db.dac_bits && da.dac_predistortion == db.dac_predistortion;
+      da.input_bits == db.input_bits && da.dac_bits == db.dac_bits && da.image_bits == db.image_bits &&
+      da.dac_predistortion == db.dac_predistortion;
   // The device's programming and read statistics program (conversion may read); the time the
   // layer is read at and the compensation are readout (set_readout moves the layer in time).
   const DeviceSpec &va = a.device, &vb = b.device;

@@ -157,6 +157,7 @@ ConvertersSpec parse_converters_spec(const ConfigTree& cfg) {
   ConvertersSpec c;
   c.input_bits = parse_bits(cfg, "converters.input_bits");
   c.dac_bits = parse_bits(cfg, "converters.dac_bits");
+  c.image_bits = parse_bits(cfg, "converters.image_bits");
   c.adc_range = require_enum<AdcRange>(cfg, "converters.adc_range",
                                        {{to_string(AdcRange::Calibrated), AdcRange::Calibrated},
                                         {to_string(AdcRange::PerRead), AdcRange::PerRead},

@@ -2,6 +2,7 @@
 /// Typed specifications of the analog datapath, parsed once from the configuration and
 /// validated (timeloop style): every key of the sections mapping, mitigation, conversion,
 /// calibration and converters is read here (device: sw/device/device.h) and nowhere else. Names carry units.
+#include <algorithm>
 #include <cstdint>
 #include <string>
 
@@ -108,6 +109,20 @@ struct ConvertersSpec {
   int adc_bits = 0;
   /// Bits of an activation code: input_bits, or dac_bits when input_bits is none (0 = analog).
   int activation_bits() const { return input_bits ? input_bits : dac_bits; }
+  /// The precision of the network's image: the inputs of the layers that read the network's
+  /// input itself (NeuRRAM reads 4-bit pixels and 3-bit activations); 0 = none: as every layer.
+  int image_bits = 0;
+  /// The converters of one layer: a layer that reads the image takes image_bits as its
+  /// input_bits, and as its dac_bits too when one read takes a whole activation (dac_bits >=
+  /// activation_bits(): the DAC reads a whole code in one read); every other layer these.
+  ConvertersSpec for_layer(bool reads_image) const {
+    if (!reads_image || image_bits == 0) return *this;
+    ConvertersSpec c = *this;
+    if (dac_bits != 0 && dac_bits >= activation_bits()) c.dac_bits = std::max(dac_bits, image_bits);
+    c.input_bits = image_bits;
+    c.image_bits = 0;
+    return c;
+  }
   /// calibrated: each column's range from calibration currents (+ adc_margin); per_read: the
   /// same for each read (input slice) of a vector, the ADC's reference set per read; full: the
   /// physical full range of a slice column, rows x (2^cell_bits - 1) x (2^dac_bits - 1) levels,

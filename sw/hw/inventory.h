@@ -32,6 +32,9 @@ struct LayerInventory {
   long long cells_present = 0, cells_used = 0;
   long long iterations = 0;              ///< input vectors per image (dense: output pixels)
   int input_slices = 1;                  ///< crossbar reads per iteration (bit-serial inputs)
+  /// Reads the network's input at converters.image_bits (set only with image_bits): on neuron
+  /// cores a read then takes PlatformConfig::image_read_cycles cycles and image_read_steps.
+  bool reads_image = false;
   int weight_slices = 1;                 ///< cells of one polarity of a weight (adjacent columns)
   int input_bytes = 1;                   ///< bytes of one input register entry (activation bits / 8)
   long long sample_holds = 0;            ///< one per physical column of every crossbar

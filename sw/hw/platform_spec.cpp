@@ -63,14 +63,15 @@ namespace xbarsim {
 
 double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
   const double clk = cfg.clock_ns();
-  if (!cfg.detailed) return clk * v.input_slices;  // a read per cycle
+  const int cycles = v.input_slices * (v.reads_image ? cfg.image_read_cycles : 1);
+  if (!cfg.detailed) return clk * cycles;  // a read per cycle
   const long long rows = std::min(v.rows, v.array_rows);
   const long long cols = std::min(v.physical_cols, v.array_cols);
   const long long adcs = adcs_for_columns(cols, cfg.adc_columns_per_unit);
   const double load = std::ceil(static_cast<double>(rows) / cfg.shift_entries_per_cycle) * clk;
   const double adc = std::ceil(static_cast<double>(cols) / std::max<long long>(adcs, 1)) / cfg.adc_rate_gsps;
   const double t =
-      load + (cfg.dac_latency_ns + cfg.crossbar_settle_ns + adc) * v.input_slices + cfg.accumulator_latency_ns;
+      load + (cfg.dac_latency_ns + cfg.crossbar_settle_ns + adc) * cycles + cfg.accumulator_latency_ns;
   return std::ceil(t / clk - 1e-9) * clk;
 }
 

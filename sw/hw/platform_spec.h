@@ -27,6 +27,9 @@ struct PlatformConfig {
   double adc_rate_gsps = 1.28;  ///< the library's adc.sample_rate_gsps
   double dac_latency_ns = 1, crossbar_settle_ns = 5, accumulator_latency_ns = 2;
   int shift_entries_per_cycle = 64;
+  /// Neuron cores with converters.image_bits: the datapath cycles (reads at the activations'
+  /// precision) one read of a layer that reads the image takes, its steps' time rounded up.
+  int image_read_cycles = 1;
   int link_bytes_per_cycle = 32;    ///< interconnect link width
   int hop_cycles = 1;               ///< interconnect latency per transfer
   int bus_lanes = 1;                ///< parallel links of the interconnect

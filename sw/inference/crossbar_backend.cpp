@@ -20,7 +20,14 @@ thread_local uint64_t t_image = 0;
 
 void CrossbarBackend::set_image(uint64_t image) { t_image = image; }
 
-CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg) : model_(m), cfg_(cfg) {}
+CrossbarBackend::CrossbarBackend(const Model& m, const AnalogConfig& cfg)
+    : model_(m), cfg_(cfg), reads_image_(linear_reads_image(m)) {}
+
+AnalogConfig CrossbarBackend::layer_config(const AnalogConfig& c, int l) const {
+  AnalogConfig per = c;
+  per.converters = c.converters.for_layer(reads_image_.at(l));
+  return per;
+}
 
 void CrossbarBackend::program(const Dataset& calib, int max_samples, const std::function<void(int, int)>& progress) {
   gather_statistics(calib, max_samples);
@@ -80,7 +87,7 @@ void CrossbarBackend::correct_biases() {
 
 void CrossbarBackend::read_out_layers(const AnalogConfig& target, const std::function<void(int, int)>& progress) {
   const auto set_all = [&](const AnalogConfig& c, const std::function<void(int, int)>& p) {
-    for_layers([&](int l) { layers_[l].set_readout(c, stats_[l].samples); }, p);
+    for_layers([&](int l) { layers_[l].set_readout(layer_config(c, l), stats_[l].samples); }, p);
     cfg_ = c;
   };
   for (AnalogLayer& layer : layers_) layer.set_output_offsets(Eigen::VectorXd::Zero(layer.outputs()));
@@ -115,7 +122,7 @@ void CrossbarBackend::make_layers() {
   for (int l = 0; l < L; ++l) {
     try {
       const LinearLayer& L = model_.linear[l];
-      layers_.emplace_back(cfg_, L.weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
+      layers_.emplace_back(layer_config(cfg_, l), L.weight.cast<double>(), stats_[l].x_max, stats_[l].signed_inputs,
                            static_cast<uint64_t>(l + 1), RowGroups{L.group, L.c_in});
     } catch (const std::exception&) {
       rethrow_with_context("layer " + model_.linear[l].name);
@@ -225,7 +232,7 @@ void CrossbarBackend::gather_statistics(const Dataset& calib, int max_samples) {
     // the largest input): the DAC quantizes them to its levels (a sign and bits - 1 magnitude
     // bits for signed inputs) and clips above.
     st.x_max = input_full_scale(st.samples, st.x_max, st.signed_inputs, cfg_.ranging,
-                                cfg_.converters.activation_bits());
+                                cfg_.converters.for_layer(reads_image_[l]).activation_bits());
     if (st.x_max < st.input_max && st.samples.size() > 0)
       st.input_clipped = static_cast<double>((st.samples.array().abs() > st.x_max).count()) / st.samples.size();
   }

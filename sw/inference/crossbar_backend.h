@@ -61,6 +61,10 @@ class CrossbarBackend : public LinearBackend {
   /// The image ids the bias passes read with (read noise): calibration image k is kBiasImages + k.
   static constexpr uint64_t kBiasImages = 1ull << 63;
 
+  /// The configuration of layer l: `c` with the converters of a layer that reads the image or
+  /// not (ConvertersSpec::for_layer, converters.image_bits).
+  AnalogConfig layer_config(const AnalogConfig& c, int l) const;
+
   const AnalogLayer& layer(int l) const { return layers_.at(l); }
   const LayerStatistics& statistics(int l) const { return stats_.at(l); }
   int layers() const { return static_cast<int>(layers_.size()); }
@@ -91,6 +95,7 @@ class CrossbarBackend : public LinearBackend {
   AnalogConfig cfg_;
   std::vector<AnalogLayer> layers_;
   std::vector<LayerStatistics> stats_;
+  std::vector<bool> reads_image_;  ///< per linear layer: linear_reads_image
 };
 
 }  // namespace xbarsim

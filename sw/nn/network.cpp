@@ -339,4 +339,11 @@ std::vector<bool> linear_inputs_signed(const Model& m) {
   return out;
 }
 
+std::vector<bool> linear_reads_image(const Model& m) {
+  std::vector<bool> out(m.linear.size(), false);
+  for (const Op& op : m.ops)
+    if (op.kind == OpKind::Linear && !op.in.empty() && op.in[0] == 0) out.at(op.linear) = true;
+  return out;
+}
+
 }  // namespace xbarsim

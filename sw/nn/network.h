@@ -65,6 +65,10 @@ void digital_op(const Op& op, const std::vector<Shape>& shapes, const std::vecto
 /// layer's inputs by it (signed inputs take a sign), so every command counts the same reads.
 std::vector<bool> linear_inputs_signed(const Model& m);
 
+/// Per linear layer: it reads the network's input itself (the preprocessed image), the
+/// layers that converters.image_bits quantizes.
+std::vector<bool> linear_reads_image(const Model& m);
+
 /// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.
 Eigen::VectorXf run_image(const Model& m, const float* input, const LinearBackend& backend,
                           LayerTrace* trace = nullptr);

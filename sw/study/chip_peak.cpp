@@ -103,7 +103,7 @@ ChipPeak chip_peak(const HardwareContext& hw) {
   // One core's read: every column a neuron read, every cell read; leakage over the read.
   const double xbars = a.ima.crossbars;
   r.per_read = price(hw.lib.named, a.ima.components,
-                     neuron_read_ledger(hw, xbars * a.crossbar.cols, xbars * a.crossbar.rows * a.crossbar.cols),
+                     neuron_read_ledger(hw, hw.read_steps, xbars * a.crossbar.cols, xbars * a.crossbar.rows * a.crossbar.cols),
                      r.steps.time_ns);
   r.tops = r.ops_per_read * static_cast<double>(r.cores) / r.steps.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
   for (const auto& [part, pj] : r.per_read.energy_pj) r.fj_per_op[part] = pj * 1e3 / r.ops_per_read;

@@ -372,11 +372,12 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
   const double clock_ns = point.hw.platform.clock_ns();
   double edram_read_bytes = 0;  // on a machine: the layers' input shifts over their tile's bus
   std::vector<bool> signed_inputs;
+  const std::vector<bool> reads_image = linear_reads_image(model);
   for (int l = 0; l < L; ++l) {
     EvalLayer el;
     el.layer = &model.linear[l];
     el.name = model.linear[l].name;
-    el.inventory = point.hw.inventory(model.linear[l], MappingScheme::Dense, xb.statistics(l).signed_inputs);
+    el.inventory = point.hw.inventory(model.linear[l], MappingScheme::Dense, xb.statistics(l).signed_inputs, reads_image[l]);
     ErrorTally sum;
     for (int k = 0; k < r.images; ++k) sum += t.layer[static_cast<size_t>(k) * L + l];
     el.mean_relative_error = sum.mean();
@@ -467,6 +468,7 @@ nlohmann::json EvalResult::to_json() const {
   j["dac_bits"] = bits(ac->converters.dac_bits);
   j["adc_bits"] = bits(ac->converters.adc_bits);
   j["input_bits"] = bits(ac->converters.input_bits);
+  j["image_bits"] = bits(ac->converters.image_bits);
   j["cell_bits"] = bits(ac->mapping.cell_bits);
   j["weight_bits"] = bits(ac->mapping.weight_bits);
   j["adc_range"] = to_string(ac->converters.adc_range);

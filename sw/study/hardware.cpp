@@ -1,5 +1,7 @@
 #include "sw/study/hardware.h"
 
+#include <cmath>
+
 #include "sw/analog/input_slicing.h"
 #include "sw/nn/network.h"
 #include "sw/study/chip_peak.h"
@@ -39,10 +41,22 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                        "converters.dac_bits to converters.input_bits (" + std::to_string(in) + "), not " +
                        std::to_string(ac.converters.dac_bits));
     hw.read_steps = hw.arch.read_steps(in, out);
+    const int image = ac.converters.for_layer(true).activation_bits();
+    hw.image_read_steps = image == in ? hw.read_steps : hw.arch.read_steps(image, out);
     hw.arch.ima.read_ns = hw.read_steps.time_ns;
     hw.core_pulse_pj_per_bit = input_pulse_pj_per_bit(hw.arch, ac);
   }
+  const ConvertersSpec image = ac.converters.for_layer(true);
+  if (!hw.arch.neuron_cores() && image.dac_bits != ac.converters.dac_bits)
+    throw InputError("converters.image_bits (" + std::to_string(image.input_bits) +
+                     ") with one read per activation would need DACs of " + std::to_string(image.dac_bits) +
+                     " bits for the image, but converters.dac_bits (" + std::to_string(ac.converters.dac_bits) +
+                     ") prices every DAC: set converters.dac_bits to at least " + std::to_string(image.input_bits) +
+                     ", or stream the image in slices (converters.dac_bits below converters.input_bits)");
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
+  if (hw.arch.neuron_cores())  // the datapath is clocked by a read at the activations' precision
+    hw.platform.image_read_cycles =
+        static_cast<int>(std::ceil(hw.image_read_steps.time_ns / hw.read_steps.time_ns - 1e-9));
   hw.cost.lib = hw.lib;
   hw.cost.dac_bits = ac.converters.dac_bits;
   hw.cost.dac_lut = ac.dac_predistorts();
@@ -70,9 +84,17 @@ nlohmann::json CostReport::to_json() const {
           {"time_ns_per_image", time_ns}};
 }
 
-Ledger neuron_read_ledger(const HardwareContext& hw, double neuron_reads, double cell_reads) {
+LayerInventory HardwareContext::inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs,
+                                          bool reads_image) const {
+  LayerInventory v = layer_inventory(L, scheme, mapping, columns_per_adc);
+  v.column_scales = column_scales;
+  stream_inputs(v, converters.for_layer(reads_image), signed_inputs);
+  v.reads_image = reads_image && converters.image_bits != 0;
+  return v;
+}
+
+Ledger neuron_read_ledger(const HardwareContext& hw, const ReadSteps& s, double neuron_reads, double cell_reads) {
   const Architecture& arch = hw.arch;
-  const ReadSteps& s = hw.read_steps;
   Ledger l;
   l.add(arch.readout.adc, "step", neuron_reads * static_cast<double>(s.adc_steps));
   l.add(arch.readout.integrator, "step", neuron_reads * static_cast<double>(s.integrate_steps));
@@ -84,9 +106,9 @@ Ledger neuron_read_ledger(const HardwareContext& hw, double neuron_reads, double
   return l;
 }
 
-ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a) {
+ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ReadSteps& steps, const ActionCounts& a) {
   // Every converted column is one neuron's read.
-  const Bill b = price(hw.lib.named, hw.arch.ima.components, neuron_read_ledger(hw, a.adc_conversions, a.cell_reads), 0.0);
+  const Bill b = price(hw.lib.named, hw.arch.ima.components, neuron_read_ledger(hw, steps, a.adc_conversions, a.cell_reads), 0.0);
   ComponentBreakdown e;
   for (const auto& [part, pj] : b.energy_pj)
     if (pj > 0) e.parts[part] = pj;
@@ -97,7 +119,8 @@ void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInvento
   r.area_mm2 += hw.cost.area_mm2(v);
   r.peak_power_mw += hw.cost.peak_power_mw(v);
   r.leakage_mw += hw.cost.leakage_mw(v);
-  r.dynamic_energy_uj += (hw.arch.neuron_cores() ? neuron_energy_pj(hw, a) : hw.cost.dynamic_energy_pj(a)) * 1e-6;
+  r.dynamic_energy_uj +=
+      (hw.arch.neuron_cores() ? neuron_energy_pj(hw, hw.steps_of(v), a) : hw.cost.dynamic_energy_pj(a)) * 1e-6;
   r.crossbars += v.crossbars;
   r.adcs += v.adcs;
   r.dacs += v.dacs;
@@ -114,7 +137,7 @@ MachineBill machine_bill(const HardwareContext& hw) {
   ActionCounts read;
   read.adc_conversions = static_cast<double>(a.crossbar.cols) * a.ima.crossbars;
   read.cell_reads = static_cast<double>(a.crossbar.rows) * a.crossbar.cols * a.ima.crossbars;
-  const ComponentBreakdown core_mw = neuron_energy_pj(hw, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
+  const ComponentBreakdown core_mw = neuron_energy_pj(hw, hw.read_steps, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
   const double cores = static_cast<double>(a.chip.tiles) * a.tile.imas;
   for (BillLine& l : bill.ima) l.peak_mw = l.leakage_mw;
   bill.ima.push_back({"reads", 1, 0.0, core_mw.total(), 0.0});
@@ -172,6 +195,7 @@ void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineAct
 }
 
 MachineReport machine_report(const Model& m, const HardwareContext& hw, const std::vector<bool>& signed_inputs) {
+  const std::vector<bool> reads_image = linear_reads_image(m);
   const Architecture& a = hw.arch;
   MachineReport r;
   r.name = a.name;
@@ -181,7 +205,7 @@ MachineReport machine_report(const Model& m, const HardwareContext& hw, const st
   r.bill = machine_bill(hw);
   std::vector<LayerInventory> layers;
   for (size_t l = 0; l < m.linear.size(); ++l)
-    layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l)));
+    layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l), reads_image.at(l)));
   r.mapping = map_network(layers, a, hw.platform, &m, &hw.mapping);
   const int slices = make_input_slicing(hw.converters.activation_bits(), hw.converters.dac_bits, false, 1.0).slices;
   const double weights = static_cast<double>(a.crossbar.rows) * (a.crossbar.cols / hw.mapping.columns_per_weight());

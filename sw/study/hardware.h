@@ -22,14 +22,16 @@ struct HardwareContext {
   /// Neuron cores (arch.neuron_cores()): the steps of one read at the configured precision and
   /// the solved energy (pJ) of one magnitude bit's input pulses on a whole core.
   ReadSteps read_steps;
+  /// Neuron cores: the steps of one read of a layer that reads the image (converters.image_bits;
+  /// read_steps without it).
+  ReadSteps image_read_steps;
   double core_pulse_pj_per_bit = 0;
   /// The inventory of layer L under `scheme`, its inputs streamed as the converters say
-  /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's).
-  LayerInventory inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs) const {
-    LayerInventory v = layer_inventory(L, scheme, mapping, columns_per_adc);
-    v.column_scales = column_scales;
-    return stream_inputs(v, converters, signed_inputs);
-  }
+  /// (`signed_inputs`: linear_inputs_signed, or the programmed layer's; `reads_image`:
+  /// linear_reads_image, the layer's converters ConvertersSpec::for_layer).
+  LayerInventory inventory(const LinearLayer& L, MappingScheme scheme, bool signed_inputs, bool reads_image) const;
+  /// The steps of one neuron read of a layer (neuron cores).
+  const ReadSteps& steps_of(const LayerInventory& v) const { return v.reads_image ? image_read_steps : read_steps; }
 };
 
 /// Reads components.library, architecture.machine and platform.*; mapping and converters
@@ -52,12 +54,12 @@ struct CostReport {
 /// its parts' steps, its word line's switches at the configured precision) and of `cell_reads`
 /// cell reads (each its share of a core's solved input pulses, an energy of part
 /// input_pulses), for price() with hw.arch.ima.components.
-Ledger neuron_read_ledger(const HardwareContext& hw, double neuron_reads, double cell_reads);
+Ledger neuron_read_ledger(const HardwareContext& hw, const ReadSteps& steps, double neuron_reads, double cell_reads);
 
 /// Neuron cores: the energy (pJ) of counted actions by named part (each converted column one
 /// neuron read: its parts' steps and its word line's switches; each cell read its share of the
 /// solved input pulses).
-ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ActionCounts& a);
+ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ReadSteps& steps, const ActionCounts& a);
 
 /// Adds one layer (its inventory and the actions of one image) to `r`.
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);

@@ -42,7 +42,7 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
   auto priced = [&](const LayerInventory& v) {
     return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)};
   };
-  const std::vector<bool> signed_inputs = linear_inputs_signed(m);
+  const std::vector<bool> signed_inputs = linear_inputs_signed(m), reads_image = linear_reads_image(m);
   for (size_t l = 0; l < m.linear.size(); ++l) {
     const LinearLayer& L = m.linear[l];
     LayerOverhead o;
@@ -52,8 +52,8 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
     o.c_in = L.c_in;
     o.c_out = L.c_out;
     o.input = L.in;
-    o.dense = priced(hw.inventory(L, MappingScheme::Dense, signed_inputs[l]));
-    o.sparse = priced(hw.inventory(L, MappingScheme::Sparse, signed_inputs[l]));
+    o.dense = priced(hw.inventory(L, MappingScheme::Dense, signed_inputs[l], reads_image[l]));
+    o.sparse = priced(hw.inventory(L, MappingScheme::Sparse, signed_inputs[l], reads_image[l]));
     for (auto [total, part] : {std::pair{&r.dense_total, &o.dense}, std::pair{&r.sparse_total, &o.sparse}}) {
       total->inv += part->inv;
       total->area_mm2 += part->area_mm2;

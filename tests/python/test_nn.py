@@ -628,3 +628,24 @@ def test_hwa_keeps_the_best_validation_epoch_and_removes_its_checkpoint(tiny_set
     assert r.stderr.count("validation ") >= 2 and "images/s" in r.stderr
     assert "kept" in xonnx.load(tmp / "out.onnx").metadata["xbarsim_hwa"]
     assert sorted(os.listdir(tmp)) == ["data", "out.onnx", "tiny.onnx"]
+
+
+def test_image_bits_quantize_the_layer_that_reads_the_input():
+    """converters.image_bits: the layer that reads the model's input codes it at 5 bits (signed: a
+    sign and 4 magnitude bits, 15 steps of x_max), the next at input_bits 3 (after a ReLU: 7 steps)."""
+    torch.manual_seed(3)
+    model = torch.nn.Sequential(torch.nn.Conv2d(3, 4, 3, padding=1), torch.nn.ReLU(),
+                                torch.nn.Conv2d(4, 2, 3, padding=1)).double()
+    hw = xnn.Hardware({"converters.input_bits": 3, "converters.dac_bits": 3, "converters.image_bits": 5,
+                       "converters.adc_bits": "none"}, read_noise=False)
+    x = torch.randn(4, 3, 6, 6, dtype=torch.float64)
+    analog = xnn.convert(model, hw, calibration=x)
+    first, second = xnn.analog_layers(analog)
+    assert bool(first.reads_image) and not bool(second.reads_image)
+    assert bool(first.signed_inputs) and not bool(second.signed_inputs)
+    for layer, v, steps in ((first, x, 15), (second, torch.relu(model[0](x)), 7)):
+        x_max = float(layer.x_max)
+        codes = layer._dac(v) / (x_max / steps)
+        assert torch.allclose(codes, codes.round(), atol=1e-9)
+        assert codes.abs().max() <= steps + 1e-9
+        assert len(torch.unique(codes.round())) > steps  # the grid is this fine, not coarser

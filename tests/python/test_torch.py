@@ -207,3 +207,22 @@ def test_set_time_moves_a_converted_model_as_converting_at_that_time():
     assert all(m.crossbar.time_s == 86400.0 for m in analog if isinstance(m, xtorch.AnalogConv2d))
     with pytest.raises(ValueError, match="no analog layer"):
         xtorch.set_time(net, 1.0)
+
+
+def test_image_bits_program_the_layer_that_reads_the_input():
+    """converters.image_bits: torch.convert programs the layer reading the model's input as a
+    crossbar of input_bits = image_bits (and a DAC that wide), the next at input_bits."""
+    torch.manual_seed(5)
+    model = torch.nn.Sequential(torch.nn.Conv2d(3, 4, 3), torch.nn.ReLU(), torch.nn.Conv2d(4, 2, 3)).float()
+    x = torch.randn(3, 3, 8, 8)
+    base = {"converters.input_bits": 3, "converters.dac_bits": 3, "converters.adc_bits": "none"}
+    image = xtorch.convert(model, xbarsim.Config(overrides=dict(base, **{"converters.image_bits": 5})), calibration=x)
+    wide = xtorch.convert(model, xbarsim.Config(overrides=dict(base, **{"converters.input_bits": 5,
+                                                                    "converters.dac_bits": 5})), calibration=x)
+    narrow = xtorch.convert(model, xbarsim.Config(overrides=base), calibration=x)
+    v = np.random.default_rng(1).standard_normal((20, 27))
+    m = [dict(a.named_modules()) for a in (image, wide, narrow)]
+    assert np.array_equal(m[0]["0"].crossbar.matvec(v, image=0), m[1]["0"].crossbar.matvec(v, image=0))
+    assert not np.array_equal(m[0]["0"].crossbar.matvec(v, image=0), m[2]["0"].crossbar.matvec(v, image=0))
+    u = np.abs(np.random.default_rng(2).standard_normal((20, 36)))
+    assert np.array_equal(m[0]["2"].crossbar.matvec(u, image=0), m[2]["2"].crossbar.matvec(u, image=0))
