@@ -15,16 +15,18 @@ cd "$out"
 for f in data_batch_1.bin data_batch_2.bin calib_batch.bin; do ln -sf "$data/cifar10/$f" train/$f; done
 export PYTHONPATH=$build/python XBARSIM_BINARY=$build/sw/xbarsim XBARSIM_DATA_DIR=$data
 C=$root/configs/neurram.yaml
+# The rows were measured before converters.image_bits: every layer, the image too, at 3 bits.
+I=(--set converters.image_bits=none)
 ev() {
   local tag=$1; shift
-  [ -f $tag.json ] || "$build/sw/xbarsim" eval --dataset cifar10 --config "$C" --set solver.threads=1 \
+  [ -f $tag.json ] || "$build/sw/xbarsim" eval --dataset cifar10 --config "$C" --set solver.threads=1 "${I[@]}" \
     --json $tag.json.tmp "$@" > $tag.txt 2> $tag.err && mv $tag.json.tmp $tag.json
   printf '%-22s %s\n' "$tag" "$(sed -n 2p $tag.txt)"
 }
 hwa() {
   local name=$1 epochs=$2
   [ -f $name.onnx ] || /usr/bin/python3 -m xbarsim.hwa --model "$data/../models/resnet20_cifar10.onnx" --train train \
-    --epochs $epochs --config "$C" --threads 1 --out $name.onnx > $name.train.txt 2> $name.train.err
+    --epochs $epochs --config "$C" "${I[@]}" --threads 1 --out $name.onnx > $name.train.txt 2> $name.train.err
 }
 ev original --model resnet20_cifar10
 hwa hwa1 1
