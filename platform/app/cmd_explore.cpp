@@ -77,7 +77,7 @@ nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
   for (const char* k : kPlatformFields) row[k] = pf[k];
   row["stages"] = platform_stages(pf);
   if (pf.contains("bottleneck")) row["bottleneck"] = pf["bottleneck"];
-  for (const char* k : {"adc_bits", "dac_bits", "input_bits", "cell_bits", "weight_bits", "adc_range", "method",
+  for (const char* k : {"adc_bits", "dac_bits", "input_bits", "image_bits", "cell_bits", "weight_bits", "adc_range", "method",
                         "max_rows", "max_cols", "out_of_range_cells"})
     row[k] = ev[k];
   row["layers"] = layers;

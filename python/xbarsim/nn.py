@@ -138,7 +138,8 @@ class Hardware:
     @property
     def active(self):
         return self.enabled and (self.use_device or self.use_read_noise or self.weight_noise > 0 or
-                                 (self.converters and (self.dac_bits or self.adc_bits)) or self._quantizes)
+                                 (self.converters and (self.dac_bits or self.image_bits or self.adc_bits)) or
+                                 self._quantizes)
 
     def input_bits(self, layer):
         """The bits of `layer`'s input codes: converters.image_bits for a layer that reads the
@@ -215,6 +216,12 @@ class _AnalogMixin:
             self.bias = torch.nn.Parameter(m.bias.detach().clone())
         self._setup(hw, index)
         return self
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        key = prefix + "reads_image"
+        if key not in state_dict:  # a state from before converters.image_bits: this layer's own
+            state_dict[key] = self.reads_image.clone()
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     def _setup(self, hw, index):
         self.hw = hw
@@ -514,7 +521,7 @@ def convert(model, hardware, calibration=None):
                      .from_module(m, hardware, l))
     if calibration is not None:
         calibrate(model, calibration)
-    elif hardware.converters and (hardware.dac_bits or hardware.adc_bits):
+    elif hardware.converters and (hardware.dac_bits or hardware.image_bits or hardware.adc_bits):
         raise ValueError("convert needs calibration= (a batch of inputs) when the configuration has DAC or ADC "
                          "bits: their ranges come from it")
     return model

@@ -150,6 +150,8 @@ class OnnxModule(torch.nn.Module):
                 y = a.mean(dim=(2, 3), keepdim=True)
             elif op == "Flatten":
                 y = a.flatten(attrs.get("axis", 1))
+                if y is a:  # a new value, as eval's Flatten (a layer after it does not read the input)
+                    y = a.view(a.shape)
             elif op == "Reshape":
                 y = a.reshape(a.shape[0], -1)
             env[out] = y

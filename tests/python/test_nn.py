@@ -649,3 +649,12 @@ def test_image_bits_quantize_the_layer_that_reads_the_input():
         assert torch.allclose(codes, codes.round(), atol=1e-9)
         assert codes.abs().max() <= steps + 1e-9
         assert len(torch.unique(codes.round())) > steps  # the grid is this fine, not coarser
+
+
+def test_a_state_from_before_image_bits_loads():
+    """A state dict without the reads_image buffer (written before converters.image_bits) loads,
+    the layer keeping its own."""
+    analog = xnn.convert(_conv(), _quiet({}))
+    state = {k: v for k, v in analog.state_dict().items() if not k.endswith("reads_image")}
+    analog.load_state_dict(state)
+    assert not bool(analog.reads_image)
