@@ -516,7 +516,7 @@ void Pipeline::compute(Stage& s, int image) {
   job.layer = &L;
   job.analog = &programmed_.layer(op.linear);
   job.activation = values_->at(image).v[op.in[0]].data();
-  job.read_cycles = op.in[0] == 0 && programmed_.config().converters.image_bits != 0 ? cfg_.image_read_cycles : 1;
+  job.read_cycles = cfg_.read_cycles(reads_image(op));  // 1 without converters.image_bits
   job.detailed = true;
   job.timing_only = true;
   tlm::tlm_generic_payload p;

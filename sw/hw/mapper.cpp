@@ -30,7 +30,7 @@ LayerTiming layer_timing(const LayerInventory& v, const LinearLayer* L, const Ma
     t.rows = std::max(1, v.output.h);
     t.cols = std::max(1LL, (v.iterations + t.rows - 1) / t.rows);
   }
-  const double clk = pc.clock_ns(), S = v.input_slices * (v.reads_image ? pc.image_read_cycles : 1);
+  const double clk = pc.clock_ns(), S = v.input_slices * pc.read_cycles(v.reads_image);
   if (!pc.detailed) {  // a read per cycle
     t.ii_ns.assign(static_cast<size_t>(t.cols), clk * S);
     return t;

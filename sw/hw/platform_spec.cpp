@@ -63,7 +63,7 @@ namespace xbarsim {
 
 double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
   const double clk = cfg.clock_ns();
-  const int cycles = v.input_slices * (v.reads_image ? cfg.image_read_cycles : 1);
+  const int cycles = v.input_slices * cfg.read_cycles(v.reads_image);
   if (!cfg.detailed) return clk * cycles;  // a read per cycle
   const long long rows = std::min(v.rows, v.array_rows);
   const long long cols = std::min(v.physical_cols, v.array_cols);

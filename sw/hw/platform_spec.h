@@ -30,6 +30,8 @@ struct PlatformConfig {
   /// Neuron cores with converters.image_bits: the datapath cycles (reads at the activations'
   /// precision) one read of a layer that reads the image takes, its steps' time rounded up.
   int image_read_cycles = 1;
+  /// Datapath cycles one read of a layer takes (`reads_image`: it reads the network's input).
+  int read_cycles(bool reads_image) const { return reads_image ? image_read_cycles : 1; }
   int link_bytes_per_cycle = 32;    ///< interconnect link width
   int hop_cycles = 1;               ///< interconnect latency per transfer
   int bus_lanes = 1;                ///< parallel links of the interconnect

@@ -342,7 +342,7 @@ std::vector<bool> linear_inputs_signed(const Model& m) {
 std::vector<bool> linear_reads_image(const Model& m) {
   std::vector<bool> out(m.linear.size(), false);
   for (const Op& op : m.ops)
-    if (op.kind == OpKind::Linear && !op.in.empty() && op.in[0] == 0) out.at(op.linear) = true;
+    if (reads_image(op)) out.at(op.linear) = true;
   return out;
 }
 

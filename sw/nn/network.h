@@ -65,8 +65,10 @@ void digital_op(const Op& op, const std::vector<Shape>& shapes, const std::vecto
 /// layer's inputs by it (signed inputs take a sign), so every command counts the same reads.
 std::vector<bool> linear_inputs_signed(const Model& m);
 
-/// Per linear layer: it reads the network's input itself (the preprocessed image), the
-/// layers that converters.image_bits quantizes.
+/// A linear op reads the network's input itself (value 0, the preprocessed image): the layers
+/// that converters.image_bits quantizes.
+inline bool reads_image(const Op& op) { return op.kind == OpKind::Linear && !op.in.empty() && op.in[0] == 0; }
+/// Per linear layer: reads_image of its op.
 std::vector<bool> linear_reads_image(const Model& m);
 
 /// Runs one preprocessed image (C x H x W floats) through the model; returns the logits.

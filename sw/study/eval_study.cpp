@@ -399,8 +399,7 @@ EvalResult run_eval(const Model& model, const EvalPoint& point, const Dataset& t
     add_layer_cost(r.cost, point.hw, el.inventory, a);
     edram_read_bytes += a.buffer_read_bytes;
     signed_inputs.push_back(el.signed_inputs);
-    const int read_cycles = el.inventory.reads_image ? point.hw.platform.image_read_cycles : 1;
-    r.cost.time_ns += el.inventory.reads() * read_cycles * clock_ns;
+    r.cost.time_ns += el.inventory.reads() * point.hw.platform.read_cycles(el.inventory.reads_image) * clock_ns;
     r.layers.push_back(el);
   }
   if (point.hw.arch.machine) {  // the chip, and the mapped network's traffic on it

@@ -30,6 +30,7 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                      " holds named components, which price a machine of neuron cores (architecture.machine: "
                      "neurram); architecture.machine " + hw.arch.name +
                      " is priced by a fixed library (components.library: isaac or isaac_paper)");
+  const ConvertersSpec image = ac.converters.for_layer(true);  // the converters of a layer reading the image
   if (hw.arch.neuron_cores()) {  // one read's time follows from the precision
     const int in = ac.converters.activation_bits(), out = ac.converters.adc_bits;
     if (in < 1 || out < 1)
@@ -41,18 +42,17 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                        "converters.dac_bits to converters.input_bits (" + std::to_string(in) + "), not " +
                        std::to_string(ac.converters.dac_bits));
     hw.read_steps = hw.arch.read_steps(in, out);
-    const int image = ac.converters.for_layer(true).activation_bits();
-    hw.image_read_steps = image == in ? hw.read_steps : hw.arch.read_steps(image, out);
+    const int image_bits = image.activation_bits();
+    hw.image_read_steps = image_bits == in ? hw.read_steps : hw.arch.read_steps(image_bits, out);
     hw.arch.ima.read_ns = hw.read_steps.time_ns;
     hw.core_pulse_pj_per_bit = input_pulse_pj_per_bit(hw.arch, ac);
-  }
-  const ConvertersSpec image = ac.converters.for_layer(true);
-  if (!hw.arch.neuron_cores() && image.dac_bits != ac.converters.dac_bits)
+  } else if (image.dac_bits != ac.converters.dac_bits) {
     throw InputError("converters.image_bits (" + std::to_string(image.input_bits) +
                      ") with one read per activation would need DACs of " + std::to_string(image.dac_bits) +
                      " bits for the image, but converters.dac_bits (" + std::to_string(ac.converters.dac_bits) +
                      ") prices every DAC: set converters.dac_bits to at least " + std::to_string(image.input_bits) +
                      ", or stream the image in slices (converters.dac_bits below converters.input_bits)");
+  }
   hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
   if (hw.arch.neuron_cores())  // the datapath is clocked by a read at the activations' precision
     hw.platform.image_read_cycles =
