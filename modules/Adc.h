@@ -78,8 +78,7 @@ class Adc : public sc_core::sc_module {
         shift_adds_ += reads * cols;
       }
     }
-    job->stage_ns[kAdc].assign(job->iterations(), slowest * job->read_times());
-    if (job->detailed) delay += sim_delay(slowest, delay);
+    job->stage_ns[kAdc].assign(static_cast<size_t>(job->group_iterations()), slowest * job->read_times());
     adc2acc->b_transport(p, delay);
   }
   int columns_per_adc_;

@@ -59,8 +59,7 @@ class CrossbarArray : public sc_core::sc_module {
       cell_reads_ += reads * job->analog->block(b).rows * job->physical_columns(b);
     }
     evaluations_ += reads * nb;
-    job->stage_ns[kCrossbar].assign(job->iterations(), settle_ns_ * job->read_times());
-    if (job->detailed) delay += sim_delay(settle_ns_, delay);
+    job->stage_ns[kCrossbar].assign(static_cast<size_t>(job->group_iterations()), settle_ns_ * job->read_times());
     xbar2adc->b_transport(p, delay);
   }
   double settle_ns_;

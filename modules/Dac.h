@@ -46,8 +46,7 @@ class Dac : public sc_core::sc_module {
     job->dac_conversions += n;
     conversions_ += n;
     // One conversion per read; an iteration's reads follow one another.
-    job->stage_ns[kDac].assign(job->iterations(), latency_ns_ * job->read_times());
-    if (job->detailed) delay += sim_delay(latency_ns_, delay);
+    job->stage_ns[kDac].assign(static_cast<size_t>(job->group_iterations()), latency_ns_ * job->read_times());
     dac2xbar->b_transport(p, delay);
   }
   double latency_ns_;

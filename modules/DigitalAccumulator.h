@@ -39,7 +39,7 @@ class DigitalAccumulator : public sc_core::sc_module {
   }
 
  private:
-  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& /*delay: the tile annotates*/) {
     LayerJob* job = job_of(p);
     if (!job || !job->has_currents()) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
@@ -49,12 +49,11 @@ class DigitalAccumulator : public sc_core::sc_module {
     // Every crossbar's partial outputs (its weight columns) are accumulated each iteration.
     long long per_iteration = 0;
     for (int b = 0; b < job->analog->crossbars(); ++b) per_iteration += job->analog->block(b).cols;
-    const long long n = per_iteration * job->iterations();
+    const long long n = per_iteration * job->group_iterations();
     job->accumulations += n;
     accumulations_ += n;
     if (job->analog->config().ranging.weight_scale == WeightScale::Column) scale_multiplies_ += n;
-    job->stage_ns[kAccumulate].assign(job->iterations(), latency_ns_);
-    if (job->detailed) delay += sim_delay(latency_ns_, delay);
+    job->stage_ns[kAccumulate].assign(static_cast<size_t>(job->group_iterations()), latency_ns_);
     p.set_response_status(tlm::TLM_OK_RESPONSE);
   }
   double latency_ns_;

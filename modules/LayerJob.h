@@ -1,10 +1,11 @@
 #pragma once
 /// The work item carried by the tile datapath's TLM transactions: one image's pass through
-/// one linear layer, as an extension of the generic payload (a write of the layer's input
-/// activation: its data, its length in bytes, address 0 of the tile's input buffer). Each
-/// module reads what the previous one produced, adds its own results, counters and
-/// per-iteration stage times, and annotates its latency on the transaction's delay (loosely
-/// timed). The job belongs to its initiator: the payload never frees it.
+/// one linear layer (or, timing only, a row group of it), as an extension of the generic
+/// payload (a write of the layer's input activation: its data, its length in bytes, address 0
+/// of the tile's input buffer). Each module reads what the previous one produced and adds its
+/// own results, counters and per-iteration latency; the tile turns the latencies into the
+/// transaction's delay (loosely timed). The job belongs to its initiator: the payload never
+/// frees it.
 #include <tlm>
 #include <vector>
 
@@ -29,7 +30,13 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   /// Timing only (platform.timing_only): the modules count actions and record stage latencies
   /// from the layer's geometry and compute no values (xq, currents and y stay empty).
   bool timing_only = false;
+  /// Copies of the layer's tile that share the transaction's iterations side by side
+  /// (platform.replication), each a contiguous part of them.
   int replication = 1;
+  /// The transaction's part of the image's pass (timing only: a row group of the stage's
+  /// output, platform.grain_rows): iterations [first_iteration, first_iteration + count).
+  /// count < 0: the whole pass, as a transaction that computes values always is.
+  int first_iteration = 0, count = -1;
   /// The activation already holds DAC values (quantized once before the shift register copied
   /// them into the windows: each value is converted on its own and zero is a level, so this
   /// gives the DAC's values at a fraction of the work); the DAC stage then only slices them.
@@ -44,7 +51,8 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   std::vector<AnalogLayer::ReadCurrents<float>> read_currents;
   Eigen::MatrixXf y;  ///< iterations x c_out (without bias)
 
-  std::vector<double> stage_ns[kStages];  ///< per-iteration latency of each stage (detailed mode)
+  /// Per iteration of the transaction's part (index 0: first_iteration): each stage's latency.
+  std::vector<double> stage_ns[kStages];
   long long shifted_entries = 0, refills = 0, dac_conversions = 0, adc_conversions = 0, accumulations = 0;
   long long shift_adds = 0;
 
@@ -53,6 +61,12 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
     shifted_entries = refills = dac_conversions = adc_conversions = accumulations = shift_adds = 0;
   }
   int iterations() const { return layer->out.h * layer->out.w; }
+  /// Iterations of the transaction's part of the pass.
+  int group_iterations() const { return count < 0 ? iterations() : count; }
+  /// The transaction covers the whole pass.
+  bool whole_pass() const { return first_iteration == 0 && group_iterations() == iterations(); }
+  /// The transaction starts the image's pass (its first iteration fills the datapath).
+  bool starts_pass() const { return first_iteration == 0; }
   /// Datapath cycles one read takes: 1, or on neuron cores a read of the image at
   /// converters.image_bits (PlatformConfig::image_read_cycles).
   int read_cycles = 1;
@@ -62,8 +76,8 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   int read_times() const { return slices() * read_cycles; }
   /// Inputs are streamed bit-serially, several reads per iteration.
   bool serial() const { return analog->input_slicing().serial(); }
-  /// Crossbar reads of this pass: input slices x iterations.
-  long long reads() const { return static_cast<long long>(slices()) * iterations(); }
+  /// Crossbar reads of the transaction: input slices x its iterations.
+  long long reads() const { return static_cast<long long>(slices()) * group_iterations(); }
   /// Whether the previous stages produced what a stage reads, for every crossbar.
   bool has_currents() const {
     if (timing_only) return true;

@@ -27,19 +27,21 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
   long long shifted_entries() const { return shifted_; }
   long long refills() const { return refills_; }
 
-  /// Fills job.xq with the register contents of every iteration (pure function, no timing).
+  /// Fills job.xq with the register contents of every iteration of the pass (pure function, no
+  /// timing); timing only: counts the entries of the transaction's iterations.
   static void fill(LayerJob& job) {
     const LinearLayer& L = *job.layer;
     const int K = L.rows(), n = job.iterations(), col = L.k_h * L.c_in;
     const int H = L.in.h, W = L.in.w;
-    job.stage_ns[kShift].assign(n, 0.0);
-    if (job.timing_only) {  // the entries each iteration shifts in, as below
-      for (int it = 0; it < n; ++it) {
+    job.stage_ns[kShift].assign(static_cast<size_t>(job.group_iterations()), 0.0);
+    if (job.timing_only) {  // the entries each iteration of the transaction shifts in, as below
+      for (int k = 0; k < job.group_iterations(); ++k) {
+        const int it = job.first_iteration + k;
         const bool reload = it % L.out.w == 0 || L.stride_w >= L.k_w;
         const int shifted = reload ? K : L.stride_w * col;
         job.refills += reload;
         job.shifted_entries += shifted;
-        job.stage_ns[kShift][it] = shifted;
+        job.stage_ns[kShift][static_cast<size_t>(k)] = shifted;
       }
       return;
     }
@@ -88,7 +90,6 @@ class ShiftRegisterBuffer : public sc_core::sc_module {
     for (double& t : job->stage_ns[kShift]) t = std::ceil(t / entries_per_cycle_) * clock_ns_;
     shifted_ += job->shifted_entries - before_s;
     refills_ += job->refills - before_r;
-    if (job->detailed) delay += sim_delay(job->stage_ns[kShift].front(), delay);
     sr2dac->b_transport(p, delay);
   }
 

@@ -4,6 +4,7 @@
 /// simulated time: a clock of 1e-11 MHz, or very many images) would wrap around silently and
 /// report, e.g., a latency shorter than one layer's busy time. Every delay the modules annotate
 /// and every wait of the platform is made here.
+#include <cmath>
 #include <systemc>
 
 #include "sw/common/errors.h"
@@ -25,6 +26,12 @@ inline sc_core::sc_time sim_delay(double ns, const sc_core::sc_time& after = sc_
         " simulated days: platform.clock_mhz is too slow for this run or platform.images too many (raise the "
         "clock or simulate fewer images)");
   return sc_core::sc_time(ns, sc_core::SC_NS);
+}
+
+/// A span of simulated time in nanoseconds (exact to the time resolution's rounding).
+inline double to_ns(const sc_core::sc_time& t) {
+  const double units_per_ns = std::round(1e-9 / sc_core::sc_get_time_resolution().to_seconds());
+  return static_cast<double>(t.value()) / units_per_ns;
 }
 
 }  // namespace xbarsim

@@ -117,9 +117,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
   /// allocated once: every image's transaction starts from reset() counters.
   LayerJob job;
   tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
-  std::vector<double> ii_ns;        ///< per iteration of the current image: initiation interval
   double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
-  double fill_ns = 0;               ///< extra latency of the first iteration (pipeline fill)
   StageStats stats;
   sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
   sc_core::sc_signal<int> image_sig{"image", -1};  ///< the image it computes, -1 when not busy
@@ -504,12 +502,10 @@ void Pipeline::send_rows(Stage* s, int source, int image, int row, int count, in
   for (RowBuffer* b : consumers) b->commit(image, row + count - 1);
 }
 
-void Pipeline::compute(Stage& s, int image) {
-  const Op& op = *s.op;
-  if (tasks_) submit_values(s, image);
-  if (op.kind != OpKind::Linear) return;  // its time comes from its operation count (busy_time)
-  // The tile's transaction times the pass and counts its actions, which do not depend on the
+void Pipeline::transact(Stage& s, int image, int first, int count, sc_core::sc_time& delay) {
+  // The tile's transaction times the part and counts its actions, which do not depend on the
   // values (timing_only); the values are the task's.
+  const Op& op = *s.op;
   const LinearLayer& L = model_.linear[op.linear];
   LayerJob& job = s.job;
   job.reset_counters();
@@ -517,16 +513,15 @@ void Pipeline::compute(Stage& s, int image) {
   job.analog = &programmed_.layer(op.linear);
   job.activation = values_->at(image).v[op.in[0]].data();
   job.read_cycles = cfg_.read_cycles(reads_image(op));  // 1 without converters.image_bits
-  job.detailed = true;
+  job.detailed = cfg_.detailed;
   job.timing_only = true;
+  job.replication = s.stats.replication;
+  job.first_iteration = first;
+  job.count = count;
   tlm::tlm_generic_payload p;
   attach(p, job, 0);
-  sc_core::sc_time ignored = sc_core::SC_ZERO_TIME;
-  (*s.stage2tile)->b_transport(p, ignored);
+  (*s.stage2tile)->b_transport(p, delay);
   if (p.get_response_status() != tlm::TLM_OK_RESPONSE) throw std::runtime_error("tile transaction failed");
-  const IterationTiming t = iteration_timing(job, cfg_.clock_ns(), cfg_.detailed);
-  s.ii_ns = t.ii_ns;
-  s.fill_ns = t.fill_ns - t.ii_ns[0];  // added to the first iteration
 }
 
 void Pipeline::submit_values(Stage& s, int image) {
@@ -624,9 +619,9 @@ void Pipeline::stage_process(Stage& s) {
     for (int r0 = 0; r0 < rows; r0 += cfg_.grain_rows) {
       const int r1 = std::min(rows, r0 + cfg_.grain_rows);
       for (size_t i = 0; i < s.in.size(); ++i) need(i, img, s.window(static_cast<int>(i), r1 - 1).second);
-      if (r0 == 0) compute(s, img);
+      if (r0 == 0 && tasks_) submit_values(s, img);
       traced(s, img, true, false);
-      const double t = busy_time(s, r0, r1);
+      const double t = busy_time(s, img, r0, r1);
       s.stats.busy_ns += t;
       s.stats.rows += r1 - r0;
       traced(s, img, false, false);
@@ -642,32 +637,38 @@ void Pipeline::stage_process(Stage& s) {
   }
 }
 
-double Pipeline::busy_time(Stage& s, int r0, int r1) {
-  double t = 0;
-  if (s.op->kind == OpKind::Linear && s.sparse_ns > 0) {
-    t = r0 == 0 ? s.sparse_ns : 0.0;  // one iteration yields every output row
-  } else if (s.op->kind == OpKind::Linear) {
-    // The group's iterations, split into contiguous shares over the copies (those that have
-    // one: a group of fewer iterations than copies leaves the rest idle). The copies work side
-    // by side, the stage until the slowest is done (a process per copy that waited its share
-    // gave the same times, one delta later, at three times the simulation's cost).
-    const int w = s.out_shape.w, n = (r1 - r0) * w;
-    const int nrep = std::max(1, std::min(s.stats.replication, n));
-    for (int q = 0; q < nrep; ++q) {
-      double share = r0 == 0 && q == 0 ? s.fill_ns : 0.0;
-      for (int k = r0 * w + q * n / nrep; k < r0 * w + (q + 1) * n / nrep; ++k) share += s.ii_ns[k];
-      t = std::max(t, share);
-    }
-  } else {
-    const long long ops = row_ops(s) * (r1 - r0);
-    if (machine_) {  // the tile's units that perform this operation
-      const char* kind = digital_op_name(s.op->kind);
-      t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
+double Pipeline::busy_time(Stage& s, int image, int r0, int r1) {
+  if (s.op->kind == OpKind::Linear) {
+    // The tile's transaction for the group's iterations: its delay, annotated on the stage's
+    // local time (temporal decoupling) or waited.
+    const int w = s.out_shape.w;
+    sc_core::sc_time delay = cfg_.quantum_ns > 0 ? s.qk.get_local_time() : sc_core::SC_ZERO_TIME;
+    const sc_core::sc_time before = delay;
+    if (s.sparse_ns > 0) {  // one iteration yields every output row: its actions counted once
+      if (r0 != 0) return 0;
+      transact(s, image, 0, s.out_shape.h * w, delay);
+      delay = before + sim_delay(s.sparse_ns, before);
     } else {
-      t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+      transact(s, image, r0 * w, (r1 - r0) * w, delay);
     }
-    s.stats.digital_ops += ops;
+    const double t = to_ns(delay - before);
+    if (cfg_.quantum_ns <= 0) {
+      if (t > 0) sc_core::wait(delay);
+    } else {
+      s.qk.set(delay);
+      if (s.qk.need_sync()) s.qk.sync();
+    }
+    return t;
   }
+  const long long ops = row_ops(s) * (r1 - r0);
+  double t;
+  if (machine_) {  // the tile's units that perform this operation
+    const char* kind = digital_op_name(s.op->kind);
+    t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
+  } else {
+    t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+  }
+  s.stats.digital_ops += ops;
   advance(s, t);
   return t;
 }

@@ -138,7 +138,9 @@ class Pipeline : public sc_core::sc_module {
   void source();
   void sink();
   void stage_process(Stage& s);
-  void compute(Stage& s, int image);
+  /// Linear stage s's tile transaction for iterations [first, first + count) of `image`, its
+  /// delay annotated onto `delay`.
+  void transact(Stage& s, int image, int first, int count, sc_core::sc_time& delay);
   /// The task that computes stage s's output values for `image` once its inputs' are done.
   void submit_values(Stage& s, int image);
   /// Stores the logits of the images that have left and whose values are done, in order, and
@@ -154,8 +156,9 @@ class Pipeline : public sc_core::sc_module {
   /// sent by stage `s` (from tile `source` on a machine), or by the memory port (s null,
   /// source -1: its waits for buffer space are the memory stall).
   void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
-  /// Computes output rows [r0, r1) of a stage (a tile's copies share them); returns the busy time.
-  double busy_time(Stage& s, int r0, int r1);
+  /// Computes output rows [r0, r1) of a stage's image (a linear stage: its tile's transaction,
+  /// whose copies share them); returns the busy time.
+  double busy_time(Stage& s, int image, int r0, int r1);
   /// `ns` of a stage's busy time: waited, or with platform.quantum_ns added to its quantum
   /// keeper's local time and waited when the quantum is used up.
   void advance(Stage& s, double ns);

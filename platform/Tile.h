@@ -1,9 +1,9 @@
 #pragma once
 /// A tile: the datapath of one layer's crossbars, ShiftRegisterBuffer -> Dac ->
-/// CrossbarArray -> Adc -> DigitalAccumulator, behind one target socket. The modules
-/// annotate the latency of the first iteration (pipeline fill); the tile adds the
-/// steady state: sum over later iterations of the slowest stage rounded up to clock
-/// cycles (detailed), or one clock cycle per iteration (ideal, the paper's estimate).
+/// CrossbarArray -> Adc -> DigitalAccumulator, behind one target socket. A transaction is an
+/// image's pass or (timing only) a row group of it; the modules record each iteration's
+/// latency, and the tile annotates the transaction's delay from them (transaction_ns): the
+/// one source of a tile's time in the platform.
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -24,31 +24,38 @@
 
 namespace xbarsim {
 
-/// Timing of a layer's iterations from the stage latencies its modules recorded (detailed):
-/// each iteration's initiation interval is its slowest stage in whole clock cycles, and the
-/// first iteration's full datapath latency (the pipeline fill) is rounded up to whole cycles
-/// too. Ideal timing: one cycle per read (an iteration's input slices), no fill beyond it.
-/// Bit-serial reads: each stage records an iteration's reads back to back (slices x its
-/// per-read latency), so the interval is slices x the slowest stage's read.
-struct IterationTiming {
-  std::vector<double> ii_ns;  ///< per iteration
-  double fill_ns = 0;         ///< latency of the first iteration (>= ii_ns[0])
-};
-inline IterationTiming iteration_timing(const LayerJob& job, double clock_ns, bool detailed) {
-  const int n = job.iterations();
-  IterationTiming t;
-  t.ii_ns.assign(n, clock_ns * job.read_times());  // ideal: one read per cycle
-  t.fill_ns = t.ii_ns.empty() ? clock_ns : t.ii_ns[0];
-  if (!detailed || n == 0) return t;
+/// The time of a transaction's iterations from the latencies its modules recorded, on `copies`
+/// copies of the tile that take contiguous shares of them side by side (a part of fewer
+/// iterations than copies leaves the rest idle): the slowest copy's share. Detailed: each
+/// iteration's initiation interval is its slowest stage in whole clock cycles, and the image's
+/// first iteration takes the datapath's full latency (the pipeline fill, the sum of its stages,
+/// rounded up to whole cycles). Ideal: one cycle per read time (an iteration's input slices),
+/// no fill beyond it. Bit-serial reads: each stage records an iteration's reads back to back
+/// (slices x its per-read latency), so the interval is slices x the slowest stage's read.
+inline double transaction_ns(const LayerJob& job, double clock_ns, bool detailed, int copies) {
+  const int n = job.group_iterations();
+  if (n == 0) return 0;
+  const double ideal_ns = clock_ns * job.read_times();  // ideal: one read per cycle
   auto whole_cycles = [&](double ns) { return std::ceil(ns / clock_ns - 1e-9) * clock_ns; };
-  double first = 0;
-  for (int s = 0; s < kStages; ++s) first += job.stage_ns[s][0];
-  for (int k = 0; k < n; ++k) {
+  auto interval = [&](int k) {
+    if (!detailed) return ideal_ns;
     double worst = 0;
-    for (int s = 0; s < kStages; ++s) worst = std::max(worst, job.stage_ns[s][k]);
-    t.ii_ns[k] = whole_cycles(worst);
+    for (int s = 0; s < kStages; ++s) worst = std::max(worst, job.stage_ns[s][static_cast<size_t>(k)]);
+    return whole_cycles(worst);
+  };
+  double fill = 0;  // beyond the first iteration's interval
+  if (detailed && job.starts_pass()) {
+    double first = 0;
+    for (int s = 0; s < kStages; ++s) first += job.stage_ns[s][0];
+    fill = whole_cycles(first) - interval(0);
   }
-  t.fill_ns = whole_cycles(first);
+  const int nrep = std::max(1, std::min(copies, n));
+  double t = 0;
+  for (int q = 0; q < nrep; ++q) {
+    double share = q == 0 ? fill : 0.0;
+    for (int k = q * n / nrep; k < (q + 1) * n / nrep; ++k) share += interval(k);
+    t = std::max(t, share);
+  }
   return t;
 }
 
@@ -73,7 +80,6 @@ class Tile : public sc_core::sc_module {
   }
 
   long long iterations() const { return iterations_; }
-  long long cycles() const { return cycles_; }
   /// Output values written to the next layer's buffer.
   long long outputs_written() const { return outputs_written_; }
   /// Every action the tile's modules counted, for pricing by the component library.
@@ -139,31 +145,21 @@ class Tile : public sc_core::sc_module {
 
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);
-    if (!job) {
+    const bool part_ok = job && job->first_iteration >= 0 &&
+                         job->first_iteration + job->group_iterations() <= job->iterations() &&
+                         (job->timing_only || job->whole_pass());  // values: the whole pass
+    if (!part_ok) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
     const sc_core::sc_time start = delay;
     tile2sr->b_transport(p, delay);
     if (p.get_response_status() != tlm::TLM_OK_RESPONSE) return;
-    const double clk = cfg_.clock_ns();
-    const int n = job->iterations();
-    const int r = std::max(1, job->replication);
-    double steady_ns;
-    if (job->detailed) {
-      // The fill, then the later iterations' initiation intervals shared over the copies.
-      const IterationTiming t = iteration_timing(*job, clk, true);
-      double sum = 0;
-      for (int k = 1; k < n; ++k) sum += t.ii_ns[k];
-      steady_ns = sum / r;
-      delay = start + sim_delay(t.fill_ns, start);
-    } else {
-      steady_ns = static_cast<double>((n + r - 1) / r) * job->read_times() * clk;  // a read per cycle
-    }
-    delay += sim_delay(steady_ns, delay);
+    const double ns = transaction_ns(*job, cfg_.clock_ns(), job->detailed, job->replication);
+    delay = start + sim_delay(ns, start);
+    const int n = job->group_iterations();
     iterations_ += n;
     outputs_written_ += static_cast<long long>(n) * job->analog->outputs();
-    cycles_ += std::llround((delay - start).to_seconds() * 1e9 / clk);
   }
 
   PlatformConfig cfg_;
@@ -172,7 +168,7 @@ class Tile : public sc_core::sc_module {
   CrossbarArray xbar_;
   Adc adc_;
   DigitalAccumulator acc_;
-  long long iterations_ = 0, cycles_ = 0, outputs_written_ = 0;
+  long long iterations_ = 0, outputs_written_ = 0;
 };
 
 }  // namespace xbarsim
