@@ -12,13 +12,14 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/TileUnit.h"
 #include "sw/hw/inventory.h"
 #include "sw/hw/platform_spec.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-class Adc : public sc_core::sc_module {
+class Adc : public TileUnit {
  public:
   tlm_utils::simple_target_socket<Adc> xbar2adc{"xbar2adc"};
   tlm_utils::simple_initiator_socket<Adc> adc2acc{"adc2acc"};
@@ -26,7 +27,7 @@ class Adc : public sc_core::sc_module {
   /// `crossbars_per_adc` > 1: each ADC converts that many crossbars' columns per read (a
   /// machine's IMA with fewer ADCs than crossbars), which multiplies its time per read.
   Adc(sc_core::sc_module_name name, int columns_per_adc, double rate_gsps, int crossbars_per_adc = 1)
-      : sc_module(name),
+      : TileUnit(name, kAdc),
         columns_per_adc_(columns_per_adc),
         rate_gsps_(rate_gsps),
         crossbars_per_adc_(crossbars_per_adc) {

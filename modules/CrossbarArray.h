@@ -10,16 +10,17 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/TileUnit.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-class CrossbarArray : public sc_core::sc_module {
+class CrossbarArray : public TileUnit {
  public:
   tlm_utils::simple_target_socket<CrossbarArray> dac2xbar{"dac2xbar"};
   tlm_utils::simple_initiator_socket<CrossbarArray> xbar2adc{"xbar2adc"};
 
-  CrossbarArray(sc_core::sc_module_name name, double settle_ns) : sc_module(name), settle_ns_(settle_ns) {
+  CrossbarArray(sc_core::sc_module_name name, double settle_ns) : TileUnit(name, kCrossbar), settle_ns_(settle_ns) {
     dac2xbar.register_b_transport(this, &CrossbarArray::b_transport);
   }
   long long evaluations() const { return evaluations_; }

@@ -9,16 +9,17 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/TileUnit.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-class Dac : public sc_core::sc_module {
+class Dac : public TileUnit {
  public:
   tlm_utils::simple_target_socket<Dac> sr2dac{"sr2dac"};
   tlm_utils::simple_initiator_socket<Dac> dac2xbar{"dac2xbar"};
 
-  Dac(sc_core::sc_module_name name, double latency_ns) : sc_module(name), latency_ns_(latency_ns) {
+  Dac(sc_core::sc_module_name name, double latency_ns) : TileUnit(name, kDac), latency_ns_(latency_ns) {
     sr2dac.register_b_transport(this, &Dac::b_transport);
   }
   long long conversions() const { return conversions_; }

@@ -7,15 +7,16 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/TileUnit.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-class DigitalAccumulator : public sc_core::sc_module {
+class DigitalAccumulator : public TileUnit {
  public:
   tlm_utils::simple_target_socket<DigitalAccumulator> adc2acc{"adc2acc"};
 
-  DigitalAccumulator(sc_core::sc_module_name name, double latency_ns) : sc_module(name), latency_ns_(latency_ns) {
+  DigitalAccumulator(sc_core::sc_module_name name, double latency_ns) : TileUnit(name, kAccumulate), latency_ns_(latency_ns) {
     adc2acc.register_b_transport(this, &DigitalAccumulator::b_transport);
   }
   long long accumulations() const { return accumulations_; }

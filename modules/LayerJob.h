@@ -14,8 +14,21 @@
 
 namespace xbarsim {
 
-/// Pipeline stages of a tile, in datapath order.
+/// Pipeline stages of a tile (its units), in datapath order.
 enum Stage { kShift = 0, kDac, kCrossbar, kAdc, kAccumulate, kStages };
+
+/// A unit's name in reports.
+inline const char* unit_name(Stage s) {
+  switch (s) {
+    case kShift: return "shift_register";
+    case kDac: return "dac";
+    case kCrossbar: return "crossbar";
+    case kAdc: return "adc";
+    case kAccumulate: return "accumulator";
+    case kStages: break;
+  }
+  return "";
+}
 
 struct LayerJob : tlm::tlm_extension<LayerJob> {
   tlm::tlm_extension_base* clone() const override { return new LayerJob(*this); }

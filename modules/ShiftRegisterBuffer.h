@@ -10,17 +10,18 @@
 #include <tlm_utils/simple_target_socket.h>
 
 #include "modules/LayerJob.h"
+#include "modules/TileUnit.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-class ShiftRegisterBuffer : public sc_core::sc_module {
+class ShiftRegisterBuffer : public TileUnit {
  public:
   tlm_utils::simple_target_socket<ShiftRegisterBuffer> ctrl2sr{"ctrl2sr"};
   tlm_utils::simple_initiator_socket<ShiftRegisterBuffer> sr2dac{"sr2dac"};
 
   ShiftRegisterBuffer(sc_core::sc_module_name name, double clock_ns, int entries_per_cycle)
-      : sc_module(name), clock_ns_(clock_ns), entries_per_cycle_(entries_per_cycle) {
+      : TileUnit(name, kShift), clock_ns_(clock_ns), entries_per_cycle_(entries_per_cycle) {
     ctrl2sr.register_b_transport(this, &ShiftRegisterBuffer::b_transport);
   }
 

@@ -119,6 +119,9 @@ struct Pipeline::Stage : public sc_core::sc_module {
   tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
   double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
   StageStats stats;
+  /// Where its process is (for a run that stops in a deadlock): the image, and what it waits for.
+  int at_image = 0;
+  std::string waiting = "not started";
   sc_core::sc_signal<bool> busy_sig{"busy"}, stall_sig{"stall"};
   sc_core::sc_signal<int> image_sig{"image", -1};  ///< the image it computes, -1 when not busy
   /// Output register: the stage hands a finished row to its sender process (which waits for
@@ -337,13 +340,18 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->stats.buffer_bytes += cap;
     }
     if (op.kind == OpKind::Linear) {
-      s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg_);
-      s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
-          ("stage2tile_" + std::to_string(op.linear)).c_str());
-      bind(*s->stage2tile, s->tile->noc2tile, "tile_" + std::to_string(op.linear));
       if (op.linear < static_cast<int>(sparse_ns_.size())) s->sparse_ns = sparse_ns_[op.linear];
       const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
       s->stats.replication = r;
+      s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg_, r);
+      s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
+          ("stage2tile_" + std::to_string(op.linear)).c_str());
+      bind(*s->stage2tile, s->tile->noc2tile, "tile_" + std::to_string(op.linear));
+      // The tile's accumulator hands its finished row groups to the stage's output register.
+      Stage* st = s.get();
+      s->tile->set_output(
+          [st](const TileToken& t) { return st->out_rows.nb_write(RowId{t.image, t.row, t.rows}); },
+          &s->out_rows.data_read_event());
     }
     bind_interconnect(s->stage2bus, "stage_" + std::to_string(k));
     stages_.push_back(std::move(s));
@@ -518,6 +526,7 @@ void Pipeline::transact(Stage& s, int image, int first, int count, sc_core::sc_t
   job.replication = s.stats.replication;
   job.first_iteration = first;
   job.count = count;
+  job.image = static_cast<uint64_t>(image);
   tlm::tlm_generic_payload p;
   attach(p, job, 0);
   (*s.stage2tile)->b_transport(p, delay);
@@ -604,15 +613,20 @@ long long Pipeline::row_ops(const Stage& s) const { return digital_row_ops(*s.op
 void Pipeline::stage_process(Stage& s) {
   const int rows = s.out_shape.h;
   s.qk.reset();
+  // A dense linear layer's time is its tile's: the stage feeds it row groups and the tile's
+  // accumulator hands the finished ones to the output register.
+  const bool tiled = s.op->kind == OpKind::Linear && s.sparse_ns <= 0;
   // Waits for row `row` of input i, having waited the stage's local time if it must block.
   auto need = [&](size_t i, int img, int row) {
     if (s.in[i]->has(img, row)) return;
     before_blocking(s);
+    s.waiting = "waiting for row " + std::to_string(row) + " of " + s.in[i]->name();
     const sc_core::sc_time t0 = sc_core::sc_time_stamp();
     s.in[i]->wait_for(img, row);
     s.stats.starved_ns += (sc_core::sc_time_stamp() - t0).to_seconds() * 1e9;
   };
   for (int img = 0; img < cfg_.images; ++img) {
+    s.at_image = img;
     if (!cfg_.pipelined)
       for (size_t i = 0; i < s.in.size(); ++i) need(i, img, s.in_shape[i].h - 1);
     // Transactions of grain_rows output rows: wait for the group's windows, compute, hand over.
@@ -621,13 +635,24 @@ void Pipeline::stage_process(Stage& s) {
       for (size_t i = 0; i < s.in.size(); ++i) need(i, img, s.window(static_cast<int>(i), r1 - 1).second);
       if (r0 == 0 && tasks_) submit_values(s, img);
       traced(s, img, true, false);
-      const double t = busy_time(s, img, r0, r1);
-      s.stats.busy_ns += t;
       s.stats.rows += r1 - r0;
+      if (tiled) {
+        // Into the tile: back once its shift register has read the group's inputs.
+        before_blocking(s);
+        s.waiting = "feeding its tile row " + std::to_string(r0);
+        sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+        transact(s, img, r0 * s.out_shape.w, (r1 - r0) * s.out_shape.w, delay);
+        traced(s, img, false, false);
+        for (size_t i = 0; i < s.in.size(); ++i)
+          s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
+        continue;
+      }
+      s.stats.busy_ns += busy_time(s, r0, r1);
       traced(s, img, false, false);
       for (size_t i = 0; i < s.in.size(); ++i)
         s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
       if (s.out_rows.num_free() == 0) before_blocking(s);
+      s.waiting = "waiting for its output register (its consumers' buffers full)";
       const sc_core::sc_time t0 = sc_core::sc_time_stamp();
       traced(s, img, false, true);
       s.out_rows.write(RowId{img, r0, r1 - r0});  // stalls while the previous group still waits for space or the bus
@@ -635,40 +660,24 @@ void Pipeline::stage_process(Stage& s) {
       traced(s, img, false, false);
     }
   }
+  s.at_image = cfg_.images;
+  s.waiting.clear();
 }
 
-double Pipeline::busy_time(Stage& s, int image, int r0, int r1) {
+double Pipeline::busy_time(Stage& s, int r0, int r1) {
+  double t = 0;
   if (s.op->kind == OpKind::Linear) {
-    // The tile's transaction for the group's iterations: its delay, annotated on the stage's
-    // local time (temporal decoupling) or waited.
-    const int w = s.out_shape.w;
-    sc_core::sc_time delay = cfg_.quantum_ns > 0 ? s.qk.get_local_time() : sc_core::SC_ZERO_TIME;
-    const sc_core::sc_time before = delay;
-    if (s.sparse_ns > 0) {  // one iteration yields every output row: its actions counted once
-      if (r0 != 0) return 0;
-      transact(s, image, 0, s.out_shape.h * w, delay);
-      delay = before + sim_delay(s.sparse_ns, before);
-    } else {
-      transact(s, image, r0 * w, (r1 - r0) * w, delay);
-    }
-    const double t = to_ns(delay - before);
-    if (cfg_.quantum_ns <= 0) {
-      if (t > 0) sc_core::wait(delay);
-    } else {
-      s.qk.set(delay);
-      if (s.qk.need_sync()) s.qk.sync();
-    }
-    return t;
-  }
-  const long long ops = row_ops(s) * (r1 - r0);
-  double t;
-  if (machine_) {  // the tile's units that perform this operation
-    const char* kind = digital_op_name(s.op->kind);
-    t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
+    t = r0 == 0 ? s.sparse_ns : 0.0;  // a sparse layer: one iteration yields every output row
   } else {
-    t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+    const long long ops = row_ops(s) * (r1 - r0);
+    if (machine_) {  // the tile's units that perform this operation
+      const char* kind = digital_op_name(s.op->kind);
+      t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
+    } else {
+      t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
+    }
+    s.stats.digital_ops += ops;
   }
-  s.stats.digital_ops += ops;
   advance(s, t);
   return t;
 }
@@ -745,9 +754,32 @@ const PipelineResult& Pipeline::result() {
   if (tasks_) tasks_->wait_all();  // the values of the images that left; rethrows a task's failure
   reap();
   result_.completed = images_left_ == cfg_.images;
+  result_.blocked.clear();
+  if (!result_.completed) {  // the stages first, then the tile units that hold a row group
+    for (const auto& s : stages_)
+      if (!s->waiting.empty())
+        result_.blocked.push_back(s->stats.name + " (image " + std::to_string(s->at_image) + "): " + s->waiting);
+    for (const auto& s : stages_)
+      if (s->tile)
+        for (const TileUnit* u : s->tile->units())
+          if (u->holding())
+            result_.blocked.push_back(s->stats.name + "'s " + unit_name(u->stage()) +
+                                      " holds a row group its next unit (or the output register) cannot take");
+  }
   result_.stages.clear();
   for (const auto& s : stages_) {
     StageStats st = s->stats;
+    if (s->op->kind == OpKind::Linear && s->sparse_ns <= 0) {  // its tile's busiest unit's time
+      st.busy_ns = to_ns(sc_core::sc_time::from_value(s->tile->busy_ps()));
+      st.stall_ns = to_ns(sc_core::sc_time::from_value(s->tile->stall_ps()));
+      st.starved_ns = to_ns(sc_core::sc_time::from_value(s->tile->starved_ps()));
+      st.bound_unit = s->tile->bottleneck();
+      for (const TileUnit* u : s->tile->units())
+        if (u->busiest_lane_ps() == s->tile->busy_ps())
+          st.bound_by += (st.bound_by.empty() ? "" : "+") + std::string(unit_name(u->stage()));
+      for (int u = 0; u < kStages; ++u)
+        st.unit_busy_ns[u] = to_ns(sc_core::sc_time::from_value(s->tile->units()[u]->busy_ps()));
+    }
     for (const RowBuffer* b : s->in) st.buffer_peak_bytes += b->peak_bytes();
     result_.stages.push_back(st);
   }

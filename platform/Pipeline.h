@@ -49,6 +49,11 @@ struct StageStats {
   /// later than it; the first image's wait is the pipeline filling).
   double starved_ns = 0;
   long long rows = 0, digital_ops = 0;
+  /// A dense linear stage: its tile's unit that bounds it (busy, stall and starved are that
+  /// unit's; -1: not a tile's), and each unit's busy time summed over the copies.
+  int bound_unit = -1;
+  std::string bound_by;  ///< every unit as busy as that one, joined by '+' (a tie: "crossbar+adc")
+  double unit_busy_ns[kStages] = {};
   long long buffer_bytes = 0, buffer_peak_bytes = 0;  ///< its input buffers: capacity and peak occupancy
 };
 
@@ -68,6 +73,9 @@ struct PipelineResult {
   long long protocol_transactions = 0;
   std::vector<std::string> protocol_violations;
   bool completed = false;  ///< false: the run stopped with images still in flight (deadlock)
+  /// Not completed: what every unfinished stage and every tile unit holding a row group was
+  /// blocked on when the simulation ran out of events.
+  std::vector<std::string> blocked;
   double makespan_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.back(); }
   double latency_ns() const { return image_out_ns.empty() ? 0 : image_out_ns.front() - image_in_ns.front(); }
   /// Images per second in steady state: from the spacing of the outputs between the first
@@ -138,8 +146,8 @@ class Pipeline : public sc_core::sc_module {
   void source();
   void sink();
   void stage_process(Stage& s);
-  /// Linear stage s's tile transaction for iterations [first, first + count) of `image`, its
-  /// delay annotated onto `delay`.
+  /// Linear stage s's tile transaction for iterations [first, first + count) of `image`: back
+  /// once the tile's shift register has read them (its units time the rest).
   void transact(Stage& s, int image, int first, int count, sc_core::sc_time& delay);
   /// The task that computes stage s's output values for `image` once its inputs' are done.
   void submit_values(Stage& s, int image);
@@ -156,9 +164,9 @@ class Pipeline : public sc_core::sc_module {
   /// sent by stage `s` (from tile `source` on a machine), or by the memory port (s null,
   /// source -1: its waits for buffer space are the memory stall).
   void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
-  /// Computes output rows [r0, r1) of a stage's image (a linear stage: its tile's transaction,
-  /// whose copies share them); returns the busy time.
-  double busy_time(Stage& s, int image, int r0, int r1);
+  /// Computes output rows [r0, r1) of a stage whose time is not a tile's (a digital unit, a
+  /// sparse layer's single iteration); returns the busy time.
+  double busy_time(Stage& s, int r0, int r1);
   /// `ns` of a stage's busy time: waited, or with platform.quantum_ns added to its quantum
   /// keeper's local time and waited when the quantum is used up.
   void advance(Stage& s, double ns);

@@ -1,11 +1,15 @@
 #pragma once
 /// A tile: the datapath of one layer's crossbars, ShiftRegisterBuffer -> Dac ->
-/// CrossbarArray -> Adc -> DigitalAccumulator, behind one target socket. A transaction is an
-/// image's pass or (timing only) a row group of it; the modules record each iteration's
-/// latency, and the tile annotates the transaction's delay from them (transaction_ns): the
-/// one source of a tile's time in the platform.
+/// CrossbarArray -> Adc -> DigitalAccumulator, behind one target socket, each a unit with its
+/// own process (modules/TileUnit.h) and a bounded FIFO before it. A transaction is an image's
+/// pass or (timing only) a row group of it: through the modules' sockets it is counted and
+/// every iteration's latency at each unit recorded (and, unless timing only, its values
+/// computed); then it enters the units as a token, and b_transport returns once the shift
+/// register has read the group's inputs. The group's output rows leave the accumulator when
+/// the units' processes have done it (set_output): the tile's time is theirs.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <vector>
 #include <systemc>
@@ -18,54 +22,22 @@
 #include "modules/Dac.h"
 #include "modules/DigitalAccumulator.h"
 #include "modules/ShiftRegisterBuffer.h"
+#include "modules/TileUnit.h"
 #include "sw/hw/cost.h"
 #include "sw/hw/platform_spec.h"
 #include "modules/sim_time.h"
 
 namespace xbarsim {
 
-/// The time of a transaction's iterations from the latencies its modules recorded, on `copies`
-/// copies of the tile that take contiguous shares of them side by side (a part of fewer
-/// iterations than copies leaves the rest idle): the slowest copy's share. Detailed: each
-/// iteration's initiation interval is its slowest stage in whole clock cycles, and the image's
-/// first iteration takes the datapath's full latency (the pipeline fill, the sum of its stages,
-/// rounded up to whole cycles). Ideal: one cycle per read time (an iteration's input slices),
-/// no fill beyond it. Bit-serial reads: each stage records an iteration's reads back to back
-/// (slices x its per-read latency), so the interval is slices x the slowest stage's read.
-inline double transaction_ns(const LayerJob& job, double clock_ns, bool detailed, int copies) {
-  const int n = job.group_iterations();
-  if (n == 0) return 0;
-  const double ideal_ns = clock_ns * job.read_times();  // ideal: one read per cycle
-  auto whole_cycles = [&](double ns) { return std::ceil(ns / clock_ns - 1e-9) * clock_ns; };
-  auto interval = [&](int k) {
-    if (!detailed) return ideal_ns;
-    double worst = 0;
-    for (int s = 0; s < kStages; ++s) worst = std::max(worst, job.stage_ns[s][static_cast<size_t>(k)]);
-    return whole_cycles(worst);
-  };
-  double fill = 0;  // beyond the first iteration's interval
-  if (detailed && job.starts_pass()) {
-    double first = 0;
-    for (int s = 0; s < kStages; ++s) first += job.stage_ns[s][0];
-    fill = whole_cycles(first) - interval(0);
-  }
-  const int nrep = std::max(1, std::min(copies, n));
-  double t = 0;
-  for (int q = 0; q < nrep; ++q) {
-    double share = q == 0 ? fill : 0.0;
-    for (int k = q * n / nrep; k < (q + 1) * n / nrep; ++k) share += interval(k);
-    t = std::max(t, share);
-  }
-  return t;
-}
-
 class Tile : public sc_core::sc_module {
  public:
   tlm_utils::simple_target_socket<Tile> noc2tile{"noc2tile"};
 
-  Tile(sc_core::sc_module_name name, const PlatformConfig& c)
+  /// `copies`: the tile's copies, lanes of every unit that share a group's iterations.
+  Tile(sc_core::sc_module_name name, const PlatformConfig& c, int copies = 1)
       : sc_module(name),
         cfg_(c),
+        copies_(std::max(1, copies)),
         sr_("sr", c.clock_ns(), c.shift_entries_per_cycle),
         dac_("dac", c.dac_latency_ns),
         xbar_("xbar", c.crossbar_settle_ns),
@@ -77,7 +49,43 @@ class Tile : public sc_core::sc_module {
     dac_.dac2xbar.bind(xbar_.dac2xbar);
     xbar_.xbar2adc.bind(adc_.xbar2adc);
     adc_.adc2acc.bind(acc_.adc2acc);
+    for (int s = 0; s < kStages; ++s) fifo_[s] = std::make_unique<TokenFifo>(c.fifo_depth);
+    // Ideal timing: a read per cycle, no unit aligned to the clock.
+    cycle_ps_ = sc_core::sc_time(c.clock_ns(), sc_core::SC_NS).value();
+    clock_ = c.detailed ? cycle_ps_ : 0;
+    TileUnit* units[kStages] = {&sr_, &dac_, &xbar_, &adc_, &acc_};
+    for (int s = 0; s + 1 < kStages; ++s)
+      units[s]->connect(fifo_[s].get(), {fifo_[s + 1].get(), {}, nullptr}, copies_, clock_);
+    set_output(nullptr, nullptr);
   }
+
+  /// Where a finished group goes: `out(token)` returns false while it cannot take it, and
+  /// `space` fires when it may. Without one, every group is taken when done (completions()).
+  void set_output(std::function<bool(const TileToken&)> out, const sc_core::sc_event* space) {
+    out_ = std::move(out);
+    acc_.connect(fifo_[kAccumulate].get(), {nullptr, [this](TileToken& t) { return deliver(t); }, space ? space : &never_},
+                 copies_, clock_);
+  }
+  /// Without an output: when each group left the accumulator.
+  const std::vector<sc_core::sc_time>& completions() const { return completions_; }
+  /// The tile computing (ps): its busiest unit's busiest lane (the unit that bounds its
+  /// throughput, without the pipeline's fill or any waiting).
+  sc_dt::uint64 busy_ps() const { return units()[bottleneck()]->busiest_lane_ps(); }
+  /// Its busiest unit.
+  Stage bottleneck() const {
+    const std::vector<const TileUnit*> u = units();
+    int b = 0;
+    for (int s = 1; s < kStages; ++s)
+      if (u[s]->busiest_lane_ps() > u[b]->busiest_lane_ps()) b = s;
+    return static_cast<Stage>(b);
+  }
+  /// Its busiest unit's time holding finished groups (the output's backpressure reaching it)
+  /// and its time without a group (ps): with busy_ps, three disjoint parts of its time.
+  sc_dt::uint64 stall_ps() const { return units()[bottleneck()]->stall_ps(); }
+  sc_dt::uint64 starved_ps() const { return units()[bottleneck()]->starved_ps(); }
+  int copies() const { return copies_; }
+  /// The units in datapath order (their busy and stall times, what they hold).
+  std::vector<const TileUnit*> units() const { return {&sr_, &dac_, &xbar_, &adc_, &acc_}; }
 
   long long iterations() const { return iterations_; }
   /// Output values written to the next layer's buffer.
@@ -147,28 +155,91 @@ class Tile : public sc_core::sc_module {
     LayerJob* job = job_of(p);
     const bool part_ok = job && job->first_iteration >= 0 &&
                          job->first_iteration + job->group_iterations() <= job->iterations() &&
-                         (job->timing_only || job->whole_pass());  // values: the whole pass
+                         (job->timing_only || job->whole_pass()) &&  // values: the whole pass
+                         job->replication >= 1 && job->replication <= copies_;
     if (!part_ok) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
     }
-    const sc_core::sc_time start = delay;
+    // The units run on the kernel's time: the initiator's local time is waited first.
+    if (delay > sc_core::SC_ZERO_TIME) {
+      sc_core::wait(delay);
+      delay = sc_core::SC_ZERO_TIME;
+    }
     tile2sr->b_transport(p, delay);
     if (p.get_response_status() != tlm::TLM_OK_RESPONSE) return;
-    const double ns = transaction_ns(*job, cfg_.clock_ns(), job->detailed, job->replication);
-    delay = start + sim_delay(ns, start);
     const int n = job->group_iterations();
     iterations_ += n;
     outputs_written_ += static_cast<long long>(n) * job->analog->outputs();
+    TileToken* t = token(*job);
+    fifo_[kShift]->write(t);  // waits while the shift register's FIFO is full
+    sc_core::wait(t->shifted);
+  }
+
+  /// A token of the job's group: its iterations' latency at each unit, in whole cycles
+  /// (detailed timing; ideal: a cycle per read at the crossbars, nothing elsewhere).
+  TileToken* token(const LayerJob& job) {
+    TileToken* t;
+    if (pool_.empty()) {
+      tokens_.push_back(std::make_unique<TileToken>());
+      t = tokens_.back().get();
+    } else {
+      t = pool_.back();
+      pool_.pop_back();
+    }
+    const int n = job.group_iterations(), w = std::max(1, job.layer->out.w);
+    t->image = static_cast<int>(job.image);
+    t->row = job.first_iteration / w;
+    t->rows = (job.first_iteration + n + w - 1) / w - t->row;
+    t->n = n;
+    t->lanes = std::max(1, std::min(job.replication, n));
+    t->entered = sr_.entry(sc_core::sc_time_stamp().value());
+    t->ready.assign(static_cast<size_t>(n), t->entered);
+    const double clk = cfg_.clock_ns();
+    for (int s = 0; s < kStages; ++s) {
+      std::vector<sc_dt::uint64>& lat = t->latency[s];
+      lat.resize(static_cast<size_t>(n));
+      if (!job.detailed) {
+        std::fill(lat.begin(), lat.end(), s == kCrossbar ? cycle_ps_ * static_cast<sc_dt::uint64>(job.read_times()) : 0);
+        continue;
+      }
+      const std::vector<double>& ns = job.stage_ns[s];
+      for (int k = 0; k < n; ++k) {  // whole cycles (a latency repeats: converted once)
+        const double v = ns[static_cast<size_t>(k)];
+        if (k > 0 && v == ns[static_cast<size_t>(k - 1)]) {
+          lat[static_cast<size_t>(k)] = lat[static_cast<size_t>(k - 1)];
+          continue;
+        }
+        lat[static_cast<size_t>(k)] = static_cast<sc_dt::uint64>(std::ceil(v / clk - 1e-9)) * cycle_ps_;
+      }
+    }
+    return t;
+  }
+
+  /// The accumulator's hand-over of a finished group.
+  bool deliver(TileToken& t) {
+    if (out_ && !out_(t)) return false;
+    if (!out_) completions_.push_back(sc_core::sc_time_stamp());
+    pool_.push_back(&t);
+    return true;
   }
 
   PlatformConfig cfg_;
+  int copies_;
   ShiftRegisterBuffer sr_;
   Dac dac_;
   CrossbarArray xbar_;
   Adc adc_;
   DigitalAccumulator acc_;
   long long iterations_ = 0, outputs_written_ = 0;
+  std::unique_ptr<TokenFifo> fifo_[kStages];  ///< each unit's input
+  std::vector<std::unique_ptr<TileToken>> tokens_;
+  std::vector<TileToken*> pool_;  ///< tokens not in flight
+  std::function<bool(const TileToken&)> out_;
+  sc_core::sc_event never_;  ///< without an output every group is taken: nothing waits for space
+  sc_dt::uint64 clock_ = 0;     ///< ps the units align to; 0: ideal timing
+  sc_dt::uint64 cycle_ps_ = 0;  ///< a clock cycle
+  std::vector<sc_core::sc_time> completions_;
 };
 
 }  // namespace xbarsim

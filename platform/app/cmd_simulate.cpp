@@ -53,7 +53,8 @@ void print_summary(const SimulationReport& r) {
       compact_number(r.throughput_images_per_s).c_str(), r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
       power_text(r.peak_power_mw).c_str(), r.area_mm2, r.achieved_tops_per_w);
   if (!r.bottleneck.empty())
-    std::printf("bottleneck: %s, busy %.3f us per image\n", r.bottleneck.c_str(), r.bottleneck_busy_us);
+    std::printf("bottleneck: %s, busy %.3f us per image%s%s\n", r.bottleneck.c_str(), r.bottleneck_busy_us,
+                r.bottleneck_unit.empty() ? "" : ", bound by its ", r.bottleneck_unit.c_str());
   std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,
               r.images_per_wall_s);
   if (r.accuracy) {

@@ -59,6 +59,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                      {"DACs", 6},
                      {"iters", 7},
                      {"busy_us", 9, 3},
+                     {"est_us", 9, 3},
+                     {"bound", -14},
                      {"stall_us", 9, 3},
                      {"starved_us", 10, 3},
                      {"buf_B", 8},
@@ -70,6 +72,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   double macs = 0;
   PlatformActions platform;  // counted by the simulation
   MachineActions on_machine;  // on a machine: its tile buses, mesh, digital units and off-chip links
+  double unit_busy[kStages] = {}, unit_lanes_ns = 0;  // the tiles' units over every copy
   nlohmann::json digital = nlohmann::json::array();
   for (size_t stage = 0; stage < r.stages.size(); ++stage) {
     const StageStats& st = r.stages[stage];
@@ -107,6 +110,22 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
+    // The mapper's estimate beside the simulated busy time, and the tile's units.
+    nlohmann::json units = nlohmann::json::object(), estimate, bound;
+    if (st.bound_unit >= 0) {
+      const double lanes_ns = static_cast<double>(st.replication) * std::max(r.makespan_ns(), 1e-9);
+      for (int u = 0; u < kStages; ++u) {
+        units[unit_name(static_cast<Stage>(u))] = st.unit_busy_ns[u] / lanes_ns;
+        unit_busy[u] += st.unit_busy_ns[u];
+      }
+      unit_lanes_ns += lanes_ns;
+      bound = st.bound_by;
+      const double est = machine ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
+                                 : estimated_compute_ns(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear],
+                                                                     reads_image[st.linear]),
+                                                        &L, &hw.mapping, pc, replication[st.linear]);
+      estimate = {{"estimated_busy_us", est * 1e-3}, {"busy_over_estimate", est > 0 ? busy / est : 0.0}};
+    }
     layers.push_back({{"name", L.name},
                       {"stage", stage},
                       {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
@@ -119,6 +138,10 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       {"iterations", v.iterations},
                       {"cycles", std::llround(busy / clk)},
                       {"busy_us", busy * 1e-3},
+                      {"estimated_busy_us", estimate.is_null() ? nlohmann::json() : estimate["estimated_busy_us"]},
+                      {"busy_over_estimate", estimate.is_null() ? nlohmann::json() : estimate["busy_over_estimate"]},
+                      {"bound_by", bound},
+                      {"unit_utilization", units},
                       {"stall_us", stall * 1e-3},
                       {"starved_us", st.starved_ns / images * 1e-3},
                       {"buffer_bytes", st.buffer_bytes},
@@ -129,7 +152,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     if (print)
       table.print_row(
           stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,
-                   busy * 1e-3, stall * 1e-3, st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
+                   busy * 1e-3, estimate.is_null() ? 0.0 : estimate["estimated_busy_us"].get<double>(),
+                   bound.is_null() ? std::string("-") : bound.get<std::string>(), stall * 1e-3,
+                   st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
   }
   platform.actions.bus_bytes = r.bus_bytes / images;
   platform.actions.memory_bytes = r.memory_bytes / images;
@@ -186,7 +211,14 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   if (bus_bound)
     j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
   else if (slow)
-    j["bottleneck"] = {{"stage", slow->name}, {"busy_us_per_image", slow->busy_ns / images * 1e-3}};
+    j["bottleneck"] = {{"stage", slow->name},
+                       {"busy_us_per_image", slow->busy_ns / images * 1e-3},
+                       {"unit", slow->bound_unit >= 0 ? slow->bound_by : std::string(digital_op_name(slow->kind))}};
+  // How busy each kind of tile unit was over the run, every copy counted.
+  nlohmann::json util = nlohmann::json::object();
+  for (int u = 0; u < kStages; ++u)
+    util[unit_name(static_cast<Stage>(u))] = unit_lanes_ns > 0 ? unit_busy[u] / unit_lanes_ns : 0.0;
+  j["unit_utilization"] = util;
   if (machine) {
     j["architecture"] = machine->name;
     j["peak_gops"] = machine->peak_gops;
@@ -250,6 +282,7 @@ SimulationReport SimulationReport::from_json(const nlohmann::json& j) {
   if (j.contains("bottleneck")) {
     r.bottleneck = j["bottleneck"].at("stage").get<std::string>();
     r.bottleneck_busy_us = j["bottleneck"].at("busy_us_per_image").get<double>();
+    if (j["bottleneck"].contains("unit")) r.bottleneck_unit = j["bottleneck"]["unit"].get<std::string>();
   }
   r.wall_time_s = j.at("simulation_wall_time_s").get<double>();
   r.images_per_wall_s = j.at("simulated_images_per_wall_s").get<double>();
@@ -324,10 +357,15 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   bar.finish();
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const PipelineResult& r = pipe.result();
-  if (!r.completed)
+  if (!r.completed) {
+    std::string blocked;
+    for (size_t k = 0; k < r.blocked.size() && k < 6; ++k) blocked += (k ? "; " : ": ") + r.blocked[k];
+    if (r.blocked.size() > 6) blocked += "; and " + std::to_string(r.blocked.size() - 6) + " more";
     throw InputError(
         "the simulation stopped with images in flight: a buffer (platform.buffer_bytes) is too small "
-        "for the schedule (deadlock)");
+        "for the schedule (deadlock). Blocked" +
+        blocked);
+  }
   pipe.finish_trace();
   HardwareContext run_hw = hw;
   run_hw.platform = pc;

@@ -37,6 +37,7 @@ struct SimulationReport {
   double achieved_tops_per_w = 0;
   std::string bottleneck;  ///< the stage (or the interconnect) busy longest per image
   double bottleneck_busy_us = 0;
+  std::string bottleneck_unit;  ///< the unit that bounds it (a tile's, or the digital operation)
   double wall_time_s = 0, images_per_wall_s = 0;
   std::optional<double> accuracy;  ///< labelled images with values computed
   std::optional<double> software_accuracy;  ///< the software network's on the same images

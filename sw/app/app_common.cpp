@@ -180,13 +180,13 @@ nlohmann::json report_row(const nlohmann::json& j, const std::vector<std::pair<s
                         "energy_uj_per_image", "area_mm2", "latency_us", "avg_power_mw", "ideal_avg_power_mw",
                         "peak_power_mw", "throughput_images_per_s", "bottleneck", "time_ns_per_image",
                         "energy_breakdown_uj", "area_breakdown_mm2", "adc_bits", "dac_bits", "accuracy_drop",
-                        "accuracy_drop_ci95", "warnings"})
+                        "accuracy_drop_ci95", "warnings", "unit_utilization"})
     if (j.contains(k) && !row.contains(k)) row[k] = j[k];
   if (j.contains("layers") && j["layers"].is_array()) {
     row["layers"] = nlohmann::json::array();
     for (const auto& l : j["layers"]) {
       nlohmann::json L = {{"name", l.value("name", std::string())}};
-      for (const char* k : {"mean_relative_error", "worst_relative_error", "busy_us", "stall_us"})
+      for (const char* k : {"mean_relative_error", "worst_relative_error", "busy_us", "stall_us", "bound_by"})
         if (l.contains(k)) L[k] = l[k];
       row["layers"].push_back(L);
     }

@@ -9,14 +9,14 @@ namespace xbarsim {
 
 namespace {
 
-/// A layer's iterations as the simulated tile times them: the output's rows x columns, each
-/// iteration's interval by its output column (only the input register's reload at a row's
-/// start, or at every step when the stride skips the kernel, differs), and the fill the
-/// image's first iteration adds.
+/// A layer's iterations at the units of its tile (platform/Tile.h, modules/TileUnit.h): the
+/// output's rows x columns, and what each iteration holds each unit for, in whole cycles (only
+/// the shift register's reload at a row's start, or at every step when the stride skips the
+/// kernel, differs from one output column to the next).
 struct LayerTiming {
   long long rows = 1, cols = 1, iterations = 0;
-  std::vector<double> ii_ns;  ///< per output column
-  double fill_ns = 0;
+  std::vector<double> shift_ns;  ///< per output column: the shift register
+  double dac_ns = 0, crossbar_ns = 0, adc_ns = 0, accumulate_ns = 0;  ///< per iteration
 };
 
 LayerTiming layer_timing(const LayerInventory& v, const LinearLayer* L, const MappingSpec* mapping,
@@ -31,8 +31,9 @@ LayerTiming layer_timing(const LayerInventory& v, const LinearLayer* L, const Ma
     t.cols = std::max(1LL, (v.iterations + t.rows - 1) / t.rows);
   }
   const double clk = pc.clock_ns(), S = v.input_slices * pc.read_cycles(v.reads_image);
-  if (!pc.detailed) {  // a read per cycle
-    t.ii_ns.assign(static_cast<size_t>(t.cols), clk * S);
+  t.shift_ns.assign(static_cast<size_t>(t.cols), 0.0);
+  if (!pc.detailed) {  // a read per cycle, at the crossbars
+    t.crossbar_ns = clk * S;
     return t;
   }
   auto whole_cycles = [&](double ns) { return std::ceil(ns / clk - 1e-9) * clk; };
@@ -50,41 +51,44 @@ LayerTiming layer_timing(const LayerInventory& v, const LinearLayer* L, const Ma
   double adc = 0;
   for (long long w : widths)
     adc = std::max(adc, adc_read_ns(w, pc.adc_columns_per_unit, pc.crossbars_per_adc, pc.adc_rate_gsps));
-  const double per_read = std::max({pc.dac_latency_ns * S, pc.crossbar_settle_ns * S, adc * S});
-  auto shift_ns = [&](long long ox) -> double {
-    if (!L) return 0;
+  t.dac_ns = whole_cycles(pc.dac_latency_ns * S);
+  t.crossbar_ns = whole_cycles(pc.crossbar_settle_ns * S);
+  t.adc_ns = whole_cycles(adc * S);
+  t.accumulate_ns = whole_cycles(pc.accumulator_latency_ns);
+  for (long long ox = 0; ox < t.cols && L; ++ox) {
     const bool reload = ox == 0 || L->stride_w >= L->k_w;
     const long long entries = reload ? L->rows() : static_cast<long long>(L->stride_w) * L->k_h * L->c_in;
-    return std::ceil(static_cast<double>(entries) / pc.shift_entries_per_cycle) * clk;
-  };
-  for (long long ox = 0; ox < t.cols; ++ox)
-    t.ii_ns.push_back(whole_cycles(std::max({shift_ns(ox), per_read, pc.accumulator_latency_ns})));
-  const double first = shift_ns(0) + (pc.dac_latency_ns + pc.crossbar_settle_ns + adc) * S + pc.accumulator_latency_ns;
-  t.fill_ns = whole_cycles(first) - t.ii_ns[0];
+    t.shift_ns[static_cast<size_t>(ox)] = std::ceil(static_cast<double>(entries) / pc.shift_entries_per_cycle) * clk;
+  }
   return t;
 }
 
-/// Per image, the time `copies` copies of a layer compute, as Pipeline::busy_time: per row
-/// group, its iterations in contiguous shares over the copies (those that have one), the
-/// slowest share; the first group's first share adds the fill.
+/// Per image, the time `copies` copies of a layer compute: what their busiest unit works
+/// (the simulation's busy time: a unit that bounds the throughput, without the pipeline's
+/// fill). Per row group (platform.grain_rows output rows) the copies take contiguous shares of
+/// its iterations; copy q's unit works its shares of every group.
 double compute_ns(const LayerTiming& t, int copies, int grain_rows) {
   grain_rows = std::max(1, grain_rows);
-  double total = 0;
+  const long long lanes = std::max(1, copies);
+  std::vector<double> shift(static_cast<size_t>(lanes), 0.0);
+  std::vector<long long> count(static_cast<size_t>(lanes), 0);
   for (long long r0 = 0; r0 < t.rows; r0 += grain_rows) {
     const long long first = r0 * t.cols;
     const long long n = std::min((std::min(t.rows, r0 + grain_rows) - r0) * t.cols, t.iterations - first);
     if (n <= 0) break;
-    const long long nrep = std::max(1LL, std::min<long long>(copies, n));
-    double slowest = 0;
-    for (long long q = 0; q < nrep; ++q) {
-      double share = r0 == 0 && q == 0 ? t.fill_ns : 0.0;
-      for (long long k = first + q * n / nrep; k < first + (q + 1) * n / nrep; ++k)
-        share += t.ii_ns[static_cast<size_t>(k % t.cols)];
-      slowest = std::max(slowest, share);
-    }
-    total += slowest;
+    const long long nrep = std::min(lanes, n);
+    for (long long q = 0; q < nrep; ++q)
+      for (long long k = first + q * n / nrep; k < first + (q + 1) * n / nrep; ++k) {
+        shift[static_cast<size_t>(q)] += t.shift_ns[static_cast<size_t>(k % t.cols)];
+        ++count[static_cast<size_t>(q)];
+      }
   }
-  return total;
+  const double per_iteration = std::max({t.dac_ns, t.crossbar_ns, t.adc_ns, t.accumulate_ns});
+  double busiest = 0;
+  for (long long q = 0; q < lanes; ++q)
+    busiest = std::max({busiest, shift[static_cast<size_t>(q)],
+                        static_cast<double>(count[static_cast<size_t>(q)]) * per_iteration});
+  return busiest;
 }
 
 /// The iterations a layer's copies can share: one row group's.
@@ -93,6 +97,11 @@ long long group_iterations(const LayerTiming& t, int grain_rows) {
 }
 
 }  // namespace
+
+double estimated_compute_ns(const LayerInventory& v, const LinearLayer* L, const MappingSpec* mapping,
+                            const PlatformConfig& pc, int copies) {
+  return compute_ns(layer_timing(v, L, mapping, pc), copies, pc.grain_rows);
+}
 
 Mapping map_network(const std::vector<LayerInventory>& layers, const Architecture& arch, const PlatformConfig& config,
                     const Model* model, const MappingSpec* mapping) {
@@ -124,7 +133,8 @@ Mapping map_network(const std::vector<LayerInventory>& layers, const Architectur
     // The input's arrival over a router link, or (cores without a mesh) the chip's port.
     const double link = arch.chip.transfer_bytes_per_ns();
     p.input_ns = link > 0 ? static_cast<double>(v.input.size()) * pc.activation_bytes / link : 0.0;
-    p.iteration_ns = timing.back().ii_ns.back();
+    const LayerTiming& lt = timing.back();
+    p.iteration_ns = std::max({lt.shift_ns.back(), lt.dac_ns, lt.crossbar_ns, lt.adc_ns, lt.accumulate_ns});
     m.layers.push_back(p);
   }
   auto used = [&] {

@@ -25,15 +25,17 @@ struct LayerPlacement {
   long long imas = 0;       ///< one copy: ceil(crossbars / crossbars per IMA)
   int replication = 1;
   long long first_ima = -1;  ///< chip-wide index of its first IMA (its copies follow one another); -1: not placed
-  /// Per image, the time its copies compute, as the simulated tile times it (a closed form of
-  /// platform/Tile.h and Pipeline::busy_time, with machine_platform's timing): every iteration
-  /// takes its slowest stage in whole cycles (input register shifts, DACs, the crossbars' read,
-  /// the ADCs' conversions (adc_read_ns, k crossbars sharing an ADC: k times a crossbar's
-  /// columns), accumulation; slices x a read for the per-read stages); per row group
-  /// (platform.grain_rows output rows) the copies take contiguous shares of its iterations and
-  /// the slowest share counts; the image's first group adds the datapath's fill.
+  /// Per image, the estimate of the time its copies compute: the closed form of its tile's
+  /// busiest unit (platform/Tile.h, modules/TileUnit.h, with machine_platform's timing): each
+  /// unit holds an iteration for whole cycles (input register shifts, DACs, the crossbars'
+  /// read, the ADCs' conversions (adc_read_ns, k crossbars sharing an ADC: k times a
+  /// crossbar's columns), accumulation; slices x a read for the per-read units); per row
+  /// group (platform.grain_rows output rows) the copies take contiguous shares of its
+  /// iterations; the busiest unit of the busiest copy counts. The simulation's busy time is
+  /// the same where its units follow one another without waiting; its stalls and the
+  /// pipeline's fill are what the estimate leaves out.
   double compute_ns = 0;
-  double iteration_ns = 0;  ///< the interval of an iteration that does not reload its input register
+  double iteration_ns = 0;  ///< an iteration that does not reload its input register at its busiest unit
   /// Per image: its input activations over one router link (replication does not shorten it).
   double input_ns = 0;
   double stage_ns() const { return compute_ns > input_ns ? compute_ns : input_ns; }
@@ -70,6 +72,11 @@ struct Mapping {
   int tile_of(long long ima) const { return imas_per_tile ? static_cast<int>(ima / imas_per_tile) : 0; }
   nlohmann::json to_json() const;
 };
+
+/// The estimate of LayerPlacement::compute_ns for `copies` copies of a layer (inventory `v`,
+/// one copy) timed with `pc` (a machine's: machine_platform), on a machine or not.
+double estimated_compute_ns(const LayerInventory& v, const LinearLayer* L, const MappingSpec* mapping,
+                            const PlatformConfig& pc, int copies);
 
 /// Places `layers` (the inventory of each linear layer, in network order, one copy) on
 /// `arch` with the replication `pc` asks for (platform.replication: a number, per layer, or

@@ -54,6 +54,7 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.vcd_images = cfg.get_int32("platform.vcd_images");
   c.check_protocol = cfg.get_bool("platform.check_protocol");
   c.grain_rows = cfg.get_int32("platform.grain_rows");
+  c.fifo_depth = cfg.get_int32("platform.fifo_depth");
   return c;
 }
 

@@ -42,6 +42,7 @@ struct PlatformConfig {
   int activation_bytes = 1;         ///< bytes per activation value on the interconnect and in buffers
   int images = 1;
   int grain_rows = 1;  ///< output rows per transaction of a stage
+  int fifo_depth = 2;  ///< platform.fifo_depth: row groups a tile unit's input FIFO holds
   int vcd_images = 1;  ///< images traced into the VCD
   bool check_protocol = false;  ///< platform.check_protocol: a base-protocol checker before every target
   /// Worker threads computing the values beside the simulation (solver.threads, resolved):

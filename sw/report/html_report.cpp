@@ -761,6 +761,55 @@ Part timing_plot(const std::vector<const json*>& sel) {
           ""};
 }
 
+/// How busy each kind of tile unit was (simulate's unit_utilization: its busy time over the
+/// run, every copy counted), one bar per unit kind, for the first row that has it; the layers
+/// each kind bounds listed under it.
+Part units_part(const std::vector<const json*>& sel) {
+  const json* r = nullptr;
+  for (const json* x : sel)
+    if (x->contains("unit_utilization") && (*x)["unit_utilization"].is_object() && !(*x)["unit_utilization"].empty()) {
+      r = x;
+      break;
+    }
+  if (!r) return absent("per-unit utilization of the tiles (simulate's unit_utilization)");
+  const json& u = (*r)["unit_utilization"];
+  std::vector<std::string> kinds;
+  for (auto it = u.begin(); it != u.end(); ++it) kinds.push_back(it.key());
+  // In datapath order where known.
+  const std::vector<std::string> order{"shift_register", "dac", "crossbar", "adc", "accumulator"};
+  std::stable_sort(kinds.begin(), kinds.end(), [&](const std::string& a, const std::string& b) {
+    return std::find(order.begin(), order.end(), a) < std::find(order.begin(), order.end(), b);
+  });
+  std::map<std::string, int> bounds;  // layers bound by each unit (a tie counts for each)
+  if (r->contains("layers") && (*r)["layers"].is_array())
+    for (const auto& l : (*r)["layers"]) {
+      const std::string b = text(l, "bound_by");
+      size_t at = 0;
+      while (!b.empty() && at <= b.size()) {
+        const size_t plus = b.find('+', at);
+        ++bounds[b.substr(at, plus == std::string::npos ? std::string::npos : plus - at)];
+        if (plus == std::string::npos) break;
+        at = plus + 1;
+      }
+    }
+  const std::string kBar = "#4e79a7";
+  PlotAxis xa{"busy share of the run, every copy counted (%)", 0, 112};
+  PlotAxis ya{"", 0, 1};
+  for (size_t i = kinds.size(); i-- > 0;) ya.categories.push_back(kinds[i]);  // the first on top
+  SvgPlot p("plot-units", 660, 60 + 40 * static_cast<int>(kinds.size()), xa, ya, 160, 45);
+  for (size_t i = 0; i < kinds.size(); ++i) {
+    const double v = 100 * num(u, kinds[i].c_str()), at = static_cast<double>(kinds.size() - 1 - i);
+    if (!(v >= 0)) continue;
+    const int n = bounds.count(kinds[i]) ? bounds[kinds[i]] : 0;
+    p.rect(0, at - 0.32, v, at + 0.32, kBar,
+           kinds[i] + ": busy " + fmt_num(v) + " % of the run; bounds " + std::to_string(n) + " layer(s)");
+    p.label(v, at, fmt_num(v) + " %" + (n ? " (bounds " + std::to_string(n) + ")" : ""), 5, 4);
+  }
+  return {"<div>" + p.str() + html_legend({{"a unit kind's busy share", kBar}}, "", "plot-units") +
+              "</div>",
+          ""};
+}
+
 /// Horizontal bars of one value per row, the value printed at each bar's end.
 std::string value_bars(const std::vector<const json*>& rows, const char* key, const std::string& id,
                        const std::string& name) {
@@ -991,6 +1040,7 @@ std::string render_html_report(const ReportInput& in) {
   const auto dac = [&] { return bits_plot(rows, "dac_bits", "plot-dac-bits", "DAC bits", input); };
   const auto performance = [&] { return performance_part(rows); };
   const auto timing = [&] { return timing_plot(sel); };
+  const auto units = [&] { return units_part(sel); };
   const auto energy = [&] { return breakdown_plot(sel, true); };
   const auto area = [&] { return breakdown_plot(sel, false); };
   const auto ranges = [&] { return ranges_part(sel); };
@@ -1006,6 +1056,7 @@ std::string render_html_report(const ReportInput& in) {
   } else if (in.command == "simulate") {
     sections = {{"Throughput, latency and the bottleneck", performance},
                 {"Per-stage time on the platform", timing},
+                {"Utilization of the tiles' units", units},
                 {"Energy by component", energy},
                 {"Area by component", area},
                 {"Accuracy", accuracy},

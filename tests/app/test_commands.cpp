@@ -297,6 +297,7 @@ TEST(SimulateCommand, PresetRunsWithoutDataAndReportsTheClosedForms) {
   EXPECT_EQ(run("simulate --preset resnet20 --set platform.schedule=pipelined --set platform.buffer_bytes=1100", &out),
             2);
   EXPECT_NE(out.find("deadlock"), std::string::npos) << out;
+  EXPECT_NE(out.find("Blocked: conv1 (image 0): "), std::string::npos) << out;  // what each stage waited for
   EXPECT_NE(run("simulate --preset resnet99", &out), 0);
   EXPECT_NE(out.find("resnet99"), std::string::npos);
 }
@@ -363,6 +364,17 @@ TEST(SimulateCommand, TheReportPlotsEveryStageAndTheBottleneck) {
     for (const auto& st : j[list])
       EXPECT_NE(svg.find("<title>" + st["name"].get<std::string>()), std::string::npos) << st["name"];
   EXPECT_NE(svg.find("<title>layer1.0/add (the bottleneck)"), std::string::npos);
+  // The tiles' units: every iteration reads the crossbars 8 times for 100 ns, whichever copy
+  // does it, so a layer's crossbar utilization is its images' iterations x 800 ns over its
+  // copies' time.
+  ASSERT_NE(h.find("id=\"plot-units\""), std::string::npos);
+  EXPECT_EQ(j["bottleneck"]["unit"], "add");
+  for (const auto& l : j["layers"]) {
+    const double lanes_ns = l["replication"].get<double>() * j["makespan_us"].get<double>() * 1e3;
+    EXPECT_NEAR(l["unit_utilization"]["crossbar"].get<double>(), 2 * l["iterations"].get<double>() * 800 / lanes_ns, 1e-9)
+        << l["name"];
+    EXPECT_NEAR(l["busy_over_estimate"].get<double>(), 1.0, 1e-6) << l["name"];  // no contention inside a tile
+  }
   // The layer-sized platform: its interconnect is a stage too.
   ASSERT_EQ(run("simulate --preset lenet --timing-only --images 2 --json " + json + " --report " + html, &out), 0)
       << out;
@@ -370,6 +382,39 @@ TEST(SimulateCommand, TheReportPlotsEveryStageAndTheBottleneck) {
   const std::string h2((std::istreambuf_iterator<char>(in2)), {});
   EXPECT_NE(h2.find("<title>interconnect (platform.bus_lanes)"), std::string::npos);
   EXPECT_GT(read_json(json)["interconnect_busy_us_per_image"].get<double>(), 0);
+}
+
+// NeuRRAM's cores (configs/neurram.yaml) read once per neuron readout: 3-bit activations take
+// 3 integration steps of 270 ns, 5 ADC steps of 300 ns and a 300-ns phase, 2610 ns, the cores'
+// cycle; the 4-bit image 7 x 270 + 5 x 300 + 300 = 3690 ns, two cycles. By hand: conv1 (32 x 32
+// outputs on 4 copies) reads 1024 / 4 iterations of two cycles per image at its crossbars;
+// layer1.0/conv1 (3 copies, a row's 32 iterations in shares of 10, 11 and 11) is bound by its
+// input register, which takes 3 cycles to load a row's first window (144 entries, 64 a cycle)
+// and one for each of the 9 others of the first copy's share: 32 rows x 12 cycles.
+TEST(SimulateCommand, NeuronCoresAreTimedByTheirReadoutSteps) {
+  const std::string json = ::testing::TempDir() + "xbarsim_simulate_neurram.json";
+  std::string out;
+  ASSERT_EQ(run("simulate --preset resnet20 --timing-only --images 1 --config " + std::string(XBARSIM_SOURCE_DIR) +
+                    "/configs/neurram.yaml --json " + json,
+                &out),
+            0)
+      << out;
+  const auto j = read_json(json);
+  const double cycle_us = (3 * 270 + 5 * 300 + 300) * 1e-3;
+  ASSERT_NEAR(1.0 / j["clock_mhz"].get<double>(), cycle_us, 1e-9);
+  for (const auto& l : j["layers"]) {
+    if (l["name"] == "conv1") {
+      EXPECT_EQ(l["replication"], 4);
+      EXPECT_NEAR(l["busy_us"].get<double>(), 1024 / 4 * 2 * cycle_us, 1e-6);
+      EXPECT_EQ(l["bound_by"], "crossbar");
+    }
+    if (l["name"] == "layer1.0/conv1") {
+      EXPECT_EQ(l["replication"], 3);
+      EXPECT_NEAR(l["busy_us"].get<double>(), 32 * (3 + 9) * cycle_us, 1e-6);
+      EXPECT_EQ(l["bound_by"], "shift_register");
+    }
+    EXPECT_NEAR(l["busy_over_estimate"].get<double>(), 1.0, 1e-6) << l["name"];
+  }
 }
 
 // A sweep of the cells on a machine is refused before anything runs, and the message says how to
@@ -387,7 +432,7 @@ TEST(SimulateCommand, ASweepOfTheCellsOnAMachineSaysHowToVaryThem) {
 // The bottleneck simulate names is the stage the simulation measured busiest per image, a
 // digital one included, and the mapper (simulate's placement, overhead) predicts the same.
 // ResNet-20 on ISAAC-CE with two output rows per transaction: every convolution's rows are
-// halved (at most 16 x 0.8 us + its fill), while layer1.0/add performs 16 x 32 x 32 additions
+// halved (at most 16 x 0.8 us), while layer1.0/add performs 16 x 32 x 32 additions
 // on the tile's one shift-and-add unit at 1.2 per ns: 13.65 us, the bottleneck.
 TEST(SimulateCommand, NamesTheMeasuredBottleneckAndTheMapperPredictsIt) {
   const std::string json = ::testing::TempDir() + "xbarsim_simulate_bottleneck.json";
@@ -407,7 +452,7 @@ TEST(SimulateCommand, NamesTheMeasuredBottleneckAndTheMapperPredictsIt) {
   EXPECT_EQ(busiest, "layer1.0/add");
   EXPECT_NEAR(most, 16 * 32 * 32 / 1.2e3, 1e-6);
   EXPECT_EQ(j["bottleneck"]["stage"], busiest);
-  EXPECT_NE(out.find("bottleneck: layer1.0/add, busy 13.653 us"), std::string::npos) << out;
+  EXPECT_NE(out.find("bottleneck: layer1.0/add, busy 13.653 us per image, bound by its add"), std::string::npos) << out;
   EXPECT_EQ(j["placement"]["predicted_bottleneck"], busiest);
   EXPECT_NEAR(j["placement"]["predicted_bottleneck_us"].get<double>(), most, 1e-6);
   ASSERT_EQ(run("overhead " + args, &out), 0) << out;

@@ -1,7 +1,7 @@
-// A tile's schedule derived by hand: the time of its transactions (the tile's annotated delay,
-// the platform's only source of a linear stage's time) against schedules written out here
-// from the units' latencies, for one crossbar read bit-serially through 1, 2 and 8 columns per
-// ADC, and for a row group shared by copies of the tile.
+// A tile's schedule derived by hand: when its units' processes (modules/TileUnit.h) hand a
+// row group's output rows over, against schedules written out here from the units'
+// latencies, for one crossbar read bit-serially through 1, 2 and 8 columns per ADC, and for
+// row groups shared by copies of the tile.
 #include <gtest/gtest.h>
 
 #include <memory>
@@ -33,11 +33,12 @@ LinearLayer conv(int c_in, int c_out, int k, int h, int w) {
   return L;
 }
 
-/// Sends its jobs to a tile one after the other (timing only) and keeps each annotated delay.
+/// Sends its jobs to a tile one after the other (timing only), each as soon as the tile has
+/// taken the previous one, and keeps when each was taken.
 struct Driver : sc_core::sc_module {
   tlm_utils::simple_initiator_socket<Driver> out{"out"};
   std::vector<LayerJob> jobs;
-  std::vector<double> delay_ns;
+  std::vector<double> taken_ns;
   std::vector<tlm::tlm_response_status> status;
   SC_HAS_PROCESS(Driver);
   explicit Driver(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
@@ -47,11 +48,18 @@ struct Driver : sc_core::sc_module {
       attach(p, job, 0);
       sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
       out->b_transport(p, delay);
-      delay_ns.push_back(to_ns(delay));
+      taken_ns.push_back(to_ns(sc_core::sc_time_stamp() + delay));
       status.push_back(p.get_response_status());
     }
   }
 };
+
+/// When each group left the tile (ns).
+std::vector<double> completions(const Tile& tile) {
+  std::vector<double> ns;
+  for (const sc_core::sc_time& t : tile.completions()) ns.push_back(to_ns(t));
+  return ns;
+}
 
 PlatformConfig hand_platform() {
   PlatformConfig pc;  // 100 MHz: 10 ns a cycle
@@ -67,10 +75,11 @@ PlatformConfig hand_platform() {
 
 // One crossbar of 16 rows x 8 columns (a 1x1 convolution, 4 x 4 outputs: 16 iterations, each
 // reloading its 16 entries in one cycle), inputs read bit-serially one bit a read, an ADC for
-// every 1, 2 or 8 columns. Per iteration of b reads: DAC 2b ns, crossbar 10b ns, ADC
-// b x cpa x 10 ns (cpa conversions a read), shift 10 ns, accumulate 10 ns. The ADC bounds every
-// iteration (cpa >= 1), so the 16 iterations take the fill, all stages of the first iteration
-// rounded up to whole cycles, and 15 intervals of the ADC's time.
+// every 1, 2 or 8 columns. Every unit holds an iteration for whole 10-ns cycles: shift 10 ns,
+// DAC 2b ns -> ceil to cycles, crossbar 10b ns, ADC b x cpa x 10 ns (cpa conversions a read),
+// accumulate 2 ns -> 10. The ADC is the slowest unit (cpa >= 1), so the first iteration
+// reaches it after the shift register, the DACs and the crossbars, the ADC then converts the
+// 16 iterations back to back, and the last one leaves after the accumulator.
 TEST(TileSchedule, OneCrossbarAtOneTwoAndEightColumnsPerAdcAndOneFourAndEightBitInputs) {
   ONE_SIMULATION_PER_PROCESS();
   const LinearLayer L = conv(16, 8, 1, 4, 4);
@@ -102,27 +111,32 @@ TEST(TileSchedule, OneCrossbarAtOneTwoAndEightColumnsPerAdcAndOneFourAndEightBit
       job.timing_only = true;
       drivers.back()->jobs.push_back(job);
       // By hand: 16 physical columns, cpa of them per ADC: cpa conversions a read.
-      const double adc = b * cpa * 10.0, first = 10 + 2.0 * b + 10.0 * b + adc + 10;
-      const double fill = std::ceil(first / 10 - 1e-9) * 10;
-      expect.push_back(fill + 15 * adc);
+      const double dac = std::ceil(2.0 * b / 10 - 1e-9) * 10, adc = b * cpa * 10.0;
+      expect.push_back(10 + dac + 10.0 * b + 16 * adc + 10);
     }
   sc_core::sc_start();
   for (size_t i = 0; i < drivers.size(); ++i) {
     ASSERT_EQ(drivers[i]->status.at(0), tlm::TLM_OK_RESPONSE);
-    EXPECT_DOUBLE_EQ(drivers[i]->delay_ns.at(0), expect[i]) << "case " << i;
+    ASSERT_EQ(tiles[i]->completions().size(), 1u);
+    EXPECT_DOUBLE_EQ(completions(*tiles[i])[0], expect[i]) << "case " << i;
+    // Taken when the shift register has read the 16 iterations' inputs.
+    EXPECT_DOUBLE_EQ(drivers[i]->taken_ns.at(0), 160) << "case " << i;
   }
-  // Two of them written out: 1 column per ADC at 1 bit: fill 10+2+10+10+10 = 42 -> 50 ns,
-  // then 15 x 10; 8 columns per ADC at 8 bits: 10+16+80+640+10 = 756 -> 760 ns, then 15 x 640.
-  EXPECT_DOUBLE_EQ(drivers[0]->delay_ns[0], 50 + 150);
-  EXPECT_DOUBLE_EQ(drivers[8]->delay_ns[0], 760 + 15 * 640);
+  // Two of them written out: 1 column per ADC at 1 bit: 10 + 10 + 10, 16 x 10, + 10; 8 columns
+  // per ADC at 8 bits: 10 + 20 (16 ns of DAC) + 80, 16 x 640, + 10.
+  EXPECT_DOUBLE_EQ(completions(*tiles[0])[0], 30 + 160 + 10);
+  EXPECT_DOUBLE_EQ(completions(*tiles[8])[0], 110 + 16 * 640 + 10);
+  // The ADC worked 16 x 640 ns and was the only unit never idle once it had started.
+  EXPECT_EQ(tiles[8]->units()[kAdc]->busy_ps(), 16u * 640000u);
 }
 
 // Row groups of a 3x3 convolution on 8 x 8 (6 x 6 outputs, 36 iterations), as the platform sends
-// them: a transaction of output rows 1..2 (iterations 6..17) on 3 copies takes the slowest
-// copy's contiguous share of 4 iterations, without the fill (only the image's first iteration
-// fills the datapath); the image's first group takes it. The shift register bounds the
-// iterations that start a row (36 entries at 4 a cycle: 90 ns), the crossbar the others (20 ns).
-TEST(TileSchedule, ARowGroupOnCopiesTakesTheSlowestShareAndOnlyTheFirstGroupFills) {
+// them. Units: shift register 90 ns for an iteration that starts a row (36 entries at 4 a
+// cycle), 30 ns otherwise (12 entries); DAC 2 ns -> 10; crossbar 20; ADC 0.01 ns -> 10;
+// accumulator 10. On 3 copies, output rows 1..2 (iterations 6..17) go in shares of 4 to the
+// copies' lanes; each lane's shift register is its slowest unit, and its last iteration then
+// passes the other four units (10 + 20 + 10 + 10 = 50 ns).
+TEST(TileSchedule, ARowGroupOnCopiesTakesTheSlowestShareThenTheRestOfTheDatapath) {
   ONE_SIMULATION_PER_PROCESS();
   const LinearLayer L = conv(4, 8, 3, 8, 8);  // 36 rows; a shift brings 3 x 4 = 12 entries
   AnalogConfig ac;
@@ -133,7 +147,7 @@ TEST(TileSchedule, ARowGroupOnCopiesTakesTheSlowestShareAndOnlyTheFirstGroupFill
   pc.adc_rate_gsps = 100;  // a conversion far below a cycle
   pc.adc_columns_per_unit = 1;
   ASSERT_EQ(analog.input_slicing().slices, 1);
-  Tile tile("tile", pc);
+  Tile tile("tile", pc, 3);
   Driver driver("driver");
   driver.out.bind(tile.noc2tile);
   LayerJob job;
@@ -147,23 +161,94 @@ TEST(TileSchedule, ARowGroupOnCopiesTakesTheSlowestShareAndOnlyTheFirstGroupFill
   job.first_iteration = 0;
   job.count = 6;
   job.replication = 1;
-  driver.jobs.push_back(job);  // row 0 on one copy
+  driver.jobs.push_back(job);  // then row 0 on the first copy
   job.count = -1;
   job.timing_only = false;
   job.first_iteration = 6;
   driver.jobs.push_back(job);  // values of a part of the pass: refused
+  job.timing_only = true;
+  job.replication = 4;
+  driver.jobs.push_back(job);  // more copies than the tile has: refused
   sc_core::sc_start();
-  ASSERT_EQ(driver.status.size(), 3u);
+  ASSERT_EQ(driver.status.size(), 4u);
   ASSERT_EQ(driver.status[0], tlm::TLM_OK_RESPONSE);
   ASSERT_EQ(driver.status[1], tlm::TLM_OK_RESPONSE);
   EXPECT_EQ(driver.status[2], tlm::TLM_COMMAND_ERROR_RESPONSE);
-  // Shares: iterations 6-9 (6 starts row 1: 90 + 3 x 30), 10-13 (12 starts row 2: 30+30+90+30),
-  // 14-17 (4 x 30): the shift of 12 entries takes 3 cycles = 30 ns > the crossbar's 20.
-  EXPECT_DOUBLE_EQ(driver.delay_ns[0], 180);
-  // Row 0 alone: the fill (90 + 2 + 20 + ADC + 10 = 122.x -> 130 ns), then 5 x 30.
-  EXPECT_DOUBLE_EQ(driver.delay_ns[1], 130 + 5 * 30);
+  EXPECT_EQ(driver.status[3], tlm::TLM_COMMAND_ERROR_RESPONSE);
+  // Shares' shift registers: iterations 6-9 (6 starts row 1: 90 + 3 x 30 = 180), 10-13 (12
+  // starts row 2: 30 + 30 + 90 + 30 = 180), 14-17 (4 x 30 = 120); taken at 180.
+  EXPECT_DOUBLE_EQ(driver.taken_ns[0], 180);
+  const std::vector<double> done = completions(tile);
+  ASSERT_EQ(done.size(), 2u);
+  EXPECT_DOUBLE_EQ(done[0], 180 + 50);
+  // Row 0 on the first lane from 180, when its shift register is free: 90 + 5 x 30, then 50.
+  EXPECT_DOUBLE_EQ(driver.taken_ns[1], 180 + 240);
+  EXPECT_DOUBLE_EQ(done[1], 180 + 240 + 50);
   // The counters hold the two timed parts only: 18 iterations, 3 refills.
   EXPECT_EQ(tile.iterations(), 18);
   EXPECT_EQ(tile.shift_register().refills(), 3);
   EXPECT_EQ(tile.shift_register().shifted_entries(), 3 * 36 + 15 * 12);
+  // Busy: the busiest unit's busiest lane, the first lane's shift register: 180 + 240 ns.
+  EXPECT_EQ(tile.bottleneck(), kShift);
+  EXPECT_EQ(tile.busy_ps(), 420000u);
+}
+
+namespace {
+
+/// The next stage's side of a tile's output: takes a finished group, then is busy 1000 ns with
+/// it before it takes the next (its register: an sc_fifo of one group).
+struct SlowConsumer : sc_core::sc_module {
+  sc_core::sc_fifo<int> in{"in", 1};
+  std::vector<double> taken_ns;
+  SC_HAS_PROCESS(SlowConsumer);
+  explicit SlowConsumer(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
+  void run() {
+    for (;;) {
+      in.read();
+      taken_ns.push_back(to_ns(sc_core::sc_time_stamp()));
+      sc_core::wait(1000, sc_core::SC_NS);
+    }
+  }
+};
+
+}  // namespace
+
+// Four one-iteration groups through a tile whose every unit takes a 10-ns cycle (FIFOs of one
+// group), into a consumer that holds each group 1000 ns. By hand: group 0 leaves at 50 and is
+// taken at once; group 1 leaves at 60 into the empty register; group 2 is done at 70 and the
+// accumulator holds it (stalled) until the consumer takes group 1 at 1050; group 3, done at
+// the ADC at 70, waits in the accumulator's FIFO, is accumulated 1050-1060 and held until
+// 2050. The consumer takes them at 50, 1050, 2050, 3050; the accumulator stalled
+// (1050 - 70) + (2050 - 1060) ns.
+TEST(TileSchedule, AFullOutputRegisterStallsTheAccumulatorAndHoldsTheGroupsBack) {
+  ONE_SIMULATION_PER_PROCESS();
+  const LinearLayer L = conv(16, 8, 1, 4, 4);
+  AnalogConfig ac;
+  ac.mapping.negative = NegativeWeights::Differential;
+  ac.mapping.max_cols = 16;
+  ac.converters.input_bits = 1;
+  ac.converters.dac_bits = 1;
+  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
+  PlatformConfig pc = hand_platform();
+  pc.adc_columns_per_unit = 1;  // one 10-ns conversion a read
+  pc.fifo_depth = 1;
+  Tile tile("tile", pc);
+  Driver driver("driver");
+  SlowConsumer consumer("consumer");
+  driver.out.bind(tile.noc2tile);
+  tile.set_output([&](const TileToken& t) { return consumer.in.nb_write(t.row); }, &consumer.in.data_read_event());
+  for (int g = 0; g < 4; ++g) {
+    LayerJob job;
+    job.layer = &L;
+    job.analog = &analog;
+    job.timing_only = true;
+    job.first_iteration = g;
+    job.count = 1;
+    driver.jobs.push_back(job);
+  }
+  sc_core::sc_start(10, sc_core::SC_US);
+  ASSERT_EQ(driver.taken_ns, (std::vector<double>{10, 20, 30, 40}));
+  EXPECT_EQ(consumer.taken_ns, (std::vector<double>{50, 1050, 2050, 3050}));
+  EXPECT_EQ(tile.units()[kAccumulate]->stall_ps(), (980u + 990u) * 1000u);
+  for (int u = kShift; u < kAccumulate; ++u) EXPECT_EQ(tile.units()[u]->stall_ps(), 0u) << unit_name(static_cast<Stage>(u));
 }
