@@ -110,6 +110,13 @@ class TileUnit : public sc_core::sc_module {
   sc_dt::uint64 starved_ps() const { return starved_; }
   /// A group taken and not yet handed on (for the report of a simulation that stopped).
   bool holding() const { return current_ != nullptr; }
+  /// Traces its state into `sig` while `*enabled`, for groups of images below `*images`:
+  /// 0 idle, 1 working a group, 2 holding a finished group its next FIFO cannot take.
+  void trace_to(sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>* sig, const bool* enabled, const int* images) {
+    sig_ = sig;
+    enabled_ = enabled;
+    images_ = images;
+  }
 
  private:
   void process() {
@@ -121,9 +128,11 @@ class TileUnit : public sc_core::sc_module {
       }
       const bool handed = out_.fifo ? out_.fifo->nb_write(current_) : out_.deliver(*current_);
       if (!handed) {
+        traced(2);
         next_trigger(out_.fifo ? out_.fifo->data_read_event() : *out_.space);
         return;
       }
+      traced(0);
       if (now > finish_) {  // held while the next could not take it: every lane free only now
         stall_ += now - finish_;
         for (sc_dt::uint64& f : free_) f = std::max(f, on_edge(now));
@@ -137,10 +146,14 @@ class TileUnit : public sc_core::sc_module {
       return;
     }
     work(*current_, now);
+    traced(1);
     if (stage_ == kShift) current_->shifted.notify(sc_core::sc_time::from_value(finish_ - now));
     next_trigger(sc_core::sc_time::from_value(finish_ - now));
   }
 
+  void traced(int state) {
+    if (sig_ && *enabled_ && current_ && current_->image < *images_) sig_->write(state);
+  }
   /// The first clock edge at or after `t` (ideal timing: t).
   sc_dt::uint64 on_edge(sc_dt::uint64 t) const { return clock_ > 0 && t % clock_ ? t + clock_ - t % clock_ : t; }
 
@@ -186,6 +199,9 @@ class TileUnit : public sc_core::sc_module {
   sc_dt::uint64 finish_ = 0;
   std::vector<sc_dt::uint64> busy_;  ///< per lane
   sc_dt::uint64 stall_ = 0, starved_ = 0;
+  sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>* sig_ = nullptr;
+  const bool* enabled_ = nullptr;
+  const int* images_ = nullptr;
   bool idle_ = true;  ///< no group in hand, since idle_since_ (ps)
   sc_dt::uint64 idle_since_ = 0;
 };

@@ -428,6 +428,7 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
     sc_core::sc_trace(vcd_, s.stall_sig, scope + ".stall");
     sc_core::sc_trace(vcd_, s.image_sig, scope + ".image");
     for (size_t i = 0; i < s.in.size(); ++i) trace_buffer(s.in[i], scope + ".in" + std::to_string(i) + ".bytes");
+    if (s.tile && s.sparse_ns <= 0) s.tile->trace(vcd_, scope + ".tile", &tracing_, &vcd_images_);
   }
   trace_buffer(output_, top + ".memory_out.bytes");
   sc_core::sc_trace(vcd_, bus_bytes_sig_, top + (machine_ ? ".noc.bytes_carried" : ".bus.bytes_carried"));

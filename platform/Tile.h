@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 #include <systemc>
 #include <tlm>
@@ -65,6 +66,15 @@ class Tile : public sc_core::sc_module {
     out_ = std::move(out);
     acc_.connect(fifo_[kAccumulate].get(), {nullptr, [this](TileToken& t) { return deliver(t); }, space ? space : &never_},
                  copies_, clock_);
+  }
+  /// Traces every unit's state (TileUnit::trace_to) into `vcd` as scope.<unit>_state.
+  void trace(sc_core::sc_trace_file* vcd, const std::string& scope, const bool* enabled, const int* images) {
+    TileUnit* units[kStages] = {&sr_, &dac_, &xbar_, &adc_, &acc_};
+    for (TileUnit* u : units) {
+      unit_sigs_.push_back(std::make_unique<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>());
+      u->trace_to(unit_sigs_.back().get(), enabled, images);
+      sc_core::sc_trace(vcd, *unit_sigs_.back(), scope + "." + unit_name(u->stage()) + "_state");
+    }
   }
   /// Without an output: when each group left the accumulator.
   const std::vector<sc_core::sc_time>& completions() const { return completions_; }
@@ -240,6 +250,7 @@ class Tile : public sc_core::sc_module {
   sc_dt::uint64 clock_ = 0;     ///< ps the units align to; 0: ideal timing
   sc_dt::uint64 cycle_ps_ = 0;  ///< a clock cycle
   std::vector<sc_core::sc_time> completions_;
+  std::vector<std::unique_ptr<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>> unit_sigs_;
 };
 
 }  // namespace xbarsim

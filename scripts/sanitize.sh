@@ -28,7 +28,7 @@ JOBS=${JOBS:-2}
 # ... LeakSanitizer has encountered a fatal error", no report; LSAN_OPTIONS=use_stacks=0 avoids
 # it): not understood yet. The machine's in-process simulations (MapperAgreesWithTheSimulation)
 # stay here.
-EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)|^BitSerialCli\.(Simulate|Explore)|^Robustness\.(MachineVcd|HugeMachines)|^TorchZooCli\.|^Safety\.OneImageReports'}
+EXCLUDE=${SANITIZE_EXCLUDE:-'FullTestSet|128x64_nonlinear|NonlinearDevicesRunEvery|^Platform\.|^Tile\.|^TileSchedule\.|^ShiftRegisterBuffer\.|^SimulateCommand|^ExploreCommand|^Consistency\.|VcdPath|^Safety\.(NoOutputFlag|Item5And12|Item12|Item6|Item8|Item10|Item11|Item14|Item15|Item16)|^BitSerialCli\.(Simulate|Explore)|^Robustness\.(MachineVcd|HugeMachines)|^TorchZooCli\.|^Safety\.OneImageReports'}
 EXCLUDE_LABEL=${SANITIZE_EXCLUDE_LABEL:-^slow\$}
 FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 

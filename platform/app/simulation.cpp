@@ -73,6 +73,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   PlatformActions platform;  // counted by the simulation
   MachineActions on_machine;  // on a machine: its tile buses, mesh, digital units and off-chip links
   double unit_busy[kStages] = {}, unit_lanes_ns = 0;  // the tiles' units over every copy
+  // The pipeline's period as the closed forms give it: the slowest stage's estimate (a
+  // digital stage's operations at its rate), or the interconnect's bytes, per image.
+  double estimated_period_ns = 0;
   nlohmann::json digital = nlohmann::json::array();
   for (size_t stage = 0; stage < r.stages.size(); ++stage) {
     const StageStats& st = r.stages[stage];
@@ -86,6 +89,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                          {"stall_us", st.stall_ns / images * 1e-3},
                          {"starved_us", st.starved_ns / images * 1e-3}});
       if (st.digital_ops > 0) ++platform.digital_units;
+      estimated_period_ns = std::max(estimated_period_ns, st.busy_ns / images);  // ops / rate: a closed form
       platform.actions.digital_ops += st.digital_ops / images;
       if (st.digital_ops > 0) on_machine.digital_ops.push_back({digital_op_name(st.kind), st.digital_ops / images});
       continue;
@@ -125,6 +129,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                                                                      reads_image[st.linear]),
                                                         &L, &hw.mapping, pc, replication[st.linear]);
       estimate = {{"estimated_busy_us", est * 1e-3}, {"busy_over_estimate", est > 0 ? busy / est : 0.0}};
+      estimated_period_ns = std::max(estimated_period_ns, est);
+    } else {
+      estimated_period_ns = std::max(estimated_period_ns, busy);  // a sparse layer: its closed form
     }
     layers.push_back({{"name", L.name},
                       {"stage", stage},
@@ -182,6 +189,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   // images/s for a steady 37 879). Then the steady state is the bottleneck stage's rate.
   const bool unfilled = pc.pipelined && r.image_out_ns.size() < 2 && bottleneck_ns > 0;
   const double throughput = unfilled ? 1e9 / bottleneck_ns : r.throughput_per_s();
+  if (machine) estimated_period_ns = std::max(estimated_period_ns, machine->mapping.bottleneck_ns);
+  estimated_period_ns = std::max(estimated_period_ns, bus_ns / images);
   nlohmann::json j;
   j["warnings"] = nlohmann::json::array();
   if (unfilled)
@@ -196,6 +205,11 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   j["makespan_us"] = r.makespan_ns() * 1e-3;
   j["throughput_images_per_s"] = throughput;
   j["throughput_from"] = unfilled ? "bottleneck stage (one image)" : "simulated outputs";
+  // The simulated period (1 / throughput) against the closed forms' slowest stage: above 1 where
+  // the stages wait for one another (fill, contention, back-pressure) more than the estimate
+  // knows; below 1 only within temporal decoupling's bound (platform.quantum_ns).
+  j["estimated_period_us"] = estimated_period_ns * 1e-3;
+  j["period_over_estimate"] = throughput > 0 && estimated_period_ns > 0 ? 1e9 / throughput / estimated_period_ns : 0.0;
   j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
   j["bus_bytes_per_image"] = platform.actions.bus_bytes;
   j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;

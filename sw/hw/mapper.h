@@ -31,9 +31,9 @@ struct LayerPlacement {
   /// read, the ADCs' conversions (adc_read_ns, k crossbars sharing an ADC: k times a
   /// crossbar's columns), accumulation; slices x a read for the per-read units); per row
   /// group (platform.grain_rows output rows) the copies take contiguous shares of its
-  /// iterations; the busiest unit of the busiest copy counts. The simulation's busy time is
-  /// the same where its units follow one another without waiting; its stalls and the
-  /// pipeline's fill are what the estimate leaves out.
+  /// iterations; the busiest unit of the busiest copy counts. The simulation's busy time (what
+  /// that unit worked) is the same by construction; the pipeline's fill, stalls and waits for
+  /// inputs, which the estimate leaves out, show in the simulated period.
   double compute_ns = 0;
   double iteration_ns = 0;  ///< an iteration that does not reload its input register at its busiest unit
   /// Per image: its input activations over one router link (replication does not shorten it).

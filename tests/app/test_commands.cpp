@@ -369,6 +369,10 @@ TEST(SimulateCommand, TheReportPlotsEveryStageAndTheBottleneck) {
   // copies' time.
   ASSERT_NE(h.find("id=\"plot-units\""), std::string::npos);
   EXPECT_EQ(j["bottleneck"]["unit"], "add");
+  // The period: the two images' outputs leave the add's 13.65 us apart, within 1 % (the
+  // estimate: the add's operations at its rate).
+  EXPECT_NEAR(j["estimated_period_us"].get<double>(), 16 * 32 * 32 / 1.2e3, 1e-6);
+  EXPECT_NEAR(j["period_over_estimate"].get<double>(), 1.0, 0.01);
   for (const auto& l : j["layers"]) {
     const double lanes_ns = l["replication"].get<double>() * j["makespan_us"].get<double>() * 1e3;
     EXPECT_NEAR(l["unit_utilization"]["crossbar"].get<double>(), 2 * l["iterations"].get<double>() * 800 / lanes_ns, 1e-9)

@@ -74,6 +74,11 @@ TEST(Robustness, VcdPathIsCheckedBeforeTheSimulation) {  // items 4 and 11
   EXPECT_NE(vcd.find("$enddefinitions"), std::string::npos);
   for (const char* sig : {" busy ", " stall ", " image ", " bytes ", " bytes_carried "})  // stages, buffers, bus
     EXPECT_NE(vcd.find(sig), std::string::npos) << sig;
+  // Every unit of a convolution's tile, under its stage's scope.
+  const size_t tile = vcd.find("$scope module tile $end");
+  ASSERT_NE(tile, std::string::npos);
+  for (const char* unit : {" shift_register_state ", " dac_state ", " crossbar_state ", " adc_state ", " accumulator_state "})
+    EXPECT_NE(vcd.find(unit, tile), std::string::npos) << unit;
   // Scopes in network order under the accelerator, each input buffer its own: an Add's two.
   const Result r20 = run("simulate --preset resnet20 --images 1 --vcd /tmp/xbarsim_rb_r20.vcd");
   ASSERT_EQ(r20.code, 0) << r20.out;

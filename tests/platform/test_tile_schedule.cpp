@@ -252,3 +252,70 @@ TEST(TileSchedule, AFullOutputRegisterStallsTheAccumulatorAndHoldsTheGroupsBack)
   EXPECT_EQ(tile.units()[kAccumulate]->stall_ps(), (980u + 990u) * 1000u);
   for (int u = kShift; u < kAccumulate; ++u) EXPECT_EQ(tile.units()[u]->stall_ps(), 0u) << unit_name(static_cast<Stage>(u));
 }
+
+namespace {
+
+/// Feeds tile B with every group tile A delivers (through a register of one group).
+struct Relay : sc_core::sc_module {
+  tlm_utils::simple_initiator_socket<Relay> out{"out"};
+  sc_core::sc_fifo<int> in{"in", 1};
+  LayerJob job;
+  SC_HAS_PROCESS(Relay);
+  explicit Relay(sc_core::sc_module_name n) : sc_module(n) { SC_THREAD(run); }
+  void run() {
+    for (int g = 0;; ++g) {
+      in.read();
+      job.first_iteration = g;  // the groups arrive in order
+      tlm::tlm_generic_payload p;
+      attach(p, job, 0);
+      sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
+      out->b_transport(p, delay);
+    }
+  }
+};
+
+}  // namespace
+
+// Two tiles in a row: A (every unit 10 ns) hands its one-iteration groups through a one-group
+// register to B, whose crossbars take 100 ns, every FIFO one group deep. By hand: A delivers at
+// 50, 60, 70, 80 and B's shift register takes them at once; B's crossbars work 70-170, 170-270,
+// 270-370, 370-470; its DAC, done with group 2 at 90 and group 3 at 180, holds each until the
+// crossbars' FIFO has room (170, 270): stalled 80 + 90 ns. B's groups leave at 190, 290, 390, 490,
+// and the crossbars bound B (busy 400 ns).
+TEST(TileSchedule, TwoTilesAFullFifoInTheSecondStallsItsDac) {
+  ONE_SIMULATION_PER_PROCESS();
+  const LinearLayer L = conv(16, 8, 1, 4, 4);
+  AnalogConfig ac;
+  ac.mapping.negative = NegativeWeights::Differential;
+  ac.mapping.max_cols = 16;
+  ac.converters.input_bits = 1;
+  ac.converters.dac_bits = 1;
+  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
+  PlatformConfig pa = hand_platform();
+  pa.adc_columns_per_unit = 1;
+  pa.fifo_depth = 1;
+  PlatformConfig pb = pa;
+  pb.crossbar_settle_ns = 100;
+  Tile a("a", pa), b("b", pb);
+  Driver driver("driver");
+  Relay relay("relay");
+  driver.out.bind(a.noc2tile);
+  relay.out.bind(b.noc2tile);
+  a.set_output([&](const TileToken& t) { return relay.in.nb_write(t.row); }, &relay.in.data_read_event());
+  LayerJob job;
+  job.layer = &L;
+  job.analog = &analog;
+  job.timing_only = true;
+  job.count = 1;
+  relay.job = job;
+  for (int g = 0; g < 4; ++g) {
+    job.first_iteration = g;
+    driver.jobs.push_back(job);
+  }
+  sc_core::sc_start(10, sc_core::SC_US);
+  EXPECT_EQ(completions(b), (std::vector<double>{190, 290, 390, 490}));
+  EXPECT_EQ(b.units()[kDac]->stall_ps(), (80u + 90u) * 1000u);
+  EXPECT_EQ(b.bottleneck(), kCrossbar);
+  EXPECT_EQ(b.busy_ps(), 400000u);
+  for (const TileUnit* u : a.units()) EXPECT_EQ(u->stall_ps(), 0u) << unit_name(u->stage());
+}
