@@ -40,7 +40,7 @@ class DigitalAccumulator : public TileUnit {
   }
 
  private:
-  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& /*delay: the tile annotates*/) {
+  void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& /*delay: the units time it*/) {
     LayerJob* job = job_of(p);
     if (!job || !job->has_currents()) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);

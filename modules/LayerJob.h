@@ -3,9 +3,9 @@
 /// one linear layer (or, timing only, a row group of it), as an extension of the generic
 /// payload (a write of the layer's input activation: its data, its length in bytes, address 0
 /// of the tile's input buffer). Each module reads what the previous one produced and adds its
-/// own results, counters and per-iteration latency; the tile turns the latencies into the
-/// transaction's delay (loosely timed). The job belongs to its initiator: the payload never
-/// frees it.
+/// own results, counters and per-iteration latency; the tile's units (modules/TileUnit.h)
+/// then take the time those latencies say. The job belongs to its initiator: the payload
+/// never frees it.
 #include <tlm>
 #include <vector>
 

@@ -185,8 +185,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   const bool bus_bound = slow && bus_ns > slow->busy_ns;
   const double bottleneck_ns = bus_bound ? bus_ns / images : slow ? slow->busy_ns / images : 0.0;
   // One image never fills a pipeline: the spacing of outputs (the measured steady state) needs
-  // two, and 1 / latency would be the empty pipeline's rate (ResNet-20 on ISAAC-CE: 13 570
-  // images/s for a steady 37 879). Then the steady state is the bottleneck stage's rate.
+  // two, and 1 / latency would be the empty pipeline's rate (ResNet-20 on ISAAC-CE: 10 683
+  // images/s for a steady 39 062). Then the steady state is the bottleneck stage's rate.
   const bool unfilled = pc.pipelined && r.image_out_ns.size() < 2 && bottleneck_ns > 0;
   const double throughput = unfilled ? 1e9 / bottleneck_ns : r.throughput_per_s();
   if (machine) estimated_period_ns = std::max(estimated_period_ns, machine->mapping.bottleneck_ns);
