@@ -78,8 +78,6 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   int group_iterations() const { return count < 0 ? iterations() : count; }
   /// The transaction covers the whole pass.
   bool whole_pass() const { return first_iteration == 0 && group_iterations() == iterations(); }
-  /// The transaction starts the image's pass (its first iteration fills the datapath).
-  bool starts_pass() const { return first_iteration == 0; }
   /// Datapath cycles one read takes: 1, or on neuron cores a read of the image at
   /// converters.image_bits (PlatformConfig::image_read_cycles).
   int read_cycles = 1;

@@ -64,7 +64,6 @@ class TokenFifo {
   }
   const sc_core::sc_event& data_written_event() const { return written_; }
   const sc_core::sc_event& data_read_event() const { return read_; }
-  size_t num_available() const { return count_; }
 
  private:
   std::vector<TileToken*> slots_;

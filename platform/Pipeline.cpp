@@ -118,6 +118,9 @@ struct Pipeline::Stage : public sc_core::sc_module {
   LayerJob job;
   tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
   double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
+  /// A dense linear layer: its time is its tile's (the stage feeds it row groups and the
+  /// tile's accumulator hands the finished ones to the output register).
+  bool tiled() const { return tile && sparse_ns <= 0; }
   StageStats stats;
   /// Where its process is (for a run that stops in a deadlock): the image, and what it waits for.
   int at_image = 0;
@@ -428,7 +431,7 @@ void Pipeline::trace(const std::string& vcd_path, int images) {
     sc_core::sc_trace(vcd_, s.stall_sig, scope + ".stall");
     sc_core::sc_trace(vcd_, s.image_sig, scope + ".image");
     for (size_t i = 0; i < s.in.size(); ++i) trace_buffer(s.in[i], scope + ".in" + std::to_string(i) + ".bytes");
-    if (s.tile && s.sparse_ns <= 0) s.tile->trace(vcd_, scope + ".tile", &tracing_, &vcd_images_);
+    if (s.tiled()) s.tile->trace(vcd_, scope + ".tile", &tracing_, &vcd_images_);
   }
   trace_buffer(output_, top + ".memory_out.bytes");
   sc_core::sc_trace(vcd_, bus_bytes_sig_, top + (machine_ ? ".noc.bytes_carried" : ".bus.bytes_carried"));
@@ -614,9 +617,6 @@ long long Pipeline::row_ops(const Stage& s) const { return digital_row_ops(*s.op
 void Pipeline::stage_process(Stage& s) {
   const int rows = s.out_shape.h;
   s.qk.reset();
-  // A dense linear layer's time is its tile's: the stage feeds it row groups and the tile's
-  // accumulator hands the finished ones to the output register.
-  const bool tiled = s.op->kind == OpKind::Linear && s.sparse_ns <= 0;
   // Waits for row `row` of input i, having waited the stage's local time if it must block.
   auto need = [&](size_t i, int img, int row) {
     if (s.in[i]->has(img, row)) return;
@@ -637,21 +637,19 @@ void Pipeline::stage_process(Stage& s) {
       if (r0 == 0 && tasks_) submit_values(s, img);
       traced(s, img, true, false);
       s.stats.rows += r1 - r0;
-      if (tiled) {
+      if (s.tiled()) {
         // Into the tile: back once its shift register has read the group's inputs.
         before_blocking(s);
         s.waiting = "feeding its tile row " + std::to_string(r0);
         sc_core::sc_time delay = sc_core::SC_ZERO_TIME;
         transact(s, img, r0 * s.out_shape.w, (r1 - r0) * s.out_shape.w, delay);
-        traced(s, img, false, false);
-        for (size_t i = 0; i < s.in.size(); ++i)
-          s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
-        continue;
+      } else {
+        s.stats.busy_ns += busy_time(s, r0, r1);
       }
-      s.stats.busy_ns += busy_time(s, r0, r1);
       traced(s, img, false, false);
       for (size_t i = 0; i < s.in.size(); ++i)
         s.in[i]->release_before(img, r1 < rows ? s.window(static_cast<int>(i), r1).first : s.in_shape[i].h);
+      if (s.tiled()) continue;  // the tile's accumulator hands the rows over
       if (s.out_rows.num_free() == 0) before_blocking(s);
       s.waiting = "waiting for its output register (its consumers' buffers full)";
       const sc_core::sc_time t0 = sc_core::sc_time_stamp();
@@ -770,14 +768,11 @@ const PipelineResult& Pipeline::result() {
   result_.stages.clear();
   for (const auto& s : stages_) {
     StageStats st = s->stats;
-    if (s->op->kind == OpKind::Linear && s->sparse_ns <= 0) {  // its tile's busiest unit's time
+    if (s->tiled()) {  // its tile's busiest unit's time
       st.busy_ns = to_ns(sc_core::sc_time::from_value(s->tile->busy_ps()));
       st.stall_ns = to_ns(sc_core::sc_time::from_value(s->tile->stall_ps()));
       st.starved_ns = to_ns(sc_core::sc_time::from_value(s->tile->starved_ps()));
-      st.bound_unit = s->tile->bottleneck();
-      for (const TileUnit* u : s->tile->units())
-        if (u->busiest_lane_ps() == s->tile->busy_ps())
-          st.bound_by += (st.bound_by.empty() ? "" : "+") + std::string(unit_name(u->stage()));
+      st.bound_by = s->tile->bound_by();
       for (int u = 0; u < kStages; ++u)
         st.unit_busy_ns[u] = to_ns(sc_core::sc_time::from_value(s->tile->units()[u]->busy_ps()));
     }

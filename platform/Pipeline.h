@@ -49,10 +49,10 @@ struct StageStats {
   /// later than it; the first image's wait is the pipeline filling).
   double starved_ns = 0;
   long long rows = 0, digital_ops = 0;
-  /// A dense linear stage: its tile's unit that bounds it (busy, stall and starved are that
-  /// unit's; -1: not a tile's), and each unit's busy time summed over the copies.
-  int bound_unit = -1;
-  std::string bound_by;  ///< every unit as busy as that one, joined by '+' (a tie: "crossbar+adc")
+  /// A dense linear stage: its tile's units that bound it (busy, stall and starved are the
+  /// first's), joined by '+' on a tie ("crossbar+adc"; empty: not a tile's), and each unit's
+  /// busy time summed over the copies.
+  std::string bound_by;
   double unit_busy_ns[kStages] = {};
   long long buffer_bytes = 0, buffer_peak_bytes = 0;  ///< its input buffers: capacity and peak occupancy
 };

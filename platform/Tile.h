@@ -11,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 #include <systemc>
@@ -54,9 +55,8 @@ class Tile : public sc_core::sc_module {
     // Ideal timing: a read per cycle, no unit aligned to the clock.
     cycle_ps_ = sc_core::sc_time(c.clock_ns(), sc_core::SC_NS).value();
     clock_ = c.detailed ? cycle_ps_ : 0;
-    TileUnit* units[kStages] = {&sr_, &dac_, &xbar_, &adc_, &acc_};
     for (int s = 0; s + 1 < kStages; ++s)
-      units[s]->connect(fifo_[s].get(), {fifo_[s + 1].get(), {}, nullptr}, copies_, clock_);
+      unit(static_cast<Stage>(s)).connect(fifo_[s].get(), {fifo_[s + 1].get(), {}, nullptr}, copies_, clock_);
     set_output(nullptr, nullptr);
   }
 
@@ -69,11 +69,10 @@ class Tile : public sc_core::sc_module {
   }
   /// Traces every unit's state (TileUnit::trace_to) into `vcd` as scope.<unit>_state.
   void trace(sc_core::sc_trace_file* vcd, const std::string& scope, const bool* enabled, const int* images) {
-    TileUnit* units[kStages] = {&sr_, &dac_, &xbar_, &adc_, &acc_};
-    for (TileUnit* u : units) {
+    for (int s = 0; s < kStages; ++s) {
       unit_sigs_.push_back(std::make_unique<sc_core::sc_signal<int, sc_core::SC_UNCHECKED_WRITERS>>());
-      u->trace_to(unit_sigs_.back().get(), enabled, images);
-      sc_core::sc_trace(vcd, *unit_sigs_.back(), scope + "." + unit_name(u->stage()) + "_state");
+      unit(static_cast<Stage>(s)).trace_to(unit_sigs_.back().get(), enabled, images);
+      sc_core::sc_trace(vcd, *unit_sigs_.back(), scope + "." + unit_name(static_cast<Stage>(s)) + "_state");
     }
   }
   /// Without an output: when each group left the accumulator.
@@ -81,7 +80,7 @@ class Tile : public sc_core::sc_module {
   /// The tile computing (ps): its busiest unit's busiest lane (the unit that bounds its
   /// throughput, without the pipeline's fill or any waiting).
   sc_dt::uint64 busy_ps() const { return units()[bottleneck()]->busiest_lane_ps(); }
-  /// Its busiest unit.
+  /// Its busiest unit (the first in datapath order of those that tie).
   Stage bottleneck() const {
     const std::vector<const TileUnit*> u = units();
     int b = 0;
@@ -89,11 +88,18 @@ class Tile : public sc_core::sc_module {
       if (u[s]->busiest_lane_ps() > u[b]->busiest_lane_ps()) b = s;
     return static_cast<Stage>(b);
   }
+  /// Every unit as busy as the busiest, joined by '+' (a tie: "crossbar+adc").
+  std::string bound_by() const {
+    std::string names;
+    const sc_dt::uint64 busiest = busy_ps();
+    for (const TileUnit* u : units())
+      if (u->busiest_lane_ps() == busiest) names += (names.empty() ? "" : "+") + std::string(unit_name(u->stage()));
+    return names;
+  }
   /// Its busiest unit's time holding finished groups (the output's backpressure reaching it)
   /// and its time without a group (ps): with busy_ps, three disjoint parts of its time.
   sc_dt::uint64 stall_ps() const { return units()[bottleneck()]->stall_ps(); }
   sc_dt::uint64 starved_ps() const { return units()[bottleneck()]->starved_ps(); }
-  int copies() const { return copies_; }
   /// The units in datapath order (their busy and stall times, what they hold).
   std::vector<const TileUnit*> units() const { return {&sr_, &dac_, &xbar_, &adc_, &acc_}; }
 
@@ -160,6 +166,18 @@ class Tile : public sc_core::sc_module {
 
  private:
   tlm_utils::simple_initiator_socket<Tile> tile2sr{"tile2sr"};
+
+  TileUnit& unit(Stage s) {
+    switch (s) {
+      case kShift: return sr_;
+      case kDac: return dac_;
+      case kCrossbar: return xbar_;
+      case kAdc: return adc_;
+      case kAccumulate: return acc_;
+      case kStages: break;
+    }
+    throw std::logic_error("Tile::unit: no such unit");
+  }
 
   void b_transport(tlm::tlm_generic_payload& p, sc_core::sc_time& delay) {
     LayerJob* job = job_of(p);

@@ -115,8 +115,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     iterations += v.iterations;
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
     // The mapper's estimate beside the simulated busy time, and the tile's units.
-    nlohmann::json units = nlohmann::json::object(), estimate, bound;
-    if (st.bound_unit >= 0) {
+    nlohmann::json units = nlohmann::json::object(), estimate_us, over_estimate, bound;
+    double est = -1;  // a tile's busy time as the mapper estimates it (-1: not a tile's)
+    if (!st.bound_by.empty()) {
       const double lanes_ns = static_cast<double>(st.replication) * std::max(r.makespan_ns(), 1e-9);
       for (int u = 0; u < kStages; ++u) {
         units[unit_name(static_cast<Stage>(u))] = st.unit_busy_ns[u] / lanes_ns;
@@ -124,11 +125,12 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
       }
       unit_lanes_ns += lanes_ns;
       bound = st.bound_by;
-      const double est = machine ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
-                                 : estimated_compute_ns(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear],
-                                                                     reads_image[st.linear]),
-                                                        &L, &hw.mapping, pc, replication[st.linear]);
-      estimate = {{"estimated_busy_us", est * 1e-3}, {"busy_over_estimate", est > 0 ? busy / est : 0.0}};
+      est = machine ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
+                    : estimated_compute_ns(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear],
+                                                        reads_image[st.linear]),
+                                           &L, &hw.mapping, pc, replication[st.linear]);
+      estimate_us = est * 1e-3;
+      over_estimate = est > 0 ? busy / est : 0.0;
       estimated_period_ns = std::max(estimated_period_ns, est);
     } else {
       estimated_period_ns = std::max(estimated_period_ns, busy);  // a sparse layer: its closed form
@@ -145,8 +147,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       {"iterations", v.iterations},
                       {"cycles", std::llround(busy / clk)},
                       {"busy_us", busy * 1e-3},
-                      {"estimated_busy_us", estimate.is_null() ? nlohmann::json() : estimate["estimated_busy_us"]},
-                      {"busy_over_estimate", estimate.is_null() ? nlohmann::json() : estimate["busy_over_estimate"]},
+                      {"estimated_busy_us", estimate_us},
+                      {"busy_over_estimate", over_estimate},
                       {"bound_by", bound},
                       {"unit_utilization", units},
                       {"stall_us", stall * 1e-3},
@@ -159,8 +161,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     if (print)
       table.print_row(
           stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,
-                   busy * 1e-3, estimate.is_null() ? 0.0 : estimate["estimated_busy_us"].get<double>(),
-                   bound.is_null() ? std::string("-") : bound.get<std::string>(), stall * 1e-3,
+                   busy * 1e-3, est < 0 ? 0.0 : est * 1e-3, st.bound_by.empty() ? std::string("-") : st.bound_by,
+                   stall * 1e-3,
                    st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
   }
   platform.actions.bus_bytes = r.bus_bytes / images;
@@ -227,7 +229,7 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   else if (slow)
     j["bottleneck"] = {{"stage", slow->name},
                        {"busy_us_per_image", slow->busy_ns / images * 1e-3},
-                       {"unit", slow->bound_unit >= 0 ? slow->bound_by : std::string(digital_op_name(slow->kind))}};
+                       {"unit", !slow->bound_by.empty() ? slow->bound_by : std::string(digital_op_name(slow->kind))}};
   // How busy each kind of tile unit was over the run, every copy counted.
   nlohmann::json util = nlohmann::json::object();
   for (int u = 0; u < kStages; ++u)

@@ -12,14 +12,11 @@
 #include "sw/study/hardware.h"
 #include "tests/onnx_builder.h"
 
+#include "tests/platform/one_simulation.h"
+
 using namespace xbarsim;
 
 namespace {
-
-bool g_elaborated = false;
-#define ONE_SIMULATION_PER_PROCESS()                                                                   \
-  if (g_elaborated) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone"; \
-  g_elaborated = true
 
 LinearLayer conv_layer(int c_in, int c_out, int k, int stride, int pad, int h, int w) {
   LinearLayer L;

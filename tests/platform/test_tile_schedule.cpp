@@ -11,14 +11,11 @@
 #include "platform/Tile.h"
 #include "sw/analog/analog_layer.h"
 
+#include "tests/platform/one_simulation.h"
+
 using namespace xbarsim;
 
 namespace {
-
-bool g_elaborated = false;
-#define ONE_SIMULATION_PER_PROCESS()                                                                   \
-  if (g_elaborated) GTEST_SKIP() << "SystemC elaborates once per process; ctest runs each case alone"; \
-  g_elaborated = true
 
 /// A c_in -> c_out convolution of k x k on an h x w input (stride 1, no padding).
 LinearLayer conv(int c_in, int c_out, int k, int h, int w) {
@@ -61,6 +58,17 @@ std::vector<double> completions(const Tile& tile) {
   return ns;
 }
 
+/// conv(16, 8, 1, ...)'s weights on one crossbar of 16 rows x 16 columns (a differential pair
+/// a weight: no reference column), inputs read bit-serially one bit a read.
+AnalogConfig one_crossbar(int input_bits) {
+  AnalogConfig ac;
+  ac.mapping.negative = NegativeWeights::Differential;
+  ac.mapping.max_cols = 16;
+  ac.converters.input_bits = input_bits;
+  ac.converters.dac_bits = 1;
+  return ac;
+}
+
 PlatformConfig hand_platform() {
   PlatformConfig pc;  // 100 MHz: 10 ns a cycle
   pc.dac_latency_ns = 2;
@@ -68,6 +76,15 @@ PlatformConfig hand_platform() {
   pc.adc_rate_gsps = 0.1;  // 10 ns a conversion
   pc.accumulator_latency_ns = 10;
   pc.shift_entries_per_cycle = 16;
+  return pc;
+}
+
+/// one_crossbar(1)'s tile with every unit one 10-ns cycle an iteration (one conversion a read)
+/// and FIFOs of one group.
+PlatformConfig one_cycle_platform() {
+  PlatformConfig pc = hand_platform();
+  pc.adc_columns_per_unit = 1;
+  pc.fifo_depth = 1;
   return pc;
 }
 
@@ -90,11 +107,7 @@ TEST(TileSchedule, OneCrossbarAtOneTwoAndEightColumnsPerAdcAndOneFourAndEightBit
   std::vector<double> expect;
   for (int cpa : cpas)
     for (int b : bits) {
-      AnalogConfig ac;
-      ac.mapping.negative = NegativeWeights::Differential;  // no reference column: 8 weight columns = 16 physical
-      ac.mapping.max_cols = 16;
-      ac.converters.input_bits = b;
-      ac.converters.dac_bits = 1;
+      const AnalogConfig ac = one_crossbar(b);  // 8 weight columns = 16 physical
       analog.push_back(std::make_unique<AnalogLayer>(ac, L.weight.cast<double>(), 1.0, false, 1));
       ASSERT_EQ(analog.back()->crossbars(), 1);
       ASSERT_EQ(ac.mapping.physical_columns(analog.back()->block(0).cols), 16);
@@ -223,16 +236,8 @@ struct SlowConsumer : sc_core::sc_module {
 TEST(TileSchedule, AFullOutputRegisterStallsTheAccumulatorAndHoldsTheGroupsBack) {
   ONE_SIMULATION_PER_PROCESS();
   const LinearLayer L = conv(16, 8, 1, 4, 4);
-  AnalogConfig ac;
-  ac.mapping.negative = NegativeWeights::Differential;
-  ac.mapping.max_cols = 16;
-  ac.converters.input_bits = 1;
-  ac.converters.dac_bits = 1;
-  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
-  PlatformConfig pc = hand_platform();
-  pc.adc_columns_per_unit = 1;  // one 10-ns conversion a read
-  pc.fifo_depth = 1;
-  Tile tile("tile", pc);
+  AnalogLayer analog(one_crossbar(1), L.weight.cast<double>(), 1.0, false, 1);
+  Tile tile("tile", one_cycle_platform());
   Driver driver("driver");
   SlowConsumer consumer("consumer");
   driver.out.bind(tile.noc2tile);
@@ -285,15 +290,8 @@ struct Relay : sc_core::sc_module {
 TEST(TileSchedule, TwoTilesAFullFifoInTheSecondStallsItsDac) {
   ONE_SIMULATION_PER_PROCESS();
   const LinearLayer L = conv(16, 8, 1, 4, 4);
-  AnalogConfig ac;
-  ac.mapping.negative = NegativeWeights::Differential;
-  ac.mapping.max_cols = 16;
-  ac.converters.input_bits = 1;
-  ac.converters.dac_bits = 1;
-  AnalogLayer analog(ac, L.weight.cast<double>(), 1.0, false, 1);
-  PlatformConfig pa = hand_platform();
-  pa.adc_columns_per_unit = 1;
-  pa.fifo_depth = 1;
+  AnalogLayer analog(one_crossbar(1), L.weight.cast<double>(), 1.0, false, 1);
+  const PlatformConfig pa = one_cycle_platform();
   PlatformConfig pb = pa;
   pb.crossbar_settle_ns = 100;
   Tile a("a", pa), b("b", pb);
