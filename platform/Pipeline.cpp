@@ -116,7 +116,7 @@ struct Pipeline::Stage : public sc_core::sc_module {
   /// The tile's work item, kept across images so that its buffers (codes, currents) are
   /// allocated once: every image's transaction starts from reset() counters.
   LayerJob job;
-  tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns > 0: the stage's time ahead of the kernel
+  tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns: the stage's time ahead of the kernel
   double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
   /// A dense linear layer: its time is its tile's (the stage feeds it row groups and the
   /// tile's accumulator hands the finished ones to the output register).
@@ -271,8 +271,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
     window_ = std::max(4, 4 * workers);
     tasks_ = std::make_unique<TaskGraph>(workers);
   }
-  if (cfg_.quantum_ns > 0)
-    tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg_.quantum_ns, sc_core::SC_NS));
+  tlm_utils::tlm_quantumkeeper::set_global_quantum(sc_core::sc_time(cfg_.quantum_ns, sc_core::SC_NS));
   if (machine_) {
     const Architecture& a = machine_->arch;
     // Cores without a mesh (no chip.router): one node holds every tile, and every transfer is
@@ -683,17 +682,13 @@ double Pipeline::busy_time(Stage& s, int r0, int r1) {
 
 void Pipeline::advance(Stage& s, double ns) {
   if (!(ns > 0)) return;
-  if (cfg_.quantum_ns <= 0) {
-    sc_core::wait(sim_delay(ns));
-    return;
-  }
   s.qk.inc(sim_delay(ns, s.qk.get_local_time()));
   if (s.qk.need_sync()) s.qk.sync();
 }
 
 void Pipeline::before_blocking(Stage& s) {
   // (Nothing to wait: no delta cycle either, so the processes' order stays as without a quantum.)
-  if (cfg_.quantum_ns > 0 && s.qk.get_local_time() > sc_core::SC_ZERO_TIME) s.qk.sync();
+  if (s.qk.get_local_time() > sc_core::SC_ZERO_TIME) s.qk.sync();
 }
 
 void Pipeline::source_process() {

@@ -167,8 +167,8 @@ class Pipeline : public sc_core::sc_module {
   /// Computes output rows [r0, r1) of a stage whose time is not a tile's (a digital unit, a
   /// sparse layer's single iteration); returns the busy time.
   double busy_time(Stage& s, int r0, int r1);
-  /// `ns` of a stage's busy time: waited, or with platform.quantum_ns added to its quantum
-  /// keeper's local time and waited when the quantum is used up.
+  /// `ns` of a stage's busy time: added to its quantum keeper's local time and waited when
+  /// platform.quantum_ns is used up (at or below the clock period: every delay).
   void advance(Stage& s, double ns);
   /// Before a stage blocks (an input row missing, its output register full): its local time
   /// is waited first, so that what it waits for is measured from its own time.

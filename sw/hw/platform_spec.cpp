@@ -17,8 +17,9 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
   c.pipelined = require_one_of(cfg, "platform.schedule", {"sequential", "pipelined"}) == "pipelined";
   c.timing_only = cfg.get_bool("platform.timing_only");
   c.quantum_ns = cfg.get_double("platform.quantum_ns");
-  if (!(c.quantum_ns >= 0) || c.quantum_ns > 1e9)
-    throw InputError("platform.quantum_ns = " + cfg.get_string("platform.quantum_ns") + ": must be in [0, 1e9] ns");
+  if (!(c.quantum_ns > 0) || c.quantum_ns > 1e9)
+    throw InputError("platform.quantum_ns = " + cfg.get_string("platform.quantum_ns") +
+                     ": must be in (0, 1e9] ns (a quantum at or below the clock period waits every delay)");
   if (cfg.get_string("platform.replication") == "auto")
     c.auto_replication = true;
   else

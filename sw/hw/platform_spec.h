@@ -14,7 +14,7 @@ struct PlatformConfig {
   bool detailed = true;                    ///< platform.timing
   bool pipelined = false;                  ///< platform.schedule
   bool timing_only = false;                ///< platform.timing_only: no values computed
-  double quantum_ns = 0;                   ///< platform.quantum_ns: temporal decoupling (0: none)
+  double quantum_ns = 100;                 ///< platform.quantum_ns: temporal decoupling's quantum (> 0)
   int replication = 1;                     ///< every layer (platform.replication), unless per_layer/auto
   std::vector<int> replication_per_layer;  ///< platform.replication_per_layer (empty = replication)
   bool auto_replication = false;           ///< platform.replication = auto: balance under crossbar_budget

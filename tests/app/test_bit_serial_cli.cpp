@@ -164,11 +164,11 @@ TEST_F(BitSerialCli, SimulateTimingOnlyReportsWhatTheFullRunReports) {
 // Temporal decoupling (platform.quantum_ns): a stage publishes rows up to one quantum before its
 // own time, so along an image's path of `stages` operations plus the input and output
 // transfers its latency, and the run's makespan, move by at most (stages + 2) x quantum; a
-// quantum below the clock period changes nothing.
+// quantum at or below the clock period (10 ns) waits every delay, and 0 is refused.
 TEST_F(BitSerialCli, SimulateQuantumSweepMovesTimingWithinTheBound) {
   const auto r = run("simulate",
                      "--model tiny --images 4 --timing-only --set platform.schedule=pipelined"
-                     " --set 'platform.quantum_ns=[0,1,1000,100000]' --json " +
+                     " --set 'platform.quantum_ns=[1,10,1000,100000]' --json " +
                          path("q.json"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = json(path("q.json"));
@@ -183,6 +183,9 @@ TEST_F(BitSerialCli, SimulateQuantumSweepMovesTimingWithinTheBound) {
     EXPECT_EQ(j[k]["energy_uj_per_image"], j[0]["energy_uj_per_image"]);  // the same actions
   }
   EXPECT_NE(j[3]["latency_us"].get<double>(), lat0);  // a quantum beyond an image's time does move it
+  const auto zero = run("simulate", "--model tiny --images 1 --timing-only --set platform.quantum_ns=0");
+  EXPECT_EQ(zero.code, 2) << zero.out;
+  EXPECT_NE(zero.out.find("platform.quantum_ns"), std::string::npos) << zero.out;
 }
 
 // Issue 38 item 5: a network that does not fit the machine is refused by every command with
