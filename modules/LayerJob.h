@@ -54,6 +54,11 @@ struct LayerJob : tlm::tlm_extension<LayerJob> {
   /// them into the windows: each value is converted on its own and zero is a level, so this
   /// gives the DAC's values at a fraction of the work); the DAC stage then only slices them.
   bool input_quantized = false;
+  /// A sparse (Toeplitz) layer's transaction (timing only): its single iteration computes every
+  /// output row, so the initiator gives stage_ns[s][0] (sparse_iteration_ns: the iteration on
+  /// the group of its first row, nothing on the later groups) and the modules do not count it
+  /// (its actions are its inventory's, one iteration per image).
+  bool sparse = false;
   std::vector<float> quantized_input;  ///< storage for such an activation (Tile::compute_values)
 
   AnalogLayer::RowMat<float> xq;          ///< iterations x K: shift-register contents, then DAC values

@@ -117,10 +117,10 @@ struct Pipeline::Stage : public sc_core::sc_module {
   /// allocated once: every image's transaction starts from reset() counters.
   LayerJob job;
   tlm_utils::tlm_quantumkeeper qk;  ///< platform.quantum_ns: the stage's time ahead of the kernel
-  double sparse_ns = 0;             ///< > 0: a sparse (Toeplitz) layer's single iteration
-  /// A dense linear layer: its time is its tile's (the stage feeds it row groups and the
-  /// tile's accumulator hands the finished ones to the output register).
-  bool tiled() const { return tile && sparse_ns <= 0; }
+  const SparseIterationNs* sparse = nullptr;  ///< a sparse (Toeplitz) layer's single iteration
+  /// A linear layer: its time is its tile's (the stage feeds it row groups and the tile's
+  /// accumulator hands the finished ones to the output register).
+  bool tiled() const { return tile != nullptr; }
   StageStats stats;
   /// Where its process is (for a run that stops in a deadlock): the image, and what it waits for.
   int at_image = 0;
@@ -158,7 +158,7 @@ std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
   switch (op->kind) {
     case OpKind::Linear: {
       const LinearLayer& L = owner->model_.linear[op->linear];
-      if (sparse_ns > 0) return {0, h - 1};  // a Toeplitz layer reads the whole input at once
+      if (sparse) return {0, h - 1};  // a Toeplitz layer reads the whole input at once
       if (!L.is_conv || h == 1) return {0, 0};
       return clamp(r * L.stride_h - L.pad_t, r * L.stride_h - L.pad_t + L.k_h - 1);
     }
@@ -250,12 +250,12 @@ void fill_payload(tlm::tlm_generic_payload& p, float* v, size_t size, int rows, 
 
 Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
                    const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-                   std::function<void(int)> progress, std::vector<double> sparse_ns, const MachinePlan* machine)
+                   std::function<void(int)> progress, std::vector<SparseIterationNs> sparse, const MachinePlan* machine)
     : sc_module(name),
       model_(model),
       programmed_(programmed),
       cfg_(machine ? machine_platform(cfg, machine->arch) : cfg),
-      sparse_ns_(std::move(sparse_ns)),
+      sparse_(std::move(sparse)),
       image_(std::move(image)),
       progress_(std::move(progress)),
       machine_(machine),
@@ -322,8 +322,7 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
                          "' (operation '" + op.name + "'): list it in a unit's ops (tile.units.<unit>.ops)");
       s->stats.tile = tiles.front();
     }
-    const bool sparse_layer =
-        op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_ns_.size()) && sparse_ns_[op.linear] > 0;
+    const bool sparse_layer = op.kind == OpKind::Linear && op.linear < static_cast<int>(sparse_.size());
     for (int v : op.in) {
       const Shape in = model.values[v];
       const long long rb = activation_row_bytes(in, cfg_.activation_bytes);
@@ -342,8 +341,8 @@ Pipeline::Pipeline(sc_core::sc_module_name name, const Model& model, const Cross
       s->stats.buffer_bytes += cap;
     }
     if (op.kind == OpKind::Linear) {
-      if (op.linear < static_cast<int>(sparse_ns_.size())) s->sparse_ns = sparse_ns_[op.linear];
-      const int r = s->sparse_ns > 0 ? 1 : replication.at(op.linear);
+      if (sparse_layer) s->sparse = &sparse_[static_cast<size_t>(op.linear)];
+      const int r = sparse_layer ? 1 : replication.at(op.linear);
       s->stats.replication = r;
       s->tile = std::make_unique<Tile>(("tile_" + std::to_string(op.linear)).c_str(), cfg_, r);
       s->stage2tile = std::make_unique<tlm_utils::simple_initiator_socket<Stage>>(
@@ -530,6 +529,16 @@ void Pipeline::transact(Stage& s, int image, int first, int count, sc_core::sc_t
   job.first_iteration = first;
   job.count = count;
   job.image = static_cast<uint64_t>(image);
+  job.sparse = s.sparse != nullptr;
+  if (s.sparse) {  // its single iteration on the group of its first row
+    const SparseIterationNs& t = *s.sparse;
+    const double on = first == 0 ? 1.0 : 0.0;
+    job.stage_ns[kShift].assign(1, t.shift * on);
+    job.stage_ns[kDac].assign(1, t.dac * on);
+    job.stage_ns[kCrossbar].assign(1, t.crossbar * on);
+    job.stage_ns[kAdc].assign(1, t.adc * on);
+    job.stage_ns[kAccumulate].assign(1, t.accumulate * on);
+  }
   tlm::tlm_generic_payload p;
   attach(p, job, 0);
   (*s.stage2tile)->b_transport(p, delay);
@@ -663,19 +672,15 @@ void Pipeline::stage_process(Stage& s) {
 }
 
 double Pipeline::busy_time(Stage& s, int r0, int r1) {
+  const long long ops = row_ops(s) * (r1 - r0);
   double t = 0;
-  if (s.op->kind == OpKind::Linear) {
-    t = r0 == 0 ? s.sparse_ns : 0.0;  // a sparse layer: one iteration yields every output row
+  if (machine_) {  // the tile's units that perform this operation
+    const char* kind = digital_op_name(s.op->kind);
+    t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
   } else {
-    const long long ops = row_ops(s) * (r1 - r0);
-    if (machine_) {  // the tile's units that perform this operation
-      const char* kind = digital_op_name(s.op->kind);
-      t = *kind ? static_cast<double>(ops) / machine_->arch.ops_per_ns(kind) : 0.0;
-    } else {
-      t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
-    }
-    s.stats.digital_ops += ops;
+    t = std::ceil(static_cast<double>(ops) / cfg_.digital_ops_per_cycle) * cfg_.clock_ns();
   }
+  s.stats.digital_ops += ops;
   advance(s, t);
   return t;
 }

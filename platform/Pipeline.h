@@ -115,14 +115,15 @@ std::vector<int> resolve_replication(const Model& m, const CrossbarBackend& prog
 class Pipeline : public sc_core::sc_module {
  public:
   /// `image(k, x)` writes the k-th preprocessed image (C x H x W floats) into x;
-  /// `replication[l]` tiles for linear layer l; `sparse_ns[l]` > 0 makes layer l a sparse
-  /// (Toeplitz) layer: one iteration of that time once its whole input is present (its values
-  /// are computed by the dense datapath).
+  /// `replication[l]` tiles for linear layer l; `sparse` (one per linear layer, or empty: every
+  /// layer dense) makes every layer a sparse (Toeplitz) layer: one iteration per image through
+  /// its tile's units, at those latencies, once its whole input is present (its values are
+  /// computed by the dense datapath).
   /// `machine`: the machine and mapping to run on (null: layer-sized, one shared bus); its
   /// mapping's replication is used instead of `replication`.
   Pipeline(sc_core::sc_module_name name, const Model& model, const CrossbarBackend& programmed,
            const PlatformConfig& cfg, std::vector<int> replication, std::function<void(int, float*)> image,
-           std::function<void(int)> progress = nullptr, std::vector<double> sparse_ns = {},
+           std::function<void(int)> progress = nullptr, std::vector<SparseIterationNs> sparse = {},
            const MachinePlan* machine = nullptr);
   ~Pipeline() override;
 
@@ -164,8 +165,8 @@ class Pipeline : public sc_core::sc_module {
   /// sent by stage `s` (from tile `source` on a machine), or by the memory port (s null,
   /// source -1: its waits for buffer space are the memory stall).
   void send_rows(Stage* s, int source, int image, int row, int count, int value, long long row_bytes);
-  /// Computes output rows [r0, r1) of a stage whose time is not a tile's (a digital unit, a
-  /// sparse layer's single iteration); returns the busy time.
+  /// Computes output rows [r0, r1) of a digital stage (its time is its units' operations);
+  /// returns the busy time.
   double busy_time(Stage& s, int r0, int r1);
   /// `ns` of a stage's busy time: added to its quantum keeper's local time and waited when
   /// platform.quantum_ns is used up (at or below the clock period: every delay).
@@ -178,7 +179,7 @@ class Pipeline : public sc_core::sc_module {
   const Model& model_;
   const CrossbarBackend& programmed_;
   PlatformConfig cfg_;
-  std::vector<double> sparse_ns_;
+  std::vector<SparseIterationNs> sparse_;
   std::function<void(int, float*)> image_;
   std::function<void(int)> progress_;
   tlm_utils::simple_initiator_socket<Pipeline> mem2bus{"mem2bus"};  ///< the memory port's transfers

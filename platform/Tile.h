@@ -184,7 +184,8 @@ class Tile : public sc_core::sc_module {
     const bool part_ok = job && job->first_iteration >= 0 &&
                          job->first_iteration + job->group_iterations() <= job->iterations() &&
                          (job->timing_only || job->whole_pass()) &&  // values: the whole pass
-                         job->replication >= 1 && job->replication <= copies_;
+                         job->replication >= 1 && job->replication <= copies_ &&
+                         (!job->sparse || (job->timing_only && job->replication == 1 && given_latencies(*job)));
     if (!part_ok) {
       p.set_response_status(tlm::TLM_COMMAND_ERROR_RESPONSE);
       return;
@@ -194,18 +195,30 @@ class Tile : public sc_core::sc_module {
       sc_core::wait(delay);
       delay = sc_core::SC_ZERO_TIME;
     }
-    tile2sr->b_transport(p, delay);
-    if (p.get_response_status() != tlm::TLM_OK_RESPONSE) return;
-    const int n = job->group_iterations();
-    iterations_ += n;
-    outputs_written_ += static_cast<long long>(n) * job->analog->outputs();
+    if (job->sparse) {  // its single iteration, on the group of its first row
+      if (job->first_iteration == 0) ++iterations_;
+      p.set_response_status(tlm::TLM_OK_RESPONSE);
+    } else {
+      tile2sr->b_transport(p, delay);
+      if (p.get_response_status() != tlm::TLM_OK_RESPONSE) return;
+      iterations_ += job->group_iterations();
+      outputs_written_ += static_cast<long long>(job->group_iterations()) * job->analog->outputs();
+    }
     TileToken* t = token(*job);
     fifo_[kShift]->write(t);  // waits while the shift register's FIFO is full
     sc_core::wait(t->shifted);
   }
 
+  /// A sparse job gives one latency per unit.
+  static bool given_latencies(const LayerJob& job) {
+    for (const std::vector<double>& ns : job.stage_ns)
+      if (ns.size() != 1 || !(ns[0] >= 0)) return false;
+    return true;
+  }
+
   /// A token of the job's group: its iterations' latency at each unit, in whole cycles
-  /// (detailed timing; ideal: a cycle per read at the crossbars, nothing elsewhere).
+  /// (detailed timing; ideal: a cycle per read at the crossbars, nothing elsewhere). A sparse
+  /// job's group is one iteration of the latencies it gives.
   TileToken* token(const LayerJob& job) {
     TileToken* t;
     if (pool_.empty()) {
@@ -215,10 +228,10 @@ class Tile : public sc_core::sc_module {
       t = pool_.back();
       pool_.pop_back();
     }
-    const int n = job.group_iterations(), w = std::max(1, job.layer->out.w);
+    const int g = job.group_iterations(), n = job.sparse ? 1 : g, w = std::max(1, job.layer->out.w);
     t->image = static_cast<int>(job.image);
     t->row = job.first_iteration / w;
-    t->rows = (job.first_iteration + n + w - 1) / w - t->row;
+    t->rows = (job.first_iteration + g + w - 1) / w - t->row;
     t->n = n;
     t->lanes = std::max(1, std::min(job.replication, n));
     t->entered = sr_.entry(sc_core::sc_time_stamp().value());
@@ -227,7 +240,7 @@ class Tile : public sc_core::sc_module {
     for (int s = 0; s < kStages; ++s) {
       std::vector<sc_dt::uint64>& lat = t->latency[s];
       lat.resize(static_cast<size_t>(n));
-      if (!job.detailed) {
+      if (!job.detailed && !job.sparse) {
         std::fill(lat.begin(), lat.end(), s == kCrossbar ? cycle_ps_ * static_cast<sc_dt::uint64>(job.read_times()) : 0);
         continue;
       }

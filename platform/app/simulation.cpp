@@ -125,15 +125,14 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
       }
       unit_lanes_ns += lanes_ns;
       bound = st.bound_by;
-      est = machine ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
-                    : estimated_compute_ns(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear],
-                                                        reads_image[st.linear]),
-                                           &L, &hw.mapping, pc, replication[st.linear]);
+      const LayerInventory unreplicated =
+          hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear], reads_image[st.linear]);
+      est = machine  ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
+            : sparse ? sparse_estimated_ns(sparse_iteration_ns(unreplicated, pc), pc)
+                     : estimated_compute_ns(unreplicated, &L, &hw.mapping, pc, replication[st.linear]);
       estimate_us = est * 1e-3;
       over_estimate = est > 0 ? busy / est : 0.0;
       estimated_period_ns = std::max(estimated_period_ns, est);
-    } else {
-      estimated_period_ns = std::max(estimated_period_ns, busy);  // a sparse layer: its closed form
     }
     layers.push_back({{"name", L.name},
                       {"stage", stage},
@@ -355,18 +354,16 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   else
     replication = resolve_replication(model, programmed, pc);
   // Sparse (Toeplitz) layers: one iteration per image on their own crossbars and converters.
-  std::vector<double> sparse_ns;
+  std::vector<SparseIterationNs> sparse;
   if (hw.mapping.scheme == MappingScheme::Sparse)
     for (const LinearLayer& L : model.linear)
-      sparse_ns.push_back(
-          sparse_iteration_ns(hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse_ns.size()],
-                                          reads_image[sparse_ns.size()]),
-                              pc));
+      sparse.push_back(sparse_iteration_ns(
+          hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse.size()], reads_image[sparse.size()]), pc));
   const auto t0 = std::chrono::steady_clock::now();
   ProgressBar bar(pc.images, "simulating ");
   Pipeline pipe(
       "accelerator", model, programmed, pc, replication,
-      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse_ns,
+      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse,
       plan.get());
   if (!vcd.empty()) pipe.trace(vcd, pc.vcd_images);
   sc_core::sc_start();

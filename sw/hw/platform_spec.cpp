@@ -63,18 +63,31 @@ PlatformConfig parse_platform_config(const ConfigTree& cfg, int adc_columns_per_
 
 namespace xbarsim {
 
-double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
+SparseIterationNs sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg) {
   const double clk = cfg.clock_ns();
   const int cycles = v.input_slices * cfg.read_cycles(v.reads_image);
-  if (!cfg.detailed) return clk * cycles;  // a read per cycle
+  SparseIterationNs t;
+  if (!cfg.detailed) {  // a read per cycle
+    t.crossbar = clk * cycles;
+    return t;
+  }
   const long long rows = std::min(v.rows, v.array_rows);
   const long long cols = std::min(v.physical_cols, v.array_cols);
   const long long adcs = adcs_for_columns(cols, cfg.adc_columns_per_unit);
-  const double load = std::ceil(static_cast<double>(rows) / cfg.shift_entries_per_cycle) * clk;
-  const double adc = std::ceil(static_cast<double>(cols) / std::max<long long>(adcs, 1)) / cfg.adc_rate_gsps;
-  const double t =
-      load + (cfg.dac_latency_ns + cfg.crossbar_settle_ns + adc) * cycles + cfg.accumulator_latency_ns;
-  return std::ceil(t / clk - 1e-9) * clk;
+  t.shift = std::ceil(static_cast<double>(rows) / cfg.shift_entries_per_cycle) * clk;
+  t.dac = cfg.dac_latency_ns * cycles;
+  t.crossbar = cfg.crossbar_settle_ns * cycles;
+  t.adc = std::ceil(static_cast<double>(cols) / std::max<long long>(adcs, 1)) / cfg.adc_rate_gsps * cycles;
+  t.accumulate = cfg.accumulator_latency_ns;
+  return t;
+}
+
+double sparse_estimated_ns(const SparseIterationNs& t, const PlatformConfig& cfg) {
+  const double clk = cfg.clock_ns();
+  double busiest = 0;
+  for (double ns : {t.shift, t.dac, t.crossbar, t.adc, t.accumulate})
+    busiest = std::max(busiest, std::ceil(ns / clk - 1e-9) * clk);
+  return busiest;
 }
 
 PlatformConfig machine_platform(PlatformConfig pc, const Architecture& arch) {

@@ -67,10 +67,18 @@ PlatformConfig machine_platform(PlatformConfig pc, const Architecture& arch);
 /// `crossbars_per_adc` > 1 crossbars, columns x crossbars_per_adc, at `rate_gsps` each.
 double adc_read_ns(long long columns, int columns_per_adc, int crossbars_per_adc, double rate_gsps);
 
-/// Time of the single iteration of a sparse (Toeplitz) layer: its inputs loaded into the row
-/// drivers (shift_entries_per_cycle per cycle), DAC, settling, the conversions of the most
-/// loaded ADC, accumulation, in whole cycles (ideal timing: one cycle).
-double sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg);
+/// The single iteration of a sparse (Toeplitz) layer at each of its tile's units (ns, before
+/// the units round them to whole cycles): the shift register loads a crossbar's rows
+/// (shift_entries_per_cycle per cycle); every read (input slices x read cycles) passes the
+/// DACs, the settling crossbars and the most loaded ADC; the accumulator adds once. Ideal
+/// timing: a cycle per read at the crossbars, nothing elsewhere (as a dense tile's).
+struct SparseIterationNs {
+  double shift = 0, dac = 0, crossbar = 0, adc = 0, accumulate = 0;
+};
+SparseIterationNs sparse_iteration_ns(const LayerInventory& v, const PlatformConfig& cfg);
+/// The estimate of a sparse layer's busy time per image: its busiest unit's part in whole
+/// cycles (the units pipeline successive images, as a dense tile's iterations).
+double sparse_estimated_ns(const SparseIterationNs& t, const PlatformConfig& cfg);
 
 /// Reads and validates `platform.`; ADC sharing and rate come from the resolved converter
 /// spec and the component library.

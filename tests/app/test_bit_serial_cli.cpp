@@ -188,6 +188,24 @@ TEST_F(BitSerialCli, SimulateQuantumSweepMovesTimingWithinTheBound) {
   EXPECT_NE(zero.out.find("platform.quantum_ns"), std::string::npos) << zero.out;
 }
 
+// A sparse (Toeplitz) layer's iteration goes through its tile's units (issue 52): its busy
+// time is its busiest unit's part (the estimate, in closed form), the report names the unit,
+// and pipelined images overlap from unit to unit.
+TEST_F(BitSerialCli, SimulateSparseLayersAreTimedByTheirTilesUnits) {
+  const auto r = run("simulate",
+                     "--model tiny --images 4 --timing-only --set mapping.scheme=sparse --set platform.schedule=pipelined"
+                     " --json " + path("sparse.json"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = json(path("sparse.json"));
+  ASSERT_FALSE(j["layers"].empty());
+  for (const auto& L : j["layers"]) {
+    EXPECT_EQ(L["iterations"], 1) << L["name"];
+    EXPECT_GT(L["busy_us"].get<double>(), 0) << L["name"];
+    EXPECT_NEAR(L["busy_us"].get<double>(), L["estimated_busy_us"].get<double>(), 1e-9) << L["name"];
+    EXPECT_FALSE(L["bound_by"].get<std::string>().empty()) << L["name"];
+  }
+}
+
 // Issue 38 item 5: a network that does not fit the machine is refused by every command with
 // simulate's message (eval used to exit 0, pricing a 1-IMA chip that runs a 2-IMA network;
 // overhead printed the status after the bill). The tiny network's two layers take a 128 x 128

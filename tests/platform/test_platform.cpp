@@ -258,7 +258,7 @@ struct PipelineRun {
     if (replication.empty()) replication.assign(m.linear.size(), 1);
     pipe = std::make_unique<Pipeline>(
         "acc", m, xb, pc, replication, [this](int k, float* x) { images.preprocess(k, model.pre, x); }, nullptr,
-        std::vector<double>{}, machine);
+        std::vector<SparseIterationNs>{}, machine);
     sc_core::sc_start();
   }
   /// Logits bit-identical to the batch engine (the functions eval uses).

@@ -317,3 +317,50 @@ TEST(TileSchedule, TwoTilesAFullFifoInTheSecondStallsItsDac) {
   EXPECT_EQ(b.busy_ps(), 400000u);
   for (const TileUnit* u : a.units()) EXPECT_EQ(u->stall_ps(), 0u) << unit_name(u->stage());
 }
+
+// A sparse (Toeplitz) layer: one iteration per image yields every output row, its latencies
+// given by the initiator (sparse_iteration_ns), the later row groups of the image nothing.
+// Here shift 10, DAC 2 -> 10, crossbars 30, ADC 200, accumulator 2 -> 10 ns, two groups an
+// image, FIFOs of two groups. Image 0's iteration: shift 0-10, DAC 10-20, crossbars 20-50,
+// ADC 50-250, accumulator 250-260; its second group follows at no cost: both leave at 260.
+// Image 1's iteration enters at 10 (the driver's next transaction once the shift register has
+// read the previous group): shift 10-20, DAC 20-30, crossbars 50-80 (after image 0's), ADC
+// 250-450, accumulator 450-460. The DACs, done with image 1's empty second group at 30, hold it
+// until the crossbars' FIFO has room at 50 (20 ns stalled). The images leave every 200 ns
+// (the ADC bounds the tile: 400 ns busy), where one closed-form iteration per image (260 ns,
+// nothing overlapped) would give 260 and 520.
+TEST(TileSchedule, ASparseLayersIterationPerImageGoesThroughTheUnitsAndImagesOverlap) {
+  ONE_SIMULATION_PER_PROCESS();
+  const LinearLayer L = conv(16, 8, 1, 4, 4);
+  AnalogLayer analog(one_crossbar(1), L.weight.cast<double>(), 1.0, false, 1);
+  PlatformConfig pc = hand_platform();
+  ASSERT_EQ(pc.fifo_depth, 2);
+  Tile tile("tile", pc);
+  Driver driver("driver");
+  driver.out.bind(tile.noc2tile);
+  LayerJob job;
+  job.layer = &L;
+  job.analog = &analog;
+  job.timing_only = true;
+  job.sparse = true;
+  job.count = 8;  // two rows of four
+  const double given[kStages] = {10, 2, 30, 200, 2};
+  for (int image = 0; image < 2; ++image)
+    for (int g = 0; g < 2; ++g) {
+      job.image = static_cast<uint64_t>(image);
+      job.first_iteration = 8 * g;
+      for (int s = 0; s < kStages; ++s) job.stage_ns[s].assign(1, g == 0 ? given[s] : 0.0);
+      driver.jobs.push_back(job);
+    }
+  LayerJob two_latencies = job;  // a sparse job gives one latency per unit
+  two_latencies.stage_ns[kAdc].assign(2, 0.0);
+  driver.jobs.push_back(two_latencies);
+  sc_core::sc_start(10, sc_core::SC_US);
+  EXPECT_EQ(completions(tile), (std::vector<double>{260, 260, 460, 460}));
+  EXPECT_EQ(driver.taken_ns, (std::vector<double>{10, 10, 20, 20, 20}));
+  EXPECT_EQ(driver.status.back(), tlm::TLM_COMMAND_ERROR_RESPONSE);
+  EXPECT_EQ(tile.units()[kDac]->stall_ps(), 20000u);
+  EXPECT_EQ(tile.bound_by(), "adc");
+  EXPECT_EQ(tile.busy_ps(), 400000u);
+  EXPECT_EQ(tile.iterations(), 2);
+}
