@@ -110,7 +110,9 @@ class YamlSection {
       const std::string k = it->first.as<std::string>();
       if (std::find(read_.begin(), read_.end(), k) == read_.end()) {
         std::string list;
-        for (const auto& a : read_) list += (list.empty() ? "" : ", ") + a;
+        for (size_t i = 0; i < read_.size(); ++i)
+          if (std::find(read_.begin(), read_.begin() + static_cast<std::ptrdiff_t>(i), read_[i]) == read_.begin() + static_cast<std::ptrdiff_t>(i))
+            list += (list.empty() ? "" : ", ") + read_[i];
         throw InputError(origin_ + ": unknown key '" + name_ + "." + k + "' (" + list + ")");
       }
     }

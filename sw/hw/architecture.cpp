@@ -252,16 +252,6 @@ double MachineBill::leakage(const std::vector<BillLine>& lines) {
   return p;
 }
 
-double unit_action_pj(const ComponentLibrary& lib, const std::string& unit) {
-  return lib.named.at(unit).action_pj("action", {}, lib.source);
-}
-
-double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op) {
-  for (const UnitUse& u : arch.tile.units)
-    if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) return unit_action_pj(lib, u.unit);
-  return 0.0;
-}
-
 double MachineBill::peak_mw(const std::vector<BillLine>& lines) {
   double p = 0;
   for (const BillLine& l : lines) p += l.peak_mw;
@@ -274,9 +264,6 @@ namespace {
 /// and leakage; their energy per read depends on the precision: sw/study/chip_peak.h), the
 /// chip its cores.
 MachineBill price_neuron_machine(const Architecture& arch, const ComponentLibrary& lib) {
-  if (!lib.is_named())
-    throw InputError("architecture.machine " + arch.name + " has neuron cores, priced by named components: set "
-                     "components.library to a library of named components (e.g. neurram), not " + lib.source);
   MachineBill bill;
   const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
   for (const Instance& i : arch.ima.components) {
@@ -319,7 +306,7 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
   // Conversions are actions: a read converts every physical column once, at most what the
   // ADCs can at their sample rate (fewer ADCs stretch the read); idle converters only leak.
   const double conversions_per_ns =
-      std::min(v.adcs * lib.adc_sample_rate_gsps, static_cast<double>(v.sample_holds) / arch.ima.read_ns);
+      std::min(v.adcs * lib.adc_sample_rate_gsps(), static_cast<double>(v.sample_holds) / arch.ima.read_ns);
   const ComponentBreakdown area = per_read.area_mm2(v), peak = per_read.peak_power_mw(v, conversions_per_ns),
                            leak = per_read.leakage_mw(v);
   const std::pair<const char*, double ComponentBreakdown::*> parts[] = {
@@ -369,7 +356,7 @@ MachineBill price_machine(const Architecture& arch, const CostModel& cost, const
   Ledger edram_per_ns;  // the eDRAM read at its rate
   edram_per_ns.add("buffer", "read", arch.tile.edram_bytes_per_ns);
   bill.tile.push_back(line("edram", arch.tile.edram_bytes,
-                           price(cost.components(), {{"buffer", "buffer", "buffer", kib, {}}}, edram_per_ns, 0.0)));
+                           price(lib.named, {{"buffer", "buffer", "buffer", kib, {}}}, edram_per_ns, 0.0)));
   add(&ComponentBreakdown::buffer, bill.tile.back(), tiles);
   bill.tile.push_back(priced(arch.tile.bus));
   add(&ComponentBreakdown::interconnect, bill.tile.back(), tiles);

@@ -143,14 +143,6 @@ struct MachineBill {
   static double leakage(const std::vector<BillLine>& lines);
 };
 
-/// Energy (pJ) of one action of the unit named `unit`: a fixed library's `units` entry, or a
-/// named library's component of that name (its action `action`).
-double unit_action_pj(const ComponentLibrary& lib, const std::string& unit);
-
-/// Energy per action (pJ) of the tile unit that performs the digital operation `op`
-/// (Architecture::ops_per_ns), 0 when none does.
-double digital_op_pj(const Architecture& arch, const ComponentLibrary& lib, const std::string& op);
-
 /// Prices `arch` with `cost` (the library and the converters' resolutions); the IMA's reads
 /// are streamed as `converters` and `mapping` say (bit-serial inputs or sliced weights: its
 /// shift-and-add units and output register work at the ADCs' rate).

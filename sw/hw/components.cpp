@@ -107,8 +107,8 @@ Bill price(const NamedLibrary& lib, const std::vector<Instance>& instances, cons
     const Component& c = lib.at(i.component);
     const Params p = merged(c.params, i.params);
     const std::string where = lib.source + ": '" + c.name;
-    b.area_mm2[i.part] += i.count * c.area.at(p, where + ".area'") * lib.area_unit_mm2;
-    const double leak = i.count * c.leakage.at(p, where + ".leakage'") * lib.leakage_unit_mw;
+    b.area_mm2[i.part] += i.count * c.area.at(p, where + ".area'") * c.area_unit_mm2;
+    const double leak = i.count * c.leakage.at(p, where + ".leakage'") * c.leakage_unit_mw;
     b.leakage_mw[i.part] += leak;
     b.energy_pj[i.part] += leak * time_ns;  // mW x ns = pJ
   }
@@ -138,8 +138,8 @@ NamedLibrary parse_named_library(const std::string& text, const std::string& ori
   YamlSection top(root, origin, origin, true);
   NamedLibrary lib;
   lib.source = origin;
-  lib.technology_nm = top.number("technology_nm", true);
-  lib.voltage_v = top.number("voltage_v", true);
+  if (top.has("technology_nm")) lib.technology_nm = top.number("technology_nm", true);  // documentation
+  if (top.has("voltage_v")) lib.voltage_v = top.number("voltage_v", true);
   YamlSection comps = top.section("components");
   for (const std::string& name : comps.keys()) {
     YamlSection s = comps.section(name);
@@ -162,8 +162,19 @@ NamedLibrary parse_named_library(const std::string& text, const std::string& ori
       for (const std::string& k : p.keys()) c.params[k] = p.number(k);
       p.finish();
     }
-    c.area = s.has("area_um2") ? figure(s, "area_um2") : Figure{};
-    c.leakage = s.has("leakage_nw") ? figure(s, "leakage_nw") : Figure{};
+    // Each figure in the unit its key names (ISAAC's tables are in mm^2 and mW, circuits' in
+    // um^2 and nW): the value is kept as written.
+    auto unit_figure = [&](const char* small, const char* large, Figure& f, double& unit) {
+      if (s.has(small) && s.has(large))
+        throw InputError(s.where(large) + ": give " + small + " or " + large + ", not both");
+      if (s.has(small)) f = figure(s, small);
+      if (s.has(large)) {
+        f = figure(s, large);
+        unit = 1;
+      }
+    };
+    unit_figure("area_um2", "area_mm2", c.area, c.area_unit_mm2);
+    unit_figure("leakage_nw", "leakage_mw", c.leakage, c.leakage_unit_mw);
     if (s.has("actions")) {
       if (c.kind == ComponentKind::Capacitor)
         throw InputError(s.where("actions") + ": a capacitor's energy is its physics (C dV^2 per switch), not a table");

@@ -44,7 +44,10 @@ struct Component {
   std::string name;
   ComponentKind kind = ComponentKind::Table;
   Params params;  ///< defaults (an instance may override them)
-  Figure area, leakage;  ///< in the library's units (NamedLibrary::area_unit, leakage_unit)
+  /// Area and leakage of one instance, in the units its keys name (area_um2 or area_mm2,
+  /// leakage_nw or leakage_mw): mm^2 and mW per unit of the figures.
+  Figure area, leakage;
+  double area_unit_mm2 = 1e-6, leakage_unit_mw = 1e-6;
   std::map<std::string, Figure> actions_pj;  ///< energy of one action, by action name
   /// Capacitor: fF per cell on the line, fF of the line's driver, the swing.
   double c_per_cell_ff = 0, c_fixed_ff = 0, v_low_v = 0, v_high_v = 0;
@@ -54,14 +57,13 @@ struct Component {
   double capacitance_ff(const Params& params, const std::string& library) const;
 };
 
-/// A component library in the named form (a top-level `components:` map: area in um^2,
-/// leakage in nW), or a fixed library's sections and units as named components (mm^2, mW).
+/// A component library: a top-level `components:` map of name -> area, leakage and energy per
+/// action (every library, ISAAC's and NeuRRAM's alike).
 struct NamedLibrary {
   std::string source;
   double technology_nm = 0, voltage_v = 0;  ///< what the figures are for (documentation)
-  /// mm^2 per unit of the figures' area, mW per unit of their leakage (1e-6: um^2 and nW).
-  double area_unit_mm2 = 1e-6, leakage_unit_mw = 1e-6;
   std::map<std::string, Component> components;
+  bool has(const std::string& name) const { return components.count(name) > 0; }
   /// The component named `name`; InputError naming the library and what it has otherwise.
   const Component& at(const std::string& name) const;
 };

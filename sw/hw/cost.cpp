@@ -88,68 +88,63 @@ ComponentBreakdown by_part(const std::map<std::string, double>& parts) {
   return b;
 }
 
-Component component(const std::string& name, double area_mm2, double leakage_mw,
-                    std::initializer_list<std::pair<const char*, double>> actions) {
-  Component c;
-  c.name = name;
-  c.area.value = area_mm2;
-  c.leakage.value = leakage_mw;
-  for (const auto& [a, pj] : actions) c.actions_pj[a].value = pj;
-  return c;
+}  // namespace
+
+std::vector<Instance> CostModel::instances(const LayerInventory* v) const {
+  std::vector<Instance> units;
+  if (!crossbar_cores) return units;
+  auto unit = [&](const char* name, const char* component, const char* part, long long count, Params p = {}) {
+    lib.named.at(component);  // a library without the part: named in the error
+    units.push_back({name, component, part, v ? static_cast<double>(count) : 0.0, p});
+  };
+  const LayerInventory none;
+  const LayerInventory& n = v ? *v : none;
+  const Params adc{{"bits", static_cast<double>(adc_bits_priced())}}, dac{{"bits", static_cast<double>(dac_bits_priced())}};
+  unit("crossbar", "cell", "crossbar", n.cells_present);
+  unit("adc", "adc", "adc", n.adcs, adc);
+  unit("dac", "dac", "dac", n.dacs, dac);
+  if (dac_lut) unit("dac_lut", "dac_lut", "dac", n.dacs);
+  unit("accumulator", "accumulator", "accumulator", n.accumulators);
+  unit("shift_register", "shift_register", "shift_register", n.shift_register_entries * n.input_bytes);
+  units.push_back({"buffer", "buffer", "buffer", v ? static_cast<double>(n.buffer_bytes) / kKiB : 0.0, {}});  // per KiB
+  lib.named.at("buffer");
+  unit("sample_hold", "sample_hold", "sample_hold", n.sample_holds);
+  unit("shift_add", "shift_add", "shift_add", v ? shift_add_units(n) : 0);
+  unit("output_register", "output_register", "output_register", n.output_register_bytes);
+  unit("interconnect", "interconnect", "interconnect", 0);
+  unit("digital", "digital", "digital", 0);
+  unit("memory", "memory", "memory", 0);
+  return units;
+}
+
+namespace {
+
+/// The ledger's counts of instances that `units` has (neuron cores: none of the crossbar
+/// cores' parts).
+Ledger performed(const Ledger& l, const std::vector<Instance>& units) {
+  Ledger r;
+  for (const Ledger::Count& c : l.counts)
+    for (const Instance& i : units)
+      if (i.name == c.instance) {
+        r.counts.push_back(c);
+        break;
+      }
+  r.energy_pj = l.energy_pj;
+  return r;
 }
 
 }  // namespace
 
-NamedLibrary CostModel::components() const {
-  NamedLibrary n;
-  n.source = lib.source;
-  n.area_unit_mm2 = n.leakage_unit_mw = 1;
-  const int ab = adc_bits_priced(), db = dac_bits_priced();
-  auto add = [&](Component c) { n.components[c.name] = std::move(c); };
-  add(component("crossbar", lib.cell.area_mm2, lib.cell.leakage_mw, {{"read", lib.cell.read_pj}}));
-  add(component("adc", lib.adc.area_at(ab), lib.adc.leakage_mw, {{"convert", lib.adc.conversion_pj_at(ab)}}));
-  add(component("dac", lib.dac.area_at(db) + (dac_lut ? lib.dac_lut.area_mm2 : 0.0),
-                lib.dac.leakage_mw + (dac_lut ? lib.dac_lut.leakage_mw : 0.0), {{"convert", dac_conversion_pj()}}));
-  add(component("accumulator", lib.accumulator.area_mm2, lib.accumulator.leakage_mw,
-                {{"accumulate", lib.accumulator.accumulate_pj}}));
-  add(component("shift_register", lib.shift_register.area_mm2_per_entry, lib.shift_register.leakage_mw_per_entry,
-                {{"shift", lib.shift_register.shift_pj}, {"read", lib.shift_register.read_pj}}));
-  add(component("buffer", lib.buffer.area_mm2_per_kib, lib.buffer.leakage_mw_per_kib,
-                {{"read", lib.buffer.read_pj_per_byte}, {"write", lib.buffer.write_pj_per_byte}}));
-  add(component("sample_hold", lib.sample_hold.area_mm2, lib.sample_hold.leakage_mw, {{"sample", lib.sample_hold.sample_pj}}));
-  add(component("shift_add", lib.shift_add.area_mm2, lib.shift_add.leakage_mw, {{"add", lib.shift_add.op_pj}}));
-  add(component("output_register", lib.output_register.area_mm2_per_byte, lib.output_register.leakage_mw_per_byte,
-                {{"write", lib.output_register.write_pj}}));
-  add(component("interconnect", lib.interconnect.area_mm2, lib.interconnect.leakage_mw,
-                {{"transfer", lib.interconnect.transfer_pj_per_byte}}));
-  add(component("digital", lib.digital.area_mm2, lib.digital.leakage_mw, {{"op", lib.digital.op_pj}}));
-  add(component("memory", 0, 0, {{"transfer", lib.memory.transfer_pj_per_byte}}));
-  return n;
-}
-
-std::vector<Instance> CostModel::instances(const LayerInventory& v) const {
-  auto unit = [](const char* name, double count) { return Instance{name, name, name, count, {}}; };
-  return {unit("crossbar", static_cast<double>(v.cells_present)),
-          unit("adc", static_cast<double>(v.adcs)),
-          unit("dac", static_cast<double>(v.dacs)),
-          unit("accumulator", static_cast<double>(v.accumulators)),
-          unit("shift_register", static_cast<double>(v.shift_register_entries * v.input_bytes)),
-          unit("buffer", static_cast<double>(v.buffer_bytes) / kKiB),
-          unit("sample_hold", static_cast<double>(v.sample_holds)),
-          unit("shift_add", static_cast<double>(shift_add_units(v))),
-          unit("output_register", static_cast<double>(v.output_register_bytes))};
-}
-
 ComponentBreakdown CostModel::area_mm2(const LayerInventory& v) const {
-  return by_part(price(components(), instances(v), Ledger{}, 0.0).area_mm2);
+  return by_part(price(lib.named, instances(&v), Ledger{}, 0.0).area_mm2);
 }
 
 ComponentBreakdown CostModel::leakage_mw(const LayerInventory& v) const {
-  return by_part(price(components(), instances(v), Ledger{}, 0.0).leakage_mw);
+  return by_part(price(lib.named, instances(&v), Ledger{}, 0.0).leakage_mw);
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
-  return peak_power_mw(v, v.adcs * lib.adc_sample_rate_gsps);
+  return peak_power_mw(v, v.adcs * lib.adc_sample_rate_gsps());
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conversions_per_ns) const {
@@ -162,6 +157,7 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conv
   per_cycle.add("crossbar", "read", static_cast<double>(v.cells_present));
   per_ns.add("adc", "convert", conversions_per_ns);
   per_cycle.add("dac", "convert", static_cast<double>(v.dacs));
+  if (dac_lut) per_cycle.add("dac_lut", "read", static_cast<double>(v.dacs));
   per_cycle.add("accumulator", "accumulate", static_cast<double>(v.accumulators));
   per_cycle.add("shift_register", "read", static_cast<double>(v.dacs));
   per_cycle.add("sample_hold", "sample", static_cast<double>(v.sample_holds));
@@ -169,11 +165,10 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conv
     per_ns.add("shift_add", "add", conversions_per_ns);
     per_ns.add("output_register", "write", conversions_per_ns);
   }
-  const NamedLibrary parts = components();
-  const std::vector<Instance> units = instances(v);
-  return by_part(price(parts, units, Ledger{}, 0.0).leakage_mw) +
-         by_part(price(parts, units, per_cycle, 0.0).energy_pj) * clock_ghz +
-         by_part(price(parts, units, per_ns, 0.0).energy_pj);
+  const std::vector<Instance> units = instances(&v);
+  return by_part(price(lib.named, units, Ledger{}, 0.0).leakage_mw) +
+         by_part(price(lib.named, units, performed(per_cycle, units), 0.0).energy_pj) * clock_ghz +
+         by_part(price(lib.named, units, performed(per_ns, units), 0.0).energy_pj);
 }
 
 ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
@@ -181,6 +176,7 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   l.add("crossbar", "read", a.cell_reads);
   l.add("adc", "convert", a.adc_conversions);
   l.add("dac", "convert", a.dac_conversions);
+  if (dac_lut) l.add("dac_lut", "read", a.dac_conversions);  // every conversion looks its table up
   l.add("accumulator", "accumulate", a.accumulates);
   l.add("shift_register", "shift", a.shifts);
   l.add("shift_register", "read", a.dac_conversions);  // every DAC conversion reads its entry
@@ -192,13 +188,12 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   l.add("interconnect", "transfer", a.bus_bytes);
   l.add("digital", "op", a.digital_ops + a.scale_multiplies);
   l.add("memory", "transfer", a.memory_bytes);
-  std::vector<Instance> units;  // the actions' performers (their count prices only area and leakage)
-  for (const char* name : kPartNames) units.push_back({name, name, name, 0, {}});
-  return by_part(price(components(), units, l, 0.0).energy_pj);
+  const std::vector<Instance> units = instances(nullptr);  // the actions' performers
+  return by_part(price(lib.named, units, performed(l, units), 0.0).energy_pj);
 }
 
 Bill CostModel::platform_bill(int digital_units) const {
-  return price(components(),
+  return price(lib.named,
                {{"interconnect", "interconnect", "interconnect", 1, {}},
                 {"digital", "digital", "digital", static_cast<double>(digital_units), {}}},
                Ledger{}, 0.0);
@@ -213,7 +208,9 @@ ComponentBreakdown CostModel::platform_leakage_mw(int digital_units) const {
 }
 
 long long CostModel::shift_add_units(const LayerInventory& v) const {
-  return v.sliced() ? (v.adcs + lib.shift_add.adcs_per_unit - 1) / lib.shift_add.adcs_per_unit : 0;
+  if (!v.sliced()) return 0;
+  const long long per = lib.shift_add_adcs_per_unit();
+  return (v.adcs + per - 1) / per;
 }
 
 ActionCounts layer_actions_per_image(const LayerInventory& v, long long shifted_entries) {

@@ -1,10 +1,10 @@
 #pragma once
 /// Cost of an inventory from the component library (Accelergy style), by the one pricing
-/// function, price() (sw/hw/components.h): the library's sections as named components, the
-/// inventory's unit counts as their instances (area, leakage), action counts as their ledger
-/// (energy, plus leakage x time); peak power with every unit busy at its highest action rate.
-/// The crossbar read energy is the library's energy per cell read (cell.read_pj) for every
-/// used cell of every iteration, not V*I*t of the solved currents.
+/// function, price() (sw/hw/components.h): the library's components by name, the inventory's
+/// unit counts as their instances (area, leakage), action counts as their ledger (energy, plus
+/// leakage x time); peak power with every unit busy at its highest action rate. The crossbar
+/// read energy is the library's energy per cell read (cell's read) for every used cell of
+/// every iteration, not V*I*t of the solved currents.
 #include <nlohmann/json.hpp>
 
 #include <map>
@@ -63,20 +63,19 @@ struct CostModel {
   /// Every DAC has an input pre-distortion lookup table (converters.dac_predistortion with a
   /// nonlinear memristor): the library's dac_lut figures are added to each DAC's.
   bool dac_lut = false;
-  double dac_conversion_pj() const {
-    return lib.dac.conversion_pj_at(dac_bits_priced()) + (dac_lut ? lib.dac_lut.read_pj : 0.0);
-  }
-  int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.dac.reference_bits; }
-  int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.adc.reference_bits; }
+  /// The machine's cores are crossbar cores, whose parts the inventory counts; a machine of
+  /// neuron cores prices its cores by their own parts (price_machine), and nothing here.
+  bool crossbar_cores = true;
+  int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.reference_bits("dac"); }
+  int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.reference_bits("adc"); }
 
-  /// Shift-and-add units of a layer with sliced reads: ceil(ADCs / shift_add.adcs_per_unit).
+  /// Shift-and-add units of a layer with sliced reads: ceil(ADCs / shift_add's adcs_per_unit).
   long long shift_add_units(const LayerInventory& v) const;
-  /// The fixed library's sections as named components at these resolutions (mm^2, mW, pJ),
-  /// each named as its part of ComponentBreakdown (cell as crossbar); everything below is
-  /// their price (price(), sw/hw/components.h): instances from the inventory, actions counted.
-  NamedLibrary components() const;
-  /// The inventory's units as instances of components().
-  std::vector<Instance> instances(const LayerInventory& v) const;
+  /// The inventory's units as instances of the library's components, each named as its part
+  /// of ComponentBreakdown (the cells as crossbar, a DAC's table under dac), the converters at
+  /// these resolutions; every count is `v`'s (null: 0, the performers of actions only). None
+  /// on neuron cores (crossbar_cores false).
+  std::vector<Instance> instances(const LayerInventory* v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;
   /// Every unit at its highest action rate: the ADCs at the library's sample rate.

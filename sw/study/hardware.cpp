@@ -1,5 +1,6 @@
 #include "sw/study/hardware.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sw/analog/input_slicing.h"
@@ -16,7 +17,7 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
   hw.lib = load_component_library(cfg);
   hw.arch = load_architecture(cfg);
   check_crossbar_geometry(hw.arch, ac.mapping);
-  hw.columns_per_adc = resolve_columns_per_adc(ac.converters.adc_columns_per_adc, hw.lib.adc_columns_per_unit);
+  hw.columns_per_adc = resolve_columns_per_adc(ac.converters.adc_columns_per_adc, hw.lib.adc_columns_per_unit());
   if (hw.arch.machine) {
     const int shared = hw.arch.columns_per_adc();
     if (ac.converters.adc_columns_per_adc != 0 && ac.converters.adc_columns_per_adc != shared)
@@ -25,11 +26,18 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                        std::to_string(shared) + " columns (its IMA's); set 0 or " + std::to_string(shared));
     hw.columns_per_adc = shared;
   }
-  if (hw.lib.is_named() && !hw.arch.neuron_cores())
-    throw InputError("components.library " + hw.lib.source +
-                     " holds named components, which price a machine of neuron cores (architecture.machine: "
-                     "neurram); architecture.machine " + hw.arch.name +
-                     " is priced by a fixed library (components.library: isaac or isaac_paper)");
+  // Crossbar cores: the inventory's parts are priced, each by its component; neuron cores are
+  // priced by their own parts (price_machine).
+  hw.cost.crossbar_cores = !hw.arch.neuron_cores();
+  if (hw.cost.crossbar_cores)
+    for (const char* part : kCrossbarCoreComponents)
+      if (!hw.lib.named.has(part))
+        throw InputError("components.library " + hw.lib.source + " has no component '" + part +
+                         "', which a machine of crossbar cores (architecture.machine " + hw.arch.name +
+                         ") prices: the crossbar cores' parts are cell, adc, dac, accumulator, shift_register, "
+                         "sample_hold, shift_add, output_register, buffer, interconnect, digital and memory "
+                         "(configs/components/isaac.yaml); a library of neuron-core parts (neurram) prices "
+                         "architecture.machine: neurram");
   const ConvertersSpec image = ac.converters.for_layer(true);  // the converters of a layer reading the image
   if (hw.arch.neuron_cores()) {  // one read's time follows from the precision
     const int in = ac.converters.activation_bits(), out = ac.converters.adc_bits;
@@ -53,7 +61,7 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
                      ") prices every DAC: set converters.dac_bits to at least " + std::to_string(image.input_bits) +
                      ", or stream the image in slices (converters.dac_bits below converters.input_bits)");
   }
-  hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps);
+  hw.platform = parse_platform_config(cfg, hw.columns_per_adc, hw.lib.adc_sample_rate_gsps());
   if (hw.arch.neuron_cores())  // the datapath is clocked by a read at the activations' precision
     hw.platform.image_read_cycles =
         static_cast<int>(std::ceil(hw.image_read_steps.time_ns / hw.read_steps.time_ns - 1e-9));
@@ -184,13 +192,32 @@ void add_machine_cost(CostReport& r, const HardwareContext& hw, const MachineAct
   if (!hw.arch.machine) return;
   price_whole_machine(r, hw);
   const Architecture& arch = hw.arch;
-  // Each unit by name; a machine without one (cores without a mesh, bus or buffer) moves
-  // those bytes nowhere on chip.
-  auto pj = [&](const UnitUse& u) { return u.unit.empty() ? 0.0 : unit_action_pj(hw.lib, u.unit); };
+  // Each unit by name, its actions priced by price(); a machine without one (cores without a
+  // mesh, bus or buffer) moves those bytes nowhere on chip.
+  std::vector<Instance> units;
+  Ledger actions;
+  auto act = [&](const std::string& role, const std::string& unit, const char* part, double n) {
+    if (unit.empty()) return;
+    units.push_back({role, unit, part, 0, {}});
+    actions.add(role, "action", n);
+  };
+  act("tile_bus", arch.tile.bus.unit, "interconnect", a.edram_read_bytes);
+  act("router", arch.chip.router.unit, "interconnect", a.router_bytes);
+  act("offchip", arch.chip.offchip.unit, "memory", a.memory_bytes);
+  for (const UnitUse& u : arch.tile.units) units.push_back({"unit " + u.unit, u.unit, "digital", 0, {}});
+  for (const auto& [op, ops] : a.digital_ops)  // by the first unit that performs it (none: nothing)
+    for (const UnitUse& u : arch.tile.units)
+      if (std::find(u.ops.begin(), u.ops.end(), op) != u.ops.end()) {
+        actions.add("unit " + u.unit, "action", ops);
+        break;
+      }
+  const Bill b = price(hw.lib.named, units, actions, 0.0);
   ComponentBreakdown e;
-  e.interconnect = a.edram_read_bytes * pj(arch.tile.bus) + a.router_bytes * pj(arch.chip.router);
-  e.memory = a.memory_bytes * pj(arch.chip.offchip);
-  for (const auto& [name, ops] : a.digital_ops) e.digital += ops * digital_op_pj(arch, hw.lib, name);
+  for (auto [part, field] : {std::pair{"interconnect", &ComponentBreakdown::interconnect},
+                             {"memory", &ComponentBreakdown::memory}, {"digital", &ComponentBreakdown::digital}}) {
+    const auto it = b.energy_pj.find(part);
+    if (it != b.energy_pj.end()) e.*field = it->second;
+  }
   r.dynamic_energy_uj += e * 1e-6;
 }
 

@@ -504,13 +504,15 @@ TEST_F(Safety, NonFiniteValuesAreNamed) {
 // every quantity of a hardware file is at most 1e12 (in its unit), named when it is not.
 TEST_F(Safety, HardwareQuantitiesAreBounded) {
   std::string lib = slurp(library());
-  const size_t at = lib.find("area_mm2: 0.0012");
+  const size_t at = lib.find("area_mm2: {value: 0.0012,");  // the ADC's
   ASSERT_NE(at, std::string::npos);
-  lib.replace(at, std::string("area_mm2: 0.0012").size(), "area_mm2: 1e308");
+  lib.replace(at, std::string("area_mm2: {value: 0.0012,").size(), "area_mm2: {value: 1e308,");
   spit(library(), lib);
   const Result r = run("overhead --model " + model() + " --json " + path("o.json"));
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("area_mm2' must be a positive number at most 1e12, got '1e308'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("components.adc.area_mm2.value' must be a non-negative number at most 1e12, got '1e308'"),
+            std::string::npos)
+      << r.out;
   EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
 }
 

@@ -4,6 +4,9 @@
 // give the published figures within 1 %; the figures are typed here, not read from a file.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <sstream>
+
 #include "sw/common/config.h"
 #include "sw/hw/architecture.h"
 #include "sw/hw/mapper.h"
@@ -428,10 +431,10 @@ TEST(IsaacChip, AnImaPricesTheConversionsItsReadsNeed) {
   EXPECT_NEAR(line(half, "adc").peak_mw, 8.0, 1e-9);
   EXPECT_NEAR(line(half, "shift_add").peak_mw, 0.1, 1e-9);
   EXPECT_NEAR(line(half, "output_register").peak_mw, 0.115, 1e-9);
-  isaac.cost.lib.adc.leakage_mw = 0.5;
+  isaac.cost.lib.named.components.at("adc").leakage.value = 0.5;
   EXPECT_NEAR(line(half, "adc").peak_mw, 8.0 + 8 * 0.5, 1e-9);
   EXPECT_NEAR(line(half, "adc").leakage_mw, 8 * 0.5, 1e-9);
-  isaac.cost.lib.adc.leakage_mw = 0;
+  isaac.cost.lib.named.components.at("adc").leakage.value = 0;
   const Architecture scarce = parse_architecture(machine_yaml(168, 12, 8, 4, "{rows: 6, cols: 7}"), "a");
   EXPECT_NEAR(line(scarce, "adc").peak_mw, 4 * 2.0, 1e-9);
 }
@@ -471,4 +474,32 @@ TEST(Mapper, PlansIsaacCeWithTheSimulatedTilesTiming) {
   EXPECT_DOUBLE_EQ(four.bottleneck_ns, 25600.0);
   EXPECT_EQ(rows2.bottleneck_stage, "layer1.0/add");
   EXPECT_NEAR(rows2.bottleneck_ns, 16 * 32 * 32 / 1.2, 1e-6);
+}
+
+// Issue 53: ISAAC's library is in the one named form, so a new component is one entry of the
+// library file (and the architecture's use of it): a 0.01 mm^2 unit of 2 pJ per action, one
+// per tile at 1.2 actions per ns, adds 168 x 0.01 mm^2 and 168 x 1.2 x 2 mW to the chip, and
+// nothing else moves.
+TEST(IsaacChip, ANewComponentIsOneEntryOfTheLibrary) {
+  const Isaac m;
+  auto file = [](const std::string& path) {
+    std::ifstream in(std::string(XBARSIM_SOURCE_DIR) + path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  const std::string lib = file("/configs/components/isaac.yaml") +
+                          "  tile_crypto: {area_mm2: 0.01, leakage_mw: 0, actions: {action: 2.0}}\n";
+  std::string arch = file("/configs/architectures/isaac-ce.yaml");
+  const size_t at = arch.find("    sigmoid:");
+  ASSERT_NE(at, std::string::npos);
+  arch.insert(at, "    tile_crypto: {count: 1, actions_per_ns: 1.2}\n");
+  CostModel cost = m.cost;
+  cost.lib = parse_component_library(lib, "isaac+1.yaml");
+  const MachineBill b = price_machine(parse_architecture(arch, "isaac-ce+1.yaml"), cost, m.converters, m.mapping);
+  EXPECT_NEAR(b.chip_area_mm2.total() - m.bill.chip_area_mm2.total(), 168 * 0.01, 1e-9);
+  EXPECT_NEAR(b.chip_peak_mw.total() - m.bill.chip_peak_mw.total(), 168 * 1.2 * 2.0, 1e-6);
+  EXPECT_NEAR(m.line(b.tile, "tile_crypto").area_mm2, 0.01, 1e-15);
+  EXPECT_EQ(b.chip_area_mm2.crossbar, m.bill.chip_area_mm2.crossbar);
+  EXPECT_EQ(b.chip_peak_mw.adc, m.bill.chip_peak_mw.adc);
 }

@@ -249,9 +249,9 @@ TEST(NeurramCli, BadInputIsOneErrorLine) {
   expect_error("simulate --config " + config() + " --set converters.dac_bits=1", "converters.dac_bits");
   expect_error("simulate --config " + config() + " --set converters.adc_bits=none", "converters.adc_bits");
   expect_error("simulate", "--model or --preset");
-  // Named components price neuron cores only: never a layer-sized design priced at zero.
+  // NeuRRAM's library has no crossbar-core parts: never a layer-sized design priced at zero.
   expect_error("simulate --preset lenet --timing-only --config " + config() + " --set architecture.machine=layer-sized",
-               "holds named components");
+               "has no component 'cell'");
   expect_error("simulate --config " + config() + " --images 3", "--images needs a network");
 }
 

@@ -29,6 +29,15 @@ const double kCellP = kIsaacXbarP / 16384, kCellA = kIsaacXbarA / 16384;
 
 ComponentLibrary lib() { return load_component_library(ConfigTree()); }
 
+/// A component's energy per `action` and its area (mm^2) at `bits`.
+double action_at(const ComponentLibrary& l, const std::string& c, const std::string& action, int bits) {
+  return l.named.at(c).action_pj(action, {{"bits", bits}}, l.source);
+}
+double area_at(const ComponentLibrary& l, const std::string& c, int bits) {
+  const Component& k = l.named.at(c);
+  return k.area.at({{"bits", bits}}, l.source) * k.area_unit_mm2;
+}
+
 /// Partition limits and converter bits of one test design (0 = unbounded).
 struct HardwareSettings {
   int max_rows = 0, max_cols = 0;
@@ -52,7 +61,7 @@ MappingCost mapping_cost(long long rows, long long cols, long long cells_used, l
   MappingSpec m;
   m.max_rows = hw.max_rows;
   m.max_cols = hw.max_cols;
-  const LayerInventory v = matrix_inventory(rows, cols, iterations, m, l.adc_columns_per_unit);
+  const LayerInventory v = matrix_inventory(rows, cols, iterations, m, l.adc_columns_per_unit());
   CostModel cm{l, hw.dac_bits, hw.adc_bits, 100.0};
   const ComponentBreakdown p = cm.peak_power_mw(v), a = cm.area_mm2(v);
   return {v.crossbars,  v.adcs,     v.dacs,     v.cells_present,           cells_used,
@@ -211,74 +220,76 @@ TEST(Overhead, SumsOfLayerCosts) {
 TEST(ComponentLibrary, BuiltInIsTheIsaacDerivation) {
   const ComponentLibrary l = lib();
   // Peak power = energy per action x rate: the ADC at its sample rate, the rest at 100 MHz.
-  EXPECT_NEAR(l.adc.conversion_pj_at(8) * l.adc_sample_rate_gsps, kAdcP, 1e-12);
-  EXPECT_NEAR(l.adc.area_at(8), kAdcA, 1e-15);
-  EXPECT_NEAR(l.dac.conversion_pj_at(8) * 0.1, kDacP, 1e-12);
-  EXPECT_NEAR(l.dac.area_at(8), kDacA, 1e-15);
-  EXPECT_NEAR(l.cell.read_pj * 0.1, kCellP, 1e-15);
-  EXPECT_NEAR(l.cell.area_mm2, kCellA, 1e-18);
-  EXPECT_EQ(l.adc_columns_per_unit, 128);
+  EXPECT_NEAR(action_at(l, "adc", "convert", 8) * l.adc_sample_rate_gsps(), kAdcP, 1e-12);
+  EXPECT_NEAR(area_at(l, "adc", 8), kAdcA, 1e-15);
+  EXPECT_NEAR(action_at(l, "dac", "convert", 8) * 0.1, kDacP, 1e-12);
+  EXPECT_NEAR(area_at(l, "dac", 8), kDacA, 1e-15);
+  EXPECT_NEAR(action_at(l, "cell", "read", 8) * 0.1, kCellP, 1e-15);
+  EXPECT_NEAR(area_at(l, "cell", 8), kCellA, 1e-18);
+  EXPECT_EQ(l.adc_columns_per_unit(), 128);
+  EXPECT_EQ(l.reference_bits("adc"), 8);
   // The embedded text is the file in configs/components/.
   std::ifstream in(std::string(XBARSIM_SOURCE_DIR) + "/configs/components/isaac_paper.yaml");
   std::stringstream ss;
   ss << in.rdbuf();
   const ComponentLibrary f = parse_component_library(ss.str(), "file");
-  EXPECT_EQ(f.adc.conversion_pj, l.adc.conversion_pj);
-  EXPECT_EQ(f.dac.area_mm2, l.dac.area_mm2);
-  EXPECT_EQ(f.cell.read_pj, l.cell.read_pj);
+  EXPECT_EQ(action_at(f, "adc", "convert", 6), action_at(l, "adc", "convert", 6));
+  EXPECT_EQ(area_at(f, "dac", 4), area_at(l, "dac", 4));
+  EXPECT_EQ(action_at(f, "cell", "read", 8), action_at(l, "cell", "read", 8));
 }
 
 namespace {
-/// A library text with every section; `adc` and `dac` replace those sections.
+/// A library text with every crossbar-core part; `adc` and `dac` replace those components.
 std::string library(const std::string& adc, const std::string& dac) {
-  return "adc: " + adc + "\ndac: " + dac + R"(
-dac_lut: {area_mm2: 5e-5, leakage_mw: 0, read_pj: 0.05}
-cell: {area_mm2: 1e-8, leakage_mw: 0, read_pj: 1e-3}
-accumulator: {area_mm2: 6e-5, leakage_mw: 0, accumulate_pj: 0.5}
-shift_register: {area_mm2_per_entry: 1e-6, leakage_mw_per_entry: 0, shift_pj: 0.03, read_pj: 0}
-sample_hold: {area_mm2: 0, leakage_mw: 0, sample_pj: 0}
-shift_add: {adcs_per_unit: 2, area_mm2: 0, leakage_mw: 0, op_pj: 0}
-output_register: {area_mm2_per_byte: 0, leakage_mw_per_byte: 0, write_pj: 0}
-buffer: {area_mm2_per_kib: 1e-3, leakage_mw_per_kib: 0, read_pj_per_byte: 0.5, write_pj_per_byte: 0.5}
-interconnect: {area_mm2: 0.03, leakage_mw: 0, transfer_pj_per_byte: 1}
-digital: {area_mm2: 2e-4, leakage_mw: 0, op_pj: 0.3}
-memory: {transfer_pj_per_byte: 160}
+  return "components:\n  adc: " + adc + "\n  dac: " + dac + R"(
+  dac_lut: {area_mm2: 5e-5, leakage_mw: 0, actions: {read: 0.05}}
+  cell: {area_mm2: 1e-8, leakage_mw: 0, actions: {read: 1e-3}}
+  accumulator: {area_mm2: 6e-5, leakage_mw: 0, actions: {accumulate: 0.5}}
+  shift_register: {area_mm2: 1e-6, leakage_mw: 0, actions: {shift: 0.03, read: 0}}
+  sample_hold: {area_mm2: 0, leakage_mw: 0, actions: {sample: 0}}
+  shift_add: {params: {adcs_per_unit: 2}, area_mm2: 0, leakage_mw: 0, actions: {add: 0}}
+  output_register: {area_mm2: 0, leakage_mw: 0, actions: {write: 0}}
+  buffer: {area_mm2: 1e-3, leakage_mw: 0, actions: {read: 0.5, write: 0.5}}
+  interconnect: {area_mm2: 0.03, leakage_mw: 0, actions: {transfer: 1}}
+  digital: {area_mm2: 2e-4, leakage_mw: 0, actions: {op: 0.3}}
+  memory: {actions: {transfer: 160}}
 )";
 }
+/// An 8-bit ADC's figures, exponential in its bits.
 const std::string kAdc8 =
-    "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5625, reference_bits: 8, columns_per_unit: 128, "
-    "sample_rate_gsps: 1.28}";
+    "{params: {bits: 8, columns_per_unit: 128, sample_rate_gsps: 1.28}, "
+    "area_mm2: {value: 0.0012, exponential: bits, reference: 8}, leakage_mw: 0, "
+    "actions: {convert: {value: 1.5625, exponential: bits, reference: 8}}}";
 }  // namespace
 
 TEST(ComponentLibrary, ExponentialRuleFromTheOneBitDac) {
   // ISAAC's 1-bit DAC as the reference: 4 mW / 1024 at 100 MHz = 0.0390625 pJ per conversion.
-  // The rule 2^(bits - reference_bits) takes it to 8 bits by 2^7 (0.5 mW); the paper
-  // multiplied by 2^8 (1 mW). The built-in library records the paper's 8-bit figure.
+  // The rule 2^(bits - reference) takes it to 8 bits by 2^7 (0.5 mW); the paper multiplied by
+  // 2^8 (1 mW). The built-in library records the paper's 8-bit figure.
   const ComponentLibrary l = parse_component_library(
       library(kAdc8,
-              "{area_mm2: 1.66015625e-7, leakage_mw: 0, conversion_pj: 0.0390625, reference_bits: 1, "
-              "energy_scaling: exponential, area_scaling: exponential}"),
+              "{params: {bits: 1}, area_mm2: {value: 1.66015625e-7, exponential: bits, reference: 1}, leakage_mw: 0, "
+              "actions: {convert: {value: 0.0390625, exponential: bits, reference: 1}}}"),
       "test");
-  EXPECT_NEAR(l.dac.conversion_pj_at(8) * 0.1, 4.0 / 1024 * 128, 1e-12);
-  EXPECT_NEAR(l.dac.area_at(8), 0.00017 / 1024 * 128, 1e-15);
-  EXPECT_NEAR(lib().dac.conversion_pj_at(8), 2 * l.dac.conversion_pj_at(8), 1e-12);
-  EXPECT_NEAR(lib().dac.conversion_pj_at(1) * 0.1, 1.0 / 128, 1e-15);  // the built-in from 8 bits down
-  EXPECT_NEAR(l.adc.conversion_pj_at(7), 1.5625 / 2, 1e-12);           // exponential is the default
-  EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Linear), 1.5, 1e-15);
-  EXPECT_NEAR(scale_by_bits(3.0, 8, 4, Scaling::Constant), 3.0, 1e-15);
-  EXPECT_NEAR(scale_by_bits(3.0, 8, 10, Scaling::Exponential), 12.0, 1e-15);
+  EXPECT_NEAR(action_at(l, "dac", "convert", 8) * 0.1, 4.0 / 1024 * 128, 1e-12);
+  EXPECT_NEAR(area_at(l, "dac", 8), 0.00017 / 1024 * 128, 1e-15);
+  EXPECT_NEAR(action_at(lib(), "dac", "convert", 8), 2 * action_at(l, "dac", "convert", 8), 1e-12);
+  EXPECT_NEAR(action_at(lib(), "dac", "convert", 1) * 0.1, 1.0 / 128, 1e-15);  // the built-in from 8 bits down
+  EXPECT_NEAR(action_at(l, "adc", "convert", 7), 1.5625 / 2, 1e-12);
 }
 
 TEST(ComponentLibrary, ScalingRulesAreData) {
+  // Linear in the bits (per: [bits], the 8-bit figure / 8), constant (a number), exponential.
   const ComponentLibrary l = parse_component_library(
-      library("{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 2, reference_bits: 8, columns_per_unit: 64, "
-              "sample_rate_gsps: 1, energy_scaling: linear, area_scaling: constant}",
-              "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}"),
+      library("{params: {bits: 8, columns_per_unit: 64, sample_rate_gsps: 1}, area_mm2: 0.0012, leakage_mw: 0, "
+              "actions: {convert: {value: 0.25, per: [bits]}}}",
+              "{params: {bits: 8}, area_mm2: {value: 4e-5, exponential: bits, reference: 8}, leakage_mw: 0, "
+              "actions: {convert: {value: 10, exponential: bits, reference: 8}}}"),
       "test");
-  EXPECT_NEAR(l.adc.conversion_pj_at(6), 2.0 * 6 / 8, 1e-15);
-  EXPECT_NEAR(l.adc.area_at(6), 0.0012, 1e-15);
-  EXPECT_NEAR(l.dac.conversion_pj_at(6), 2.5, 1e-15);  // exponential by default: 2^-2
-  EXPECT_NEAR(l.dac.area_at(10), 16e-5, 1e-15);
+  EXPECT_NEAR(action_at(l, "adc", "convert", 6), 2.0 * 6 / 8, 1e-15);
+  EXPECT_NEAR(area_at(l, "adc", 6), 0.0012, 1e-15);
+  EXPECT_NEAR(action_at(l, "dac", "convert", 6), 2.5, 1e-15);  // 2^-2
+  EXPECT_NEAR(area_at(l, "dac", 10), 16e-5, 1e-15);
   HardwareSettings hw;
   hw.adc_bits = 6;
   hw.dac_bits = 6;
@@ -308,26 +319,25 @@ TEST(ComponentLibrary, AdcSharing) {
 }
 
 TEST(ComponentLibrary, RejectsBadFiles) {
-  const std::string dac = "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}";
-  const std::string adc =
-      "{area_mm2: 0.0012, leakage_mw: 0, conversion_pj: 1.5, columns_per_unit: 128, "
-      "sample_rate_gsps: 1, ";
-  EXPECT_NO_THROW(parse_component_library(library(adc + "reference_bits: 8}", dac), "ok"));
-  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8.5}", dac), "bad"), InputError);
-  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, energy_scalling: linear}", dac), "bad"),
-               InputError);
-  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, energy_scaling: cubic}", dac), "bad"),
-               InputError);
-  EXPECT_THROW(parse_component_library(library(adc + "reference_bits: 8, reference_bits: 8}", dac), "bad"),
-               InputError);  // duplicate key
-  EXPECT_THROW(parse_component_library("adc: {conversion_pj: -1}", "bad"), InputError);
-  EXPECT_THROW(parse_component_library("gpu: {}", "bad"), InputError);
-  try {
-    parse_component_library(library(adc + "reference_bits: 8.5}", dac), "lib.yaml");
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("adc.reference_bits"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("8.5"), std::string::npos) << e.what();
-  }
+  const std::string dac = "{params: {bits: 8}, area_mm2: 4e-5, leakage_mw: 0, actions: {convert: 10}}";
+  const std::string adc = "{params: {bits: 8, columns_per_unit: 128, sample_rate_gsps: 1}, leakage_mw: 0, ";
+  EXPECT_NO_THROW(parse_component_library(library(adc + "area_mm2: 0.0012}", dac), "ok"));
+  auto says = [](const std::string& text, const std::vector<std::string>& words) {
+    try {
+      parse_component_library(text, "lib.yaml");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const InputError& e) {
+      for (const std::string& w : words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
+    }
+  };
+  says(library(adc + "area_mm2: 0.0012, energy_scalling: linear}", dac), {"energy_scalling"});  // unknown key
+  says(library(adc + "area_mm2: 0.0012, area_um2: 1200}", dac), {"area_um2 or area_mm2"});
+  says(library(adc + "area_mm2: -1}", dac), {"area_mm2"});
+  says(library(adc + "area_mm2: 1, area_mm2: 1}", dac), {"lib.yaml"});  // duplicate key
+  says(library(adc + "area_mm2: 1, kind: transistor}", dac), {"kind"});
+  // The fixed form of earlier versions is refused with what to write instead.
+  says("adc: {conversion_pj: 1}\ndac: {conversion_pj: 1}\n", {"lib.yaml", "components:", "isaac.yaml"});
+  says("gpu: {}", {"components:"});
 }
 
 TEST(OverheadCli, Resnet20FourShapesByHand) {
@@ -475,9 +485,9 @@ TEST(Presets, MatchTheSharedOnnxTopologies) {
 
 TEST(CostModel, PredistortionTablesArePricedPerDac) {
   const ComponentLibrary lib = parse_component_library(
-      library("{area_mm2: 1e-4, leakage_mw: 0, conversion_pj: 2, reference_bits: 8, columns_per_unit: 128, "
-              "sample_rate_gsps: 1.28}",
-              "{area_mm2: 4e-5, leakage_mw: 0, conversion_pj: 10, reference_bits: 8}"),
+      library("{params: {bits: 8, columns_per_unit: 128, sample_rate_gsps: 1.28}, area_mm2: 1e-4, leakage_mw: 0, "
+              "actions: {convert: 2}}",
+              "{params: {bits: 8}, area_mm2: 4e-5, leakage_mw: 0, actions: {convert: 10}}"),
       "test");
   const LayerInventory v = matrix_inventory(144, 16, 1024, MappingSpec(), 128);
   CostModel plain{lib, 8, 8, 100.0};
