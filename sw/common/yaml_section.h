@@ -28,15 +28,17 @@ class YamlSection {
     if (!node_.IsMap()) throw InputError(origin_ + ": section '" + name_ + "' must be a map of keys");
   }
   bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  /// A key's dotted path in messages (the file's top level has no name of its own).
+  std::string key_path(const std::string& key) const { return name_.empty() ? key : name_ + "." + key; }
   /// The sub-map at `key` (required).
   YamlSection section(const std::string& key) {
     get(key);
-    return YamlSection(node_[key], name_ + "." + key, origin_, true);
+    return YamlSection(node_[key], key_path(key), origin_, true);
   }
   /// A word (a name).
   std::string word(const std::string& key) {
     const YAML::Node n = get(key);
-    if (!n.IsScalar() || n.Scalar().empty()) throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a name");
+    if (!n.IsScalar() || n.Scalar().empty()) throw InputError(origin_ + ": '" + key_path(key) + "' must be a name");
     return n.Scalar();
   }
   /// A list of words (names); a single word is a list of one.
@@ -48,7 +50,7 @@ class YamlSection {
       for (const auto& item : n)
         if (item.IsScalar()) out.push_back(item.Scalar());
     if (out.empty() || (n.IsSequence() && out.size() != n.size()))
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a name or a list of names");
+      throw InputError(origin_ + ": '" + key_path(key) + "' must be a name or a list of names");
     return out;
   }
   /// The keys present, in file order.
@@ -66,7 +68,7 @@ class YamlSection {
     const YAML::Node n = get(key);
     double v = 0;
     if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || (positive ? !(v > 0) : v < 0) || v > kMaxQuantity)
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a " + (positive ? "positive" : "non-negative") +
+      throw InputError(origin_ + ": '" + key_path(key) + "' must be a " + (positive ? "positive" : "non-negative") +
                        " number at most 1e12, got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return v;
   }
@@ -78,7 +80,7 @@ class YamlSection {
   std::vector<double> reals(const std::string& key, size_t min_count, size_t max_count) {
     const YAML::Node n = get(key);
     if (!n.IsSequence() || n.size() < min_count || n.size() > max_count)
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a list of " + std::to_string(min_count) +
+      throw InputError(origin_ + ": '" + key_path(key) + "' must be a list of " + std::to_string(min_count) +
                        (max_count > min_count ? " to " + std::to_string(max_count) : std::string()) + " numbers");
     std::vector<double> out;
     for (const auto& item : n) out.push_back(real_of(item, key));
@@ -92,12 +94,12 @@ class YamlSection {
     const YAML::Node n = get(key);
     double v = 0;
     if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || !(v >= 1) || v != std::floor(v) || v > kMaxCount)
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a positive integer at most " +
+      throw InputError(origin_ + ": '" + key_path(key) + "' must be a positive integer at most " +
                        std::to_string(kMaxCount) + ", got '" + (n.IsScalar() ? n.Scalar() : "?") + "'");
     return static_cast<int>(v);
   }
   /// "<origin>: '<section>.<key>'", for a caller's message about a value it read.
-  std::string where(const std::string& key) const { return origin_ + ": '" + name_ + "." + key + "'"; }
+  std::string where(const std::string& key) const { return origin_ + ": '" + key_path(key) + "'"; }
   /// The word at `key`, or `fallback` when the key is absent (an optional name).
   std::string word_or(const std::string& key, const std::string& fallback) {
     read_.push_back(key);
@@ -113,7 +115,7 @@ class YamlSection {
         for (size_t i = 0; i < read_.size(); ++i)
           if (std::find(read_.begin(), read_.begin() + static_cast<std::ptrdiff_t>(i), read_[i]) == read_.begin() + static_cast<std::ptrdiff_t>(i))
             list += (list.empty() ? "" : ", ") + read_[i];
-        throw InputError(origin_ + ": unknown key '" + name_ + "." + k + "' (" + list + ")");
+        throw InputError(origin_ + ": unknown key '" + key_path(k) + "' (" + list + ")");
       }
     }
   }
@@ -122,14 +124,14 @@ class YamlSection {
   double real_of(const YAML::Node& n, const std::string& key) const {
     double v = 0;
     if (!n.IsScalar() || !parse_finite_double(n.Scalar(), v) || std::abs(v) > kMaxQuantity)
-      throw InputError(origin_ + ": '" + name_ + "." + key + "' must be a finite number, got '" +
+      throw InputError(origin_ + ": '" + key_path(key) + "' must be a finite number, got '" +
                        (n.IsScalar() ? n.Scalar() : "?") + "'");
     return v;
   }
   YAML::Node get(const std::string& key) {
     read_.push_back(key);
     const YAML::Node n = node_[key];
-    if (!n) throw InputError(origin_ + ": missing key '" + name_ + "." + key + "'");
+    if (!n) throw InputError(origin_ + ": missing key '" + key_path(key) + "'");
     return n;
   }
   YAML::Node node_;

@@ -135,7 +135,7 @@ bool is_named_library(const std::string& yaml_text) {
 NamedLibrary parse_named_library(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml_map(text, origin, "a component library");
   check_yaml_sections(root, {"technology_nm", "voltage_v", "components"}, origin);
-  YamlSection top(root, origin, origin, true);
+  YamlSection top(root, "", origin, true);
   NamedLibrary lib;
   lib.source = origin;
   if (top.has("technology_nm")) lib.technology_nm = top.number("technology_nm", true);  // documentation

@@ -510,7 +510,7 @@ TEST_F(Safety, HardwareQuantitiesAreBounded) {
   spit(library(), lib);
   const Result r = run("overhead --model " + model() + " --json " + path("o.json"));
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_NE(r.out.find("components.adc.area_mm2.value' must be a non-negative number at most 1e12, got '1e308'"),
+  EXPECT_NE(r.out.find("'components.adc.area_mm2.value' must be a non-negative number at most 1e12, got '1e308'"),
             std::string::npos)
       << r.out;
   EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
