@@ -96,9 +96,9 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     }
     const LinearLayer& L = model.linear[st.linear];
     const bool sparse = hw.mapping.scheme == MappingScheme::Sparse;
-    const LayerInventory v =
-        replicated(hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear], reads_image[st.linear]),
-                   sparse ? 1 : replication[st.linear]);
+    const LayerInventory unreplicated =
+        hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear], reads_image[st.linear]);
+    const LayerInventory v = replicated(unreplicated, sparse ? 1 : replication[st.linear]);
     ActionCounts a;
     if (sparse) {
       a = layer_actions_per_image(v, 0);  // counted from the Toeplitz inventory (one iteration)
@@ -125,8 +125,6 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
       }
       unit_lanes_ns += lanes_ns;
       bound = st.bound_by;
-      const LayerInventory unreplicated =
-          hw.inventory(L, hw.mapping.scheme, signed_inputs[st.linear], reads_image[st.linear]);
       est = machine  ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
             : sparse ? sparse_estimated_ns(sparse_iteration_ns(unreplicated, pc), pc)
                      : estimated_compute_ns(unreplicated, &L, &hw.mapping, pc, replication[st.linear]);

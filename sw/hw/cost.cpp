@@ -93,47 +93,28 @@ ComponentBreakdown by_part(const std::map<std::string, double>& parts) {
 std::vector<Instance> CostModel::instances(const LayerInventory* v) const {
   std::vector<Instance> units;
   if (!crossbar_cores) return units;
-  auto unit = [&](const char* name, const char* component, const char* part, long long count, Params p = {}) {
+  auto unit = [&](const char* name, const char* component, const char* part, double count, Params p = {}) {
     lib.named.at(component);  // a library without the part: named in the error
-    units.push_back({name, component, part, v ? static_cast<double>(count) : 0.0, p});
+    units.push_back({name, component, part, v ? count : 0.0, p});
   };
   const LayerInventory none;
   const LayerInventory& n = v ? *v : none;
   const Params adc{{"bits", static_cast<double>(adc_bits_priced())}}, dac{{"bits", static_cast<double>(dac_bits_priced())}};
-  unit("crossbar", "cell", "crossbar", n.cells_present);
-  unit("adc", "adc", "adc", n.adcs, adc);
-  unit("dac", "dac", "dac", n.dacs, dac);
-  if (dac_lut) unit("dac_lut", "dac_lut", "dac", n.dacs);
-  unit("accumulator", "accumulator", "accumulator", n.accumulators);
-  unit("shift_register", "shift_register", "shift_register", n.shift_register_entries * n.input_bytes);
-  units.push_back({"buffer", "buffer", "buffer", v ? static_cast<double>(n.buffer_bytes) / kKiB : 0.0, {}});  // per KiB
-  lib.named.at("buffer");
-  unit("sample_hold", "sample_hold", "sample_hold", n.sample_holds);
-  unit("shift_add", "shift_add", "shift_add", v ? shift_add_units(n) : 0);
-  unit("output_register", "output_register", "output_register", n.output_register_bytes);
+  unit("crossbar", "cell", "crossbar", static_cast<double>(n.cells_present));
+  unit("adc", "adc", "adc", static_cast<double>(n.adcs), adc);
+  unit("dac", "dac", "dac", static_cast<double>(n.dacs), dac);
+  if (dac_lut) unit("dac_lut", "dac_lut", "dac", static_cast<double>(n.dacs));
+  unit("accumulator", "accumulator", "accumulator", static_cast<double>(n.accumulators));
+  unit("shift_register", "shift_register", "shift_register", static_cast<double>(n.shift_register_entries * n.input_bytes));
+  unit("buffer", "buffer", "buffer", static_cast<double>(n.buffer_bytes) / kKiB);  // per KiB
+  unit("sample_hold", "sample_hold", "sample_hold", static_cast<double>(n.sample_holds));
+  unit("shift_add", "shift_add", "shift_add", static_cast<double>(shift_add_units(n)));
+  unit("output_register", "output_register", "output_register", static_cast<double>(n.output_register_bytes));
   unit("interconnect", "interconnect", "interconnect", 0);
   unit("digital", "digital", "digital", 0);
   unit("memory", "memory", "memory", 0);
   return units;
 }
-
-namespace {
-
-/// The ledger's counts of instances that `units` has (neuron cores: none of the crossbar
-/// cores' parts).
-Ledger performed(const Ledger& l, const std::vector<Instance>& units) {
-  Ledger r;
-  for (const Ledger::Count& c : l.counts)
-    for (const Instance& i : units)
-      if (i.name == c.instance) {
-        r.counts.push_back(c);
-        break;
-      }
-  r.energy_pj = l.energy_pj;
-  return r;
-}
-
-}  // namespace
 
 ComponentBreakdown CostModel::area_mm2(const LayerInventory& v) const {
   return by_part(price(lib.named, instances(&v), Ledger{}, 0.0).area_mm2);
@@ -148,6 +129,7 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conversions_per_ns) const {
+  if (!crossbar_cores) return {};  // (neuron cores: priced by their own parts)
   // Actions per ns (GHz) x pJ per action = mW. Every cell and converter of every array is
   // active: the arrays' cells present, not only the used ones (the paper's table). One read
   // per cycle: every DAC reads its input register entry, every column is sampled; every
@@ -167,11 +149,12 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conv
   }
   const std::vector<Instance> units = instances(&v);
   return by_part(price(lib.named, units, Ledger{}, 0.0).leakage_mw) +
-         by_part(price(lib.named, units, performed(per_cycle, units), 0.0).energy_pj) * clock_ghz +
-         by_part(price(lib.named, units, performed(per_ns, units), 0.0).energy_pj);
+         by_part(price(lib.named, units, per_cycle, 0.0).energy_pj) * clock_ghz +
+         by_part(price(lib.named, units, per_ns, 0.0).energy_pj);
 }
 
 ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
+  if (!crossbar_cores) return {};  // (neuron cores: priced by their own parts)
   Ledger l;
   l.add("crossbar", "read", a.cell_reads);
   l.add("adc", "convert", a.adc_conversions);
@@ -188,8 +171,7 @@ ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
   l.add("interconnect", "transfer", a.bus_bytes);
   l.add("digital", "op", a.digital_ops + a.scale_multiplies);
   l.add("memory", "transfer", a.memory_bytes);
-  const std::vector<Instance> units = instances(nullptr);  // the actions' performers
-  return by_part(price(lib.named, units, performed(l, units), 0.0).energy_pj);
+  return by_part(price(lib.named, instances(nullptr), l, 0.0).energy_pj);  // (the actions' performers)
 }
 
 Bill CostModel::platform_bill(int digital_units) const {

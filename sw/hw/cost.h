@@ -74,7 +74,7 @@ struct CostModel {
   /// The inventory's units as instances of the library's components, each named as its part
   /// of ComponentBreakdown (the cells as crossbar, a DAC's table under dac), the converters at
   /// these resolutions; every count is `v`'s (null: 0, the performers of actions only). None
-  /// on neuron cores (crossbar_cores false).
+  /// on neuron cores (crossbar_cores false), whose costs here are all zero.
   std::vector<Instance> instances(const LayerInventory* v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;

@@ -31,13 +31,15 @@ HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig&
   hw.cost.crossbar_cores = !hw.arch.neuron_cores();
   if (hw.cost.crossbar_cores)
     for (const char* part : kCrossbarCoreComponents)
-      if (!hw.lib.named.has(part))
+      if (!hw.lib.named.has(part)) {
+        std::string parts;
+        for (const char* p : kCrossbarCoreComponents) parts += (parts.empty() ? "" : ", ") + std::string(p);
         throw InputError("components.library " + hw.lib.source + " has no component '" + part +
                          "', which a machine of crossbar cores (architecture.machine " + hw.arch.name +
-                         ") prices: the crossbar cores' parts are cell, adc, dac, accumulator, shift_register, "
-                         "sample_hold, shift_add, output_register, buffer, interconnect, digital and memory "
-                         "(configs/components/isaac.yaml); a library of neuron-core parts (neurram) prices "
+                         ") prices: the crossbar cores' parts are " + parts +
+                         " (configs/components/isaac.yaml); a library of neuron-core parts (neurram) prices "
                          "architecture.machine: neurram");
+      }
   const ConvertersSpec image = ac.converters.for_layer(true);  // the converters of a layer reading the image
   if (hw.arch.neuron_cores()) {  // one read's time follows from the precision
     const int in = ac.converters.activation_bits(), out = ac.converters.adc_bits;

@@ -51,6 +51,15 @@ struct Driver : sc_core::sc_module {
   }
 };
 
+/// A timing-only job of layer `L` on `analog` (the whole pass; the tests set its part).
+LayerJob timing_job(const LinearLayer& L, const AnalogLayer& analog) {
+  LayerJob job;
+  job.layer = &L;
+  job.analog = &analog;
+  job.timing_only = true;
+  return job;
+}
+
 /// When each group left the tile (ns).
 std::vector<double> completions(const Tile& tile) {
   std::vector<double> ns;
@@ -118,10 +127,7 @@ TEST(TileSchedule, OneCrossbarAtOneTwoAndEightColumnsPerAdcAndOneFourAndEightBit
       tiles.push_back(std::make_unique<Tile>(("tile_" + id).c_str(), pc));
       drivers.push_back(std::make_unique<Driver>(("driver_" + id).c_str()));
       drivers.back()->out.bind(tiles.back()->noc2tile);
-      LayerJob job;
-      job.layer = &L;
-      job.analog = analog.back().get();
-      job.timing_only = true;
+      LayerJob job = timing_job(L, *analog.back());
       drivers.back()->jobs.push_back(job);
       // By hand: 16 physical columns, cpa of them per ADC: cpa conversions a read.
       const double dac = std::ceil(2.0 * b / 10 - 1e-9) * 10, adc = b * cpa * 10.0;
@@ -163,10 +169,7 @@ TEST(TileSchedule, ARowGroupOnCopiesTakesTheSlowestShareThenTheRestOfTheDatapath
   Tile tile("tile", pc, 3);
   Driver driver("driver");
   driver.out.bind(tile.noc2tile);
-  LayerJob job;
-  job.layer = &L;
-  job.analog = &analog;
-  job.timing_only = true;
+  LayerJob job = timing_job(L, analog);
   job.replication = 3;
   job.first_iteration = 6;
   job.count = 12;
@@ -243,10 +246,7 @@ TEST(TileSchedule, AFullOutputRegisterStallsTheAccumulatorAndHoldsTheGroupsBack)
   driver.out.bind(tile.noc2tile);
   tile.set_output([&](const TileToken& t) { return consumer.in.nb_write(t.row); }, &consumer.in.data_read_event());
   for (int g = 0; g < 4; ++g) {
-    LayerJob job;
-    job.layer = &L;
-    job.analog = &analog;
-    job.timing_only = true;
+    LayerJob job = timing_job(L, analog);
     job.first_iteration = g;
     job.count = 1;
     driver.jobs.push_back(job);
@@ -300,10 +300,7 @@ TEST(TileSchedule, TwoTilesAFullFifoInTheSecondStallsItsDac) {
   driver.out.bind(a.noc2tile);
   relay.out.bind(b.noc2tile);
   a.set_output([&](const TileToken& t) { return relay.in.nb_write(t.row); }, &relay.in.data_read_event());
-  LayerJob job;
-  job.layer = &L;
-  job.analog = &analog;
-  job.timing_only = true;
+  LayerJob job = timing_job(L, analog);
   job.count = 1;
   relay.job = job;
   for (int g = 0; g < 4; ++g) {
@@ -338,10 +335,7 @@ TEST(TileSchedule, ASparseLayersIterationPerImageGoesThroughTheUnitsAndImagesOve
   Tile tile("tile", pc);
   Driver driver("driver");
   driver.out.bind(tile.noc2tile);
-  LayerJob job;
-  job.layer = &L;
-  job.analog = &analog;
-  job.timing_only = true;
+  LayerJob job = timing_job(L, analog);
   job.sparse = true;
   job.count = 8;  // two rows of four
   const double given[kStages] = {10, 2, 30, 200, 2};
