@@ -36,13 +36,6 @@ struct ChipPeak {
   nlohmann::json to_json() const;
 };
 
-/// Energy (pJ) of the input pulses of one magnitude bit on one core: the architecture's
-/// workload (weights Gaussian clipped at weight_clip_sigma, quantized to the mapping's bits on
-/// its polarities over the device's conductance range; each row pulsed at v_read_v with
-/// probability bit_density, else at 0 V), solved in voltage mode with the configured wires
-/// and devices, the cells' dissipated power x pulse_ns, averaged over `vectors` draws.
-double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac);
-
 /// The machine's peak figures at the configured precision; InputError when the machine has
 /// no neuron cores.
 ChipPeak chip_peak(const HardwareContext& hw);
