@@ -110,9 +110,10 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     }
     add_layer_cost(cost, hw, v, a);
     on_machine.edram_read_bytes += a.buffer_read_bytes;  // on a machine they cross its tile's bus
-    const double e_uj = hw.cost.dynamic_energy_pj(a).total() * 1e-6;
+    const double e_uj = hw.arch.core().layer_energy_pj(hw, v, a).total() * 1e-6;
     macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
+    const ComponentBreakdown area = hw.arch.core().layer_area_mm2(hw, v);
     const double busy = st.busy_ns / images, stall = st.stall_ns / images;
     // The mapper's estimate beside the simulated busy time, and the tile's units.
     nlohmann::json units = nlohmann::json::object(), estimate_us, over_estimate, bound;
@@ -153,8 +154,8 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
                       {"buffer_bytes", st.buffer_bytes},
                       {"buffer_peak_bytes", st.buffer_peak_bytes},
                       {"energy_uj", e_uj},
-                      {"area_mm2", hw.cost.area_mm2(v).total()},
-                      {"area_breakdown_mm2", hw.cost.area_mm2(v).to_json()}});
+                      {"area_mm2", area.total()},
+                      {"area_breakdown_mm2", area.to_json()}});
     if (print)
       table.print_row(
           stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,

@@ -50,16 +50,7 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     YamlSection out(root, "readout", origin);
     a.readout = parse_readout_spec(out);
   }
-  if (a.neuron_cores()) {
-    if (ima.has("read_ns"))
-      throw InputError(ima.where("read_ns") + ": a neuron readout's read time follows from its steps at each "
-                       "precision (readout.integrate_ns, adc_step_ns, phase_ns); leave it out");
-    if (a.input.kind != InputEncoding::SignMagnitude)
-      throw InputError(origin + ": 'readout.kind: neuron' integrates sign-magnitude pulses: set 'input.kind: "
-                       "sign_magnitude'");
-  } else {
-    a.ima.read_ns = ima.number("read_ns", true);
-  }
+  a.core().read_ima(a, ima, origin);
   a.ima.input_register_bytes = ima.integer("input_register_bytes");
   a.ima.output_register_bytes = ima.integer("output_register_bytes");
   if (ima.has("components")) {
@@ -82,14 +73,6 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
     comps.finish();
   }
   ima.finish();
-  if (a.neuron_cores()) {  // the parts count actions of instances the core must have
-    for (const std::string* role : {&a.readout.adc, &a.readout.integrator, &a.readout.sample, &a.readout.shift_add,
-                                    &a.input.wordline})
-      if (std::none_of(a.ima.components.begin(), a.ima.components.end(),
-                       [&](const Instance& i) { return i.name == *role; }))
-        throw InputError(origin + ": the readout and input name instance '" + *role +
-                         "', which 'ima.components' does not have");
-  }
   const long long ima_columns = static_cast<long long>(a.ima.crossbars) * a.crossbar.cols;
   if (ima_columns > Architecture::kMaxImaColumns)
     throw InputError(origin + ": an IMA's columns ('ima.crossbars' x 'crossbar.cols') = " + std::to_string(ima_columns) +
@@ -157,16 +140,14 @@ Architecture parse_architecture(const std::string& text, const std::string& orig
       a.chip.hop_ns = router.number("hop_ns");
       router.finish();
     }
-    if (chip.has("offchip") || !a.neuron_cores()) {
+    if (chip.has("offchip")) {
       YamlSection offchip = chip.section("offchip");
       a.chip.offchip = unit_use(offchip, "bytes_per_ns");
       offchip.finish();
     }
   }
   chip.finish();
-  if (!a.neuron_cores() && (a.tile.edram_bytes == 0 || a.tile.bus.unit.empty() || !a.chip.has_router()))
-    throw InputError(origin + ": a machine of current-mode IMAs needs 'tile.edram', 'tile.bus' and 'chip.router' "
-                     "(only neuron cores are described without them)");
+  a.core().check_machine(a, origin);
   // The chip's crossbars (each factor at most 2^30: the product fits in 128 bits; within the
   // limit every count of the machine fits in 64).
   const __int128 chip_crossbars = static_cast<__int128>(a.chip.tiles) * a.tile.imas * a.ima.crossbars;
@@ -258,35 +239,11 @@ double MachineBill::peak_mw(const std::vector<BillLine>& lines) {
   return p;
 }
 
-namespace {
-
-/// A machine of neuron cores: each core's named components priced by the named library (area
-/// and leakage; their energy per read depends on the precision: sw/study/chip_peak.h), the
-/// chip its cores.
-MachineBill price_neuron_machine(const Architecture& arch, const ComponentLibrary& lib) {
-  MachineBill bill;
-  const double cores = static_cast<double>(arch.chip.tiles) * arch.tile.imas;
-  for (const Instance& i : arch.ima.components) {
-    const Bill b = price(lib.named, {i}, Ledger{}, 0.0);
-    bill.ima.push_back({i.name, static_cast<long long>(i.count), b.total_area_mm2(), 0.0, b.total_leakage_mw()});
-    bill.chip_area_mm2.parts[i.part] += bill.ima.back().area_mm2 * cores;
-    bill.chip_leakage_mw.parts[i.part] += bill.ima.back().leakage_mw * cores;
-  }
-  bill.tile.push_back({"core", arch.tile.imas, arch.tile.imas * MachineBill::area(bill.ima), 0.0,
-                       arch.tile.imas * MachineBill::leakage(bill.ima)});
-  bill.chip.push_back({"tile", arch.chip.tiles, arch.chip.tiles * MachineBill::area(bill.tile), 0.0,
-                       arch.chip.tiles * MachineBill::leakage(bill.tile)});
-  return bill;
-}
-
-}  // namespace
-
 MachineBill price_machine(const Architecture& arch, const CostModel& cost, const ConvertersSpec& converters,
                           const MappingSpec& mapping) {
   if (!arch.machine) throw std::logic_error("price_machine: layer-sized is no machine");
   MachineBill bill;
   const ComponentLibrary& lib = cost.lib;
-  if (arch.neuron_cores()) return price_neuron_machine(arch, lib);
   // One IMA as the counting rule's inventory: every crossbar present and read each read_ns.
   const long long xb = arch.ima.crossbars, rows = arch.crossbar.rows, cols = arch.crossbar.cols;
   LayerInventory v;

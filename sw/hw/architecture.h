@@ -12,6 +12,7 @@
 #include "sw/analog/analog_spec.h"
 #include "sw/common/config.h"
 #include "sw/hw/components.h"
+#include "sw/hw/core_kind.h"
 #include "sw/hw/core_parts.h"
 #include "sw/hw/cost.h"
 
@@ -51,7 +52,8 @@ struct Architecture {
   } ima;
   InputSpec input;      ///< section input: how inputs reach the rows (default bit_serial)
   ReadoutSpec readout;  ///< section readout: how columns are read (default current_adc)
-  bool neuron_cores() const { return readout.kind == ReadoutKind::Neuron; }
+  /// What the cores' kind (their readout) decides: sw/hw/core_kind.h.
+  const CoreKind& core() const { return core_kind(readout.kind); }
   /// A neuron core's steps of one read at (input, output) bits.
   ReadSteps read_steps(int input_bits, int output_bits) const {
     return neuron_read_steps(input, readout, input_bits, output_bits);
@@ -143,7 +145,8 @@ struct MachineBill {
   static double leakage(const std::vector<BillLine>& lines);
 };
 
-/// Prices `arch` with `cost` (the library and the converters' resolutions); the IMA's reads
+/// Prices `arch`, a machine of crossbar cores, with `cost` (the library and the converters'
+/// resolutions; CoreKind::machine_bill prices every kind); the IMA's reads
 /// are streamed as `converters` and `mapping` say (bit-serial inputs or sliced weights: its
 /// shift-and-add units and output register work at the ADCs' rate).
 MachineBill price_machine(const Architecture& arch, const CostModel& cost, const ConvertersSpec& converters,

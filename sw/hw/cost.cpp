@@ -92,7 +92,6 @@ ComponentBreakdown by_part(const std::map<std::string, double>& parts) {
 
 std::vector<Instance> CostModel::instances(const LayerInventory* v) const {
   std::vector<Instance> units;
-  if (!crossbar_cores) return units;
   auto unit = [&](const char* name, const char* component, const char* part, double count, Params p = {}) {
     lib.named.at(component);  // a library without the part: named in the error
     units.push_back({name, component, part, v ? count : 0.0, p});
@@ -129,7 +128,6 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v) const {
 }
 
 ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conversions_per_ns) const {
-  if (!crossbar_cores) return {};  // (neuron cores: priced by their own parts)
   // Actions per ns (GHz) x pJ per action = mW. Every cell and converter of every array is
   // active: the arrays' cells present, not only the used ones (the paper's table). One read
   // per cycle: every DAC reads its input register entry, every column is sampled; every
@@ -154,7 +152,6 @@ ComponentBreakdown CostModel::peak_power_mw(const LayerInventory& v, double conv
 }
 
 ComponentBreakdown CostModel::dynamic_energy_pj(const ActionCounts& a) const {
-  if (!crossbar_cores) return {};  // (neuron cores: priced by their own parts)
   Ledger l;
   l.add("crossbar", "read", a.cell_reads);
   l.add("adc", "convert", a.adc_conversions);

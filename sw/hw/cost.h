@@ -63,9 +63,6 @@ struct CostModel {
   /// Every DAC has an input pre-distortion lookup table (converters.dac_predistortion with a
   /// nonlinear memristor): the library's dac_lut figures are added to each DAC's.
   bool dac_lut = false;
-  /// The machine's cores are crossbar cores, whose parts the inventory counts; a machine of
-  /// neuron cores prices its cores by their own parts (price_machine), and nothing here.
-  bool crossbar_cores = true;
   int dac_bits_priced() const { return dac_bits > 0 ? dac_bits : lib.reference_bits("dac"); }
   int adc_bits_priced() const { return adc_bits > 0 ? adc_bits : lib.reference_bits("adc"); }
 
@@ -73,8 +70,8 @@ struct CostModel {
   long long shift_add_units(const LayerInventory& v) const;
   /// The inventory's units as instances of the library's components, each named as its part
   /// of ComponentBreakdown (the cells as crossbar, a DAC's table under dac), the converters at
-  /// these resolutions; every count is `v`'s (null: 0, the performers of actions only). None
-  /// on neuron cores (crossbar_cores false), whose costs here are all zero.
+  /// these resolutions; every count is `v`'s (null: 0, the performers of actions only).
+  /// (Crossbar cores' parts: a machine of neuron cores prices its own, sw/hw/core_kind.h.)
   std::vector<Instance> instances(const LayerInventory* v) const;
   ComponentBreakdown area_mm2(const LayerInventory& v) const;
   ComponentBreakdown leakage_mw(const LayerInventory& v) const;

@@ -4,6 +4,7 @@
 /// it is priced for, and (neuron cores) its reads at the configured precision.
 #include "sw/analog/analog_layer.h"
 #include "sw/hw/architecture.h"
+#include "sw/hw/core_kind.h"
 #include "sw/hw/cost.h"
 #include "sw/hw/inventory.h"
 #include "sw/hw/platform_spec.h"
@@ -19,7 +20,7 @@ struct HardwareContext {
   int columns_per_adc = 128;  ///< converters.adc_columns_per_adc resolved with the library or the machine
   bool column_scales = false;  ///< ranging.weight_scale: column (a digital multiply per crossbar output)
   CostModel cost;
-  /// Neuron cores (arch.neuron_cores()): the steps of one read at the configured precision and
+  /// Neuron cores (their CoreKind::configure): the steps of one read at the configured precision and
   /// the solved energy (pJ) of one magnitude bit's input pulses on a whole core.
   ReadSteps read_steps;
   /// Neuron cores: the steps of one read of a layer that reads the image (converters.image_bits;
@@ -37,12 +38,5 @@ struct HardwareContext {
 /// Reads components.library, architecture.machine and platform.*; mapping and converters
 /// come from `ac` (and must fit the machine: check_crossbar_geometry, the ADC sharing).
 HardwareContext make_hardware_context(const ConfigTree& cfg, const AnalogConfig& ac);
-
-/// Energy (pJ) of the input pulses of one magnitude bit on one core: the architecture's
-/// workload (weights Gaussian clipped at weight_clip_sigma, quantized to the mapping's bits on
-/// its polarities over the device's conductance range; each row pulsed at v_read_v with
-/// probability bit_density, else at 0 V), solved in voltage mode with the configured wires
-/// and devices, the cells' dissipated power x pulse_ns, averaged over `vectors` draws.
-double input_pulse_pj_per_bit(const Architecture& arch, const AnalogConfig& ac);
 
 }  // namespace xbarsim

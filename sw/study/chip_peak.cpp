@@ -1,6 +1,7 @@
 #include "sw/study/chip_peak.h"
 
 #include <algorithm>
+#include <optional>
 
 namespace xbarsim {
 
@@ -23,7 +24,8 @@ nlohmann::json ChipPeak::to_json() const {
 
 ChipPeak chip_peak(const HardwareContext& hw) {
   const Architecture& a = hw.arch;
-  if (!a.machine || !a.neuron_cores())
+  const std::optional<Bill> read = a.machine ? a.core().core_read(hw) : std::nullopt;
+  if (!read)
     throw InputError("give --model or --preset: without a network simulate reports the peak figures of a machine "
                      "of neuron cores (e.g. --config configs/neurram.yaml), and architecture.machine " + a.name +
                      " has none");
@@ -37,11 +39,7 @@ ChipPeak chip_peak(const HardwareContext& hw) {
   r.ops_per_read = 2.0 * a.crossbar.rows * a.crossbar.cols / std::max(1, hw.mapping.columns_per_weight()) *
                    a.ima.crossbars;
   r.pulse_pj_per_bit = hw.core_pulse_pj_per_bit * a.ima.crossbars;
-  // One core's read: every column a neuron read, every cell read; leakage over the read.
-  const double xbars = a.ima.crossbars;
-  r.per_read = price(hw.lib.named, a.ima.components,
-                     neuron_read_ledger(hw, hw.read_steps, xbars * a.crossbar.cols, xbars * a.crossbar.rows * a.crossbar.cols),
-                     r.steps.time_ns);
+  r.per_read = *read;  // one core's read: every column a neuron read, every cell read; leakage over the read
   r.tops = r.ops_per_read * static_cast<double>(r.cores) / r.steps.time_ns * 1e-3;  // ops/ns = 1e9 ops/s; TOPS
   for (const auto& [part, pj] : r.per_read.energy_pj) r.fj_per_op[part] = pj * 1e3 / r.ops_per_read;
   r.tops_per_w = r.ops_per_read / r.per_read.total_energy_pj();  // ops/pJ = TOPS/W

@@ -27,65 +27,20 @@ nlohmann::json CostReport::to_json() const {
           {"time_ns_per_image", time_ns}};
 }
 
-Ledger neuron_read_ledger(const HardwareContext& hw, const ReadSteps& s, double neuron_reads, double cell_reads) {
-  const Architecture& arch = hw.arch;
-  Ledger l;
-  l.add(arch.readout.adc, "step", neuron_reads * static_cast<double>(s.adc_steps));
-  l.add(arch.readout.integrator, "step", neuron_reads * static_cast<double>(s.integrate_steps));
-  l.add(arch.readout.sample, "sample", neuron_reads * static_cast<double>(s.samples));
-  l.add(arch.readout.shift_add, "add", neuron_reads * s.phases);
-  l.add(arch.input.wordline, "switch", neuron_reads * arch.input.wordline_switches_per_bit * s.magnitude_bits);
-  const double cells = static_cast<double>(arch.crossbar.rows) * arch.crossbar.cols;
-  l.energy_pj["input_pulses"] = cell_reads / cells * hw.core_pulse_pj_per_bit * s.magnitude_bits;
-  return l;
-}
-
-ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ReadSteps& steps, const ActionCounts& a) {
-  // Every converted column is one neuron's read.
-  const Bill b = price(hw.lib.named, hw.arch.ima.components, neuron_read_ledger(hw, steps, a.adc_conversions, a.cell_reads), 0.0);
-  ComponentBreakdown e;
-  for (const auto& [part, pj] : b.energy_pj)
-    if (pj > 0) e.parts[part] = pj;
-  return e;
-}
-
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a) {
-  r.area_mm2 += hw.cost.area_mm2(v);
-  r.peak_power_mw += hw.cost.peak_power_mw(v);
-  r.leakage_mw += hw.cost.leakage_mw(v);
-  r.dynamic_energy_uj +=
-      (hw.arch.neuron_cores() ? neuron_energy_pj(hw, hw.steps_of(v), a) : hw.cost.dynamic_energy_pj(a)) * 1e-6;
+  const CoreKind& core = hw.arch.core();
+  r.area_mm2 += core.layer_area_mm2(hw, v);
+  r.peak_power_mw += core.layer_peak_power_mw(hw, v);
+  r.leakage_mw += core.layer_leakage_mw(hw, v);
+  r.dynamic_energy_uj += core.layer_energy_pj(hw, v, a) * 1e-6;
   r.crossbars += v.crossbars;
   r.adcs += v.adcs;
   r.dacs += v.dacs;
 }
 
-namespace {
-
-/// The machine's bill; neuron cores' peak power is every core reading back to back: one whole
-/// core's read (every column converted, every cell read) each read time.
-MachineBill machine_bill(const HardwareContext& hw) {
-  MachineBill bill = price_machine(hw.arch, hw.cost, hw.converters, hw.mapping);
-  if (!hw.arch.neuron_cores()) return bill;
-  const Architecture& a = hw.arch;
-  ActionCounts read;
-  read.adc_conversions = static_cast<double>(a.crossbar.cols) * a.ima.crossbars;
-  read.cell_reads = static_cast<double>(a.crossbar.rows) * a.crossbar.cols * a.ima.crossbars;
-  const ComponentBreakdown core_mw = neuron_energy_pj(hw, hw.read_steps, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
-  const double cores = static_cast<double>(a.chip.tiles) * a.tile.imas;
-  for (BillLine& l : bill.ima) l.peak_mw = l.leakage_mw;
-  bill.ima.push_back({"reads", 1, 0.0, core_mw.total(), 0.0});
-  bill.tile.front().peak_mw = a.tile.imas * MachineBill::peak_mw(bill.ima);
-  bill.chip.front().peak_mw = a.chip.tiles * MachineBill::peak_mw(bill.tile);
-  bill.chip_peak_mw = bill.chip_leakage_mw + core_mw * cores;
-  return bill;
-}
-
-}  // namespace
-
 void price_whole_machine(CostReport& r, const HardwareContext& hw) {
   if (!hw.arch.machine) return;
-  const MachineBill bill = machine_bill(hw);
+  const MachineBill bill = hw.arch.core().machine_bill(hw);
   r.area_mm2 = bill.chip_area_mm2;
   r.peak_power_mw = bill.chip_peak_mw;
   r.leakage_mw = bill.chip_leakage_mw;
@@ -155,7 +110,7 @@ MachineReport machine_report(const Model& m, const HardwareContext& hw, const st
   r.tiles = a.chip.tiles;
   r.imas_per_tile = a.tile.imas;
   r.crossbars_per_ima = a.ima.crossbars;
-  r.bill = machine_bill(hw);
+  r.bill = a.core().machine_bill(hw);
   std::vector<LayerInventory> layers;
   for (size_t l = 0; l < m.linear.size(); ++l)
     layers.push_back(hw.inventory(m.linear[l], MappingScheme::Dense, signed_inputs.at(l), reads_image.at(l)));

@@ -18,17 +18,6 @@ struct CostReport {
   nlohmann::json to_json() const;
 };
 
-/// Neuron cores: the named actions of `neuron_reads` neuron reads (each converted column one:
-/// its parts' steps, its word line's switches at the configured precision) and of `cell_reads`
-/// cell reads (each its share of a core's solved input pulses, an energy of part
-/// input_pulses), for price() with hw.arch.ima.components.
-Ledger neuron_read_ledger(const HardwareContext& hw, const ReadSteps& steps, double neuron_reads, double cell_reads);
-
-/// Neuron cores: the energy (pJ) of counted actions by named part (each converted column one
-/// neuron read: its parts' steps and its word line's switches; each cell read its share of the
-/// solved input pulses).
-ComponentBreakdown neuron_energy_pj(const HardwareContext& hw, const ReadSteps& steps, const ActionCounts& a);
-
 /// Adds one layer (its inventory and the actions of one image) to `r`.
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a);
 

@@ -40,7 +40,7 @@ nlohmann::json OverheadReport::to_json() const {
 OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
   OverheadReport r;
   auto priced = [&](const LayerInventory& v) {
-    return MappingOverhead{v, hw.cost.area_mm2(v), hw.cost.peak_power_mw(v)};
+    return MappingOverhead{v, hw.arch.core().layer_area_mm2(hw, v), hw.arch.core().layer_peak_power_mw(hw, v)};
   };
   const std::vector<bool> signed_inputs = linear_inputs_signed(m), reads_image = linear_reads_image(m);
   for (size_t l = 0; l < m.linear.size(); ++l) {

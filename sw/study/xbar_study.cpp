@@ -103,7 +103,7 @@ XbarStudyResult run_xbar_study(const XbarStudySpec& spec, const HardwareContext&
   r.error = relative_error(r.actual, r.ideal);
   r.inventory = matrix_inventory(spec.rows, spec.cols, spec.vectors, ac.mapping, hw.columns_per_adc);
   stream_inputs(r.inventory, ac.converters, kSignedInputs);
-  r.area_mm2 = hw.cost.area_mm2(r.inventory);
+  r.area_mm2 = hw.arch.core().layer_area_mm2(hw, r.inventory);
   for (int b = 0; b < layer.crossbars(); ++b) {
     const CrossbarReport& rep = layer.reports()[b];
     const Block& blk = rep.block;
