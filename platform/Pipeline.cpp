@@ -10,6 +10,7 @@
 #include <map>
 
 #include "sw/hw/inventory.h"
+#include "sw/nn/ops.h"
 #include "modules/sim_time.h"
 #include "sw/common/output_file.h"
 
@@ -155,40 +156,31 @@ struct Pipeline::Stage : public sc_core::sc_module {
 std::pair<int, int> Pipeline::Stage::window(int i, int r) const {
   const int h = in_shape[i].h;
   auto clamp = [&](int first, int last) { return std::make_pair(std::clamp(first, 0, h), std::min(last, h - 1)); };
-  switch (op->kind) {
-    case OpKind::Linear: {
+  switch (op_info(op->kind).rows) {
+    case RowRule::Layer: {
       const LinearLayer& L = owner->model_.linear[op->linear];
       if (sparse) return {0, h - 1};  // a Toeplitz layer reads the whole input at once
       if (!L.is_conv || h == 1) return {0, 0};
       return clamp(r * L.stride_h - L.pad_t, r * L.stride_h - L.pad_t + L.k_h - 1);
     }
-    case OpKind::MaxPool:
-    case OpKind::AvgPool:
+    case RowRule::Window:
       return clamp(r * op->s_h - op->p_t, r * op->s_h - op->p_t + op->k_h - 1);
-    case OpKind::GlobalAvgPool:
-    case OpKind::Flatten:
+    case RowRule::Whole:
       return {0, h - 1};
-    case OpKind::Pad: {
+    case RowRule::Pad: {
       const int y = r - op->pad_lo[1];
       if (y < 0) return {0, -1};
       if (y >= h) return {h, -1};
       return {y, y};
     }
-    case OpKind::Slice: {
+    case RowRule::Slice: {
       const int y = op->start[1] + r * op->step[1];
       return {y, y};
     }
-    case OpKind::Add:
-    case OpKind::Sub:
-    case OpKind::Mul:
-    case OpKind::Div:
+    case RowRule::Elementwise:
       return h == 1 ? std::make_pair(0, 0) : std::make_pair(r, r);  // one row: broadcast to every row
-    case OpKind::Relu:
-    case OpKind::Affine:
-    case OpKind::Activation:
-    case OpKind::Softmax:
-    case OpKind::Concat:
-    case OpKind::Shuffle:
+    case RowRule::RowWise:
+    case RowRule::Channels:
       return {r, r};
   }
   return {r, r};
@@ -203,29 +195,20 @@ int auto_buffer_rows(const Model& m, const Op& op, const Shape& in, bool sequent
   if (sequential) return in.h;  // a stage starts an image only when its whole input is present
   // A group of `grain` output rows reads (grain - 1) strides plus the kernel; the producer
   // delivers `grain` rows at a time.
-  switch (op.kind) {
-    case OpKind::Linear: {
+  switch (op_info(op.kind).rows) {
+    case RowRule::Layer: {
       const LinearLayer& L = m.linear[op.linear];
       return L.is_conv ? std::min(in.h, L.k_h + L.stride_h * grain + grain) : in.h;
     }
-    case OpKind::MaxPool:
-    case OpKind::AvgPool:
+    case RowRule::Window:
       return std::min(in.h, op.k_h + op.s_h * grain + grain);
-    case OpKind::Add:
-    case OpKind::Sub:
-    case OpKind::Mul:
-    case OpKind::Div:
-    case OpKind::Concat:
-    case OpKind::GlobalAvgPool:
-    case OpKind::Flatten:
+    case RowRule::Elementwise:
+    case RowRule::Channels:
+    case RowRule::Whole:
       return in.h;
-    case OpKind::Relu:
-    case OpKind::Affine:
-    case OpKind::Activation:
-    case OpKind::Softmax:
-    case OpKind::Slice:
-    case OpKind::Pad:
-    case OpKind::Shuffle:
+    case RowRule::RowWise:
+    case RowRule::Slice:
+    case RowRule::Pad:
       return std::min(in.h, 2 * grain);
   }
   return in.h;
@@ -554,43 +537,25 @@ void Pipeline::submit_values(Stage& s, int image) {
   for (int v : op.in) xs.push_back(&im.v[v]);
   std::vector<float>* y = &im.v[op.out];
   TaskGraph::Task task;
-  switch (op.kind) {
-    case OpKind::Linear:
-      // The tile's datapath, by its modules' functions, on this worker's copy of the job.
-      task = [this, &op, x0 = xs.front(), y, image](int worker) {
-        const LinearLayer& L = model_.linear[op.linear];
-        LayerJob& job = *scratch_[static_cast<size_t>(worker)][static_cast<size_t>(op.linear)];
-        job.reset_counters();
-        job.layer = &L;
-        job.analog = &programmed_.layer(op.linear);
-        job.activation = x0->data();
-        job.image = static_cast<uint64_t>(image);
-        job.detailed = true;
-        Tile::compute_values(job);
-        const int pixels = L.out.h * L.out.w;
-        float* out = y->data();
-        for (int c = 0; c < L.c_out; ++c)
-          for (int q = 0; q < pixels; ++q) out[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
-      };
-      break;
-    case OpKind::Relu:
-    case OpKind::Add:
-    case OpKind::Sub:
-    case OpKind::Mul:
-    case OpKind::Div:
-    case OpKind::Affine:
-    case OpKind::MaxPool:
-    case OpKind::AvgPool:
-    case OpKind::GlobalAvgPool:
-    case OpKind::Flatten:
-    case OpKind::Pad:
-    case OpKind::Slice:
-    case OpKind::Activation:
-    case OpKind::Softmax:
-    case OpKind::Concat:
-    case OpKind::Shuffle:
-      task = [this, &op, xs, y](int) { digital_op(op, model_.values, xs, *y); };
-      break;
+  if (op.kind == OpKind::Linear) {
+    // The tile's datapath, by its modules' functions, on this worker's copy of the job.
+    task = [this, &op, x0 = xs.front(), y, image](int worker) {
+      const LinearLayer& L = model_.linear[op.linear];
+      LayerJob& job = *scratch_[static_cast<size_t>(worker)][static_cast<size_t>(op.linear)];
+      job.reset_counters();
+      job.layer = &L;
+      job.analog = &programmed_.layer(op.linear);
+      job.activation = x0->data();
+      job.image = static_cast<uint64_t>(image);
+      job.detailed = true;
+      Tile::compute_values(job);
+      const int pixels = L.out.h * L.out.w;
+      float* out = y->data();
+      for (int c = 0; c < L.c_out; ++c)
+        for (int q = 0; q < pixels; ++q) out[static_cast<size_t>(c) * pixels + q] = job.y(q, c) + L.bias(c);
+    };
+  } else {
+    task = [this, &op, xs, y](int) { digital_op(op, model_.values, xs, *y); };
   }
   im.producer[op.out] = tasks_->submit(std::move(task), after);
 }

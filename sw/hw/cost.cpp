@@ -1,5 +1,7 @@
 #include "sw/hw/cost.h"
 
+#include "sw/nn/ops.h"
+
 namespace xbarsim {
 
 namespace {
@@ -216,31 +218,7 @@ long long activation_row_bytes(const Shape& s, int activation_bytes) {
 }
 
 long long digital_row_ops(const Op& op, const Shape& out, const Shape& in0) {
-  switch (op.kind) {
-    case OpKind::Relu:
-    case OpKind::Affine:
-    case OpKind::Add:
-    case OpKind::Sub:
-    case OpKind::Mul:
-    case OpKind::Div:
-    case OpKind::Activation:
-      return static_cast<long long>(out.c) * out.w;
-    case OpKind::Softmax:  // per value: an exponential, its share of the sum, a division
-      return 3LL * out.c * out.w;
-    case OpKind::MaxPool:
-    case OpKind::AvgPool:
-      return static_cast<long long>(out.c) * out.w * op.k_h * op.k_w;
-    case OpKind::GlobalAvgPool:
-      return static_cast<long long>(in0.size());
-    case OpKind::Pad:
-    case OpKind::Slice:
-    case OpKind::Flatten:
-    case OpKind::Concat:
-    case OpKind::Shuffle:
-    case OpKind::Linear:  // (a tile's work is its crossbars')
-      return 0;
-  }
-  return 0;
+  return op_info(op.kind).row_ops(op, out, in0);
 }
 
 PlatformActions platform_actions(const Model& m, int activation_bytes) {

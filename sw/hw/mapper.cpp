@@ -1,6 +1,7 @@
 #include "sw/hw/mapper.h"
 
 #include "sw/hw/cost.h"
+#include "sw/nn/ops.h"
 
 #include <algorithm>
 #include <cmath>
@@ -260,39 +261,7 @@ nlohmann::json Mapping::to_json() const {
   return j;
 }
 
-const char* digital_op_name(OpKind k) {
-  switch (k) {
-    case OpKind::Relu:
-      return "relu";
-    case OpKind::Affine:
-      return "affine";
-    case OpKind::Add:
-    case OpKind::Sub:  // an adder subtracts
-      return "add";
-    case OpKind::Mul:
-      return "mul";
-    case OpKind::Div:
-      return "div";
-    case OpKind::MaxPool:
-      return "maxpool";
-    case OpKind::AvgPool:
-      return "avgpool";
-    case OpKind::GlobalAvgPool:
-      return "globalavgpool";
-    case OpKind::Activation:
-      return "activation";
-    case OpKind::Softmax:
-      return "softmax";
-    case OpKind::Linear:
-    case OpKind::Flatten:
-    case OpKind::Slice:
-    case OpKind::Pad:
-    case OpKind::Concat:
-    case OpKind::Shuffle:
-      return "";
-  }
-  return "";
-}
+const char* digital_op_name(OpKind k) { return op_info(k).unit_op; }
 
 std::vector<std::vector<int>> place_operations(const Model& m, const Mapping& mp) {
   std::vector<std::vector<int>> tiles(m.ops.size());
