@@ -406,6 +406,7 @@ TEST(SimulateCommand, NeuronCoresAreTimedByTheirReadoutSteps) {
   const auto j = read_json(json);
   const double cycle_us = (3 * 270 + 5 * 300 + 300) * 1e-3;
   ASSERT_NEAR(1.0 / j["clock_mhz"].get<double>(), cycle_us, 1e-9);
+  double layers_uj = 0;
   for (const auto& l : j["layers"]) {
     if (l["name"] == "conv1") {
       EXPECT_EQ(l["replication"], 4);
@@ -418,7 +419,13 @@ TEST(SimulateCommand, NeuronCoresAreTimedByTheirReadoutSteps) {
       EXPECT_EQ(l["bound_by"], "shift_register");
     }
     EXPECT_NEAR(l["busy_over_estimate"].get<double>(), 1.0, 1e-6) << l["name"];
+    EXPECT_GT(l["energy_uj"].get<double>(), 0) << l["name"];  // (it read 0: the cores' energy was only a total)
+    layers_uj += l["energy_uj"].get<double>();
   }
+  // Neuron cores move no bytes over a bus or mesh of their own: the layers' reads are every
+  // joule of the chip's dynamic energy.
+  EXPECT_NEAR(layers_uj, j["dynamic_energy_uj_per_image"].get<double>(),
+              1e-9 * j["dynamic_energy_uj_per_image"].get<double>());
 }
 
 // A sweep of the cells on a machine is refused before anything runs, and the message says how to
