@@ -35,6 +35,16 @@ py::array_t<T> as_array(const Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>& 
   return out;
 }
 
+using Cells = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// f(G) for every cell of the conductances `g` (S; `what` names them in messages), as an array of their shape.
+template <typename F>
+py::array_t<double> per_cell(const Cells& g, const std::string& what, F f) {
+  std::vector<py::ssize_t> shape;
+  const Eigen::MatrixXd m = conductance_matrix(g, what, shape);
+  return as_array<double>(m.unaryExpr(f).eval(), shape);
+}
+
 FaultMap fault_map(const std::optional<py::array_t<int8_t, py::array::c_style | py::array::forcecast>>& a,
                    const std::vector<py::ssize_t>& shape, Eigen::Index rows, Eigen::Index cols) {
   if (!a) return FaultMap();
@@ -50,7 +60,6 @@ FaultMap fault_map(const std::optional<py::array_t<int8_t, py::array::c_style | 
 }  // namespace
 
 void bind_devices(py::module_& m) {
-  using Cells = py::array_t<double, py::array::c_style | py::array::forcecast>;
   using Faults = std::optional<py::array_t<int8_t, py::array::c_style | py::array::forcecast>>;
   py::class_<PyDevice>(m, "Device",
                        "The device model of a configuration's section device. (docs/physics.md, device models) on "
@@ -144,20 +153,15 @@ void bind_devices(py::module_& m) {
       .def(
           "program_sigma",
           [](const PyDevice& d, const Cells& g) {
-            std::vector<py::ssize_t> shape;
-            const Eigen::MatrixXd m = conductance_matrix(g, "G_target", shape);
-            return as_array<double>(m.unaryExpr([&](double v) { return d.device.program_sigma_s(v); }).eval(), shape);
+            return per_cell(g, "G_target", [&](double v) { return d.device.program_sigma_s(v); });
           },
           py::arg("G_target"), "The model's programming error sigma (S) for targets G_target (S), before clipping")
       .def(
           "nu",
           [](const PyDevice& d, const Cells& g) {
-            std::vector<py::ssize_t> shape;
-            const Eigen::MatrixXd m = conductance_matrix(g, "G_target", shape);
             const bool drifts = d.device.spec().kind == DeviceKind::Statistical && d.device.spec().stat.drifts;
-            const Eigen::MatrixXd mean = m.unaryExpr([&](double v) { return drifts ? d.device.nu_mean(v) : 0.0; });
-            const Eigen::MatrixXd sd = m.unaryExpr([&](double v) { return drifts ? d.device.nu_std(v) : 0.0; });
-            return py::make_tuple(as_array<double>(mean, shape), as_array<double>(sd, shape));
+            return py::make_tuple(per_cell(g, "G_target", [&](double v) { return drifts ? d.device.nu_mean(v) : 0.0; }),
+                                  per_cell(g, "G_target", [&](double v) { return drifts ? d.device.nu_std(v) : 0.0; }));
           },
           py::arg("G_target"),
           "(mean, std) of the drift exponent for targets G_target (S): each cell's nu = |N(mean, std)| (zeros for "
