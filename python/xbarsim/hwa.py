@@ -32,34 +32,34 @@ __all__ = ["fine_tune", "clip_weights", "RECIPES", "main"]
 
 # Training recipes: settings with their sources. A user's own options override them one by one.
 # `what` says where each setting comes from and what we changed (docs/python.md, recipes).
+_DEFAULTS = {"epochs": 1, "optimizer": "adam", "lr": 1e-4, "warmup": 0.0, "schedule": "cosine", "weight_noise": 0.0,
+             "noise_scale": 1.0, "clip_sigma": 3.0, "time": None, "distill": 0.0, "temperature": 4.0}
+
+
+def _recipe(what, **changes):
+    """A recipe: the default settings with `changes`, and `what` says where they come from."""
+    return {"what": what, **_DEFAULTS, **changes}
+
+
 RECIPES = {
-    "default": {
-        "what": "issue 41's fine-tune: Adam at 1e-4, cosine decay, +-3 sigma clipping, the device's own noise",
-        "epochs": 1, "optimizer": "adam", "lr": 1e-4, "warmup": 0.0, "schedule": "cosine",
-        "weight_noise": 0.0, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None, "distill": 0.0, "temperature": 4.0,
-    },
-    "neurram": {
-        "what": "Wan et al. 2022 (Nature 608, NeuRRAM): Gaussian weight noise of a fraction of each layer's "
-                "largest |weight| in the forward, the chip's quantizers in the loop. They trained from scratch "
-                "with 0.2; fine-tuning a clean model with 0.2 collapses in one epoch (docs/results.md), so the "
-                "noise is 0.05 here, ramped in over the warm-up epoch, on top of the device model's own "
-                "spread; 16 epochs, Adam 3e-4 with a one-epoch warm-up and cosine decay, +-3 sigma clipping, "
-                "and distillation from the software model (0.7 at T 4; Hinton et al. 2015, as quantization-aware "
-                "training uses it: the fine-tune starts from a full-precision model that can teach)",
-        "epochs": 16, "optimizer": "adam", "lr": 3e-4, "warmup": 1.0, "schedule": "cosine",
-        "weight_noise": 0.05, "noise_scale": 1.0, "clip_sigma": 3.0, "time": None, "distill": 0.7, "temperature": 4.0,
-    },
-    "pcm-joshi2020": {
-        "what": "Joshi et al. 2020 (Nat. Commun. 11, 2473): noise injection during training (3.8 % of each "
-                "layer's largest |weight| for ResNet-32 on CIFAR-10), weight clipping, global drift "
-                "compensation at inference. Here the device model's own programming, drift and 1/f deviations "
-                "are injected instead, at times drawn log-uniformly over 1 s .. 1 year, plus the 3.8 %; "
-                "8 epochs, Adam 3e-4, one warm-up epoch, cosine decay, +-3 sigma clipping; distillation from "
-                "the software model (0.7 at T 4), which they did not use (they trained from scratch)",
-        "epochs": 8, "optimizer": "adam", "lr": 3e-4, "warmup": 1.0, "schedule": "cosine",
-        "weight_noise": 0.038, "noise_scale": 1.0, "clip_sigma": 3.0, "time": "1,31536000", "distill": 0.7,
-        "temperature": 4.0,
-    },
+    "default": _recipe("issue 41's fine-tune: Adam at 1e-4, cosine decay, +-3 sigma clipping, the device's own noise"),
+    "neurram": _recipe(
+        "Wan et al. 2022 (Nature 608, NeuRRAM): Gaussian weight noise of a fraction of each layer's "
+        "largest |weight| in the forward, the chip's quantizers in the loop. They trained from scratch "
+        "with 0.2; fine-tuning a clean model with 0.2 collapses in one epoch (docs/results.md), so the "
+        "noise is 0.05 here, ramped in over the warm-up epoch, on top of the device model's own "
+        "spread; 16 epochs, Adam 3e-4 with a one-epoch warm-up and cosine decay, +-3 sigma clipping, "
+        "and distillation from the software model (0.7 at T 4; Hinton et al. 2015, as quantization-aware "
+        "training uses it: the fine-tune starts from a full-precision model that can teach)",
+        epochs=16, lr=3e-4, warmup=1.0, weight_noise=0.05, distill=0.7),
+    "pcm-joshi2020": _recipe(
+        "Joshi et al. 2020 (Nat. Commun. 11, 2473): noise injection during training (3.8 % of each "
+        "layer's largest |weight| for ResNet-32 on CIFAR-10), weight clipping, global drift "
+        "compensation at inference. Here the device model's own programming, drift and 1/f deviations "
+        "are injected instead, at times drawn log-uniformly over 1 s .. 1 year, plus the 3.8 %; "
+        "8 epochs, Adam 3e-4, one warm-up epoch, cosine decay, +-3 sigma clipping; distillation from "
+        "the software model (0.7 at T 4), which they did not use (they trained from scratch)",
+        epochs=8, lr=3e-4, warmup=1.0, weight_noise=0.038, time="1,31536000", distill=0.7),
 }
 
 
