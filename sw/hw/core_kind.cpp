@@ -116,13 +116,7 @@ class NeuronCore final : public CoreKind {
   ComponentBreakdown layer_leakage_mw(const HardwareContext&, const LayerInventory&) const override { return {}; }
   ComponentBreakdown layer_energy_pj(const HardwareContext& hw, const LayerInventory& v,
                                      const ActionCounts& a) const override {
-    // Every converted column is one neuron's read.
-    const Bill b = price(hw.lib.named, hw.arch.ima.components,
-                         neuron_read_ledger(hw, hw.steps_of(v), a.adc_conversions, a.cell_reads), 0.0);
-    ComponentBreakdown e;
-    for (const auto& [part, pj] : b.energy_pj)
-      if (pj > 0) e.parts[part] = pj;
-    return e;
+    return energy_pj(hw, hw.steps_of(v), a);
   }
 
   /// Each core's named components priced by the named library (area and leakage), the chip
@@ -142,12 +136,10 @@ class NeuronCore final : public CoreKind {
                          a.tile.imas * MachineBill::leakage(bill.ima)});
     bill.chip.push_back({"tile", a.chip.tiles, a.chip.tiles * MachineBill::area(bill.tile), 0.0,
                          a.chip.tiles * MachineBill::leakage(bill.tile)});
-    LayerInventory whole_core;
-    whole_core.reads_image = false;
     ActionCounts read;
     read.adc_conversions = static_cast<double>(a.crossbar.cols) * a.ima.crossbars;
     read.cell_reads = static_cast<double>(a.crossbar.rows) * a.crossbar.cols * a.ima.crossbars;
-    const ComponentBreakdown core_mw = layer_energy_pj(hw, whole_core, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
+    const ComponentBreakdown core_mw = energy_pj(hw, hw.read_steps, read) * (1.0 / a.ima.read_ns);  // pJ/ns = mW
     for (BillLine& l : bill.ima) l.peak_mw = l.leakage_mw;
     bill.ima.push_back({"reads", 1, 0.0, core_mw.total(), 0.0});
     bill.tile.front().peak_mw = a.tile.imas * MachineBill::peak_mw(bill.ima);
@@ -162,6 +154,18 @@ class NeuronCore final : public CoreKind {
     return price(hw.lib.named, a.ima.components,
                  neuron_read_ledger(hw, hw.read_steps, xbars * a.crossbar.cols, xbars * a.crossbar.rows * a.crossbar.cols),
                  hw.read_steps.time_ns);
+  }
+
+ private:
+  /// The energy (pJ) by part of actions `a` of reads of `steps` (every converted column one
+  /// neuron's read).
+  static ComponentBreakdown energy_pj(const HardwareContext& hw, const ReadSteps& steps, const ActionCounts& a) {
+    const Bill b = price(hw.lib.named, hw.arch.ima.components,
+                         neuron_read_ledger(hw, steps, a.adc_conversions, a.cell_reads), 0.0);
+    ComponentBreakdown e;
+    for (const auto& [part, pj] : b.energy_pj)
+      if (pj > 0) e.parts[part] = pj;
+    return e;
   }
 };
 
