@@ -11,7 +11,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "platform/app/simulation.h"
+#include "platform/simulation.h"
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"

@@ -3,7 +3,7 @@
 // counts from the shared inventory, energy from the actions the processes counted.
 #include <cstdio>
 
-#include "platform/app/simulation.h"
+#include "platform/simulation.h"
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"

@@ -1,5 +1,5 @@
-// One run of the SystemC/TLM-2.0 accelerator on a network (platform/app/simulation.h).
-#include "platform/app/simulation.h"
+// One run of the SystemC/TLM-2.0 accelerator on a network (platform/simulation.h).
+#include "platform/simulation.h"
 
 #include <sys/wait.h>
 #include <unistd.h>
