@@ -6,17 +6,17 @@
 
 #include <systemc>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <memory>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <numeric>
 #include <optional>
 
 #include "platform/Pipeline.h"
-#include "sw/app/app_common.h"
-#include "sw/app/table.h"
+#include "sw/circuit/crossbar_params.h"
 #include "sw/common/errors.h"
 #include "sw/common/seed.h"
 #include "sw/nn/network.h"
@@ -36,38 +36,16 @@ LayerInventory replicated(LayerInventory v, int r) {
   return v;
 }
 
-std::string kernel_name(const LinearLayer& L) {
-  return std::to_string(L.k_h) + "x" + std::to_string(L.k_w) + "x" + std::to_string(L.c_in) + "x" +
-         std::to_string(L.c_out);
-}
-
-/// Per-layer JSON and the network's cost from the simulation's counters.
-nlohmann::json report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
-                      const std::vector<int>& replication, const std::vector<bool>& signed_inputs, const Pipeline& pipe,
-                      bool print, const MachineReport* machine) {
+/// The typed report of a run from the simulation's counters: per layer, per digital stage,
+/// the network's cost and timing.
+SimulationReport report(const Model& model, const HardwareContext& hw, const PipelineResult& r,
+                        const std::vector<int>& replication, const std::vector<bool>& signed_inputs,
+                        const Pipeline& pipe, const MachineReport* machine) {
   const PlatformConfig& pc = hw.platform;
   const std::vector<bool> reads_image = linear_reads_image(model);
   const double images = std::max<size_t>(r.image_out_ns.size(), 1), clk = pc.clock_ns();
-  std::vector<std::string> names;
-  for (const StageStats& st : r.stages)
-    if (st.linear >= 0) names.push_back(st.name);
-  const Table table({{"layer", fit_width("layer", names)},
-                     {"kernel", -12},
-                     {"xbars", 6},
-                     {"rep", 4},
-                     {"ADCs", 6},
-                     {"DACs", 6},
-                     {"iters", 7},
-                     {"busy_us", 9, 3},
-                     {"est_us", 9, 3},
-                     {"bound", -14},
-                     {"stall_us", 9, 3},
-                     {"starved_us", 10, 3},
-                     {"buf_B", 8},
-                     {"energy_uJ", 10, 4}});
-  if (print) table.print_header(stdout);
-  nlohmann::json layers = nlohmann::json::array();
-  CostReport cost;
+  SimulationReport out;
+  CostReport& cost = out.cost;
   long long iterations = 0;
   double macs = 0;
   PlatformActions platform;  // counted by the simulation
@@ -76,18 +54,19 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   // The pipeline's period as the closed forms give it: the slowest stage's estimate (a
   // digital stage's operations at its rate), or the interconnect's bytes, per image.
   double estimated_period_ns = 0;
-  nlohmann::json digital = nlohmann::json::array();
   for (size_t stage = 0; stage < r.stages.size(); ++stage) {
     const StageStats& st = r.stages[stage];
     if (st.linear < 0) {
-      digital.push_back({{"name", st.name},
-                         {"stage", stage},
-                         {"operation", *digital_op_name(st.kind) ? digital_op_name(st.kind) : "data movement"},
-                         {"tile", st.tile},
-                         {"operations", st.digital_ops / images},
-                         {"busy_us", st.busy_ns / images * 1e-3},
-                         {"stall_us", st.stall_ns / images * 1e-3},
-                         {"starved_us", st.starved_ns / images * 1e-3}});
+      SimulatedDigitalStage d;
+      d.name = st.name;
+      d.stage = static_cast<long long>(stage);
+      d.operation = *digital_op_name(st.kind) ? digital_op_name(st.kind) : "data movement";
+      d.tile = st.tile;
+      d.operations = st.digital_ops / images;
+      d.busy_us = st.busy_ns / images * 1e-3;
+      d.stall_us = st.stall_ns / images * 1e-3;
+      d.starved_us = st.starved_ns / images * 1e-3;
+      out.digital_stages.push_back(std::move(d));
       if (st.digital_ops > 0) ++platform.digital_units;
       estimated_period_ns = std::max(estimated_period_ns, st.busy_ns / images);  // ops / rate: a closed form
       platform.actions.digital_ops += st.digital_ops / images;
@@ -110,58 +89,46 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
     }
     add_layer_cost(cost, hw, v, a);
     on_machine.edram_read_bytes += a.buffer_read_bytes;  // on a machine they cross its tile's bus
-    const double e_uj = hw.arch.core().layer_energy_pj(hw, v, a).total() * 1e-6;
     macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
-    const ComponentBreakdown area = hw.arch.core().layer_area_mm2(hw, v);
-    const double busy = st.busy_ns / images, stall = st.stall_ns / images;
+    const double busy = st.busy_ns / images;
+    SimulatedLayer out_layer;
+    SimulatedLayer& o = out_layer;
+    o.name = L.name;
+    o.stage = static_cast<long long>(stage);
+    o.k_h = L.k_h, o.k_w = L.k_w, o.c_in = L.c_in, o.c_out = L.c_out;
+    o.rows = L.rows();
+    o.cols = L.c_out;
+    o.crossbars = v.crossbars;
+    o.replication = replication[st.linear];
+    o.adcs = v.adcs;
+    o.dacs = v.dacs;
+    o.iterations = v.iterations;
+    o.cycles = std::llround(busy / clk);
+    o.busy_us = busy * 1e-3;
+    o.stall_us = st.stall_ns / images * 1e-3;
+    o.starved_us = st.starved_ns / images * 1e-3;
+    o.buffer_bytes = st.buffer_bytes;
+    o.buffer_peak_bytes = st.buffer_peak_bytes;
+    o.energy_uj = hw.arch.core().layer_energy_pj(hw, v, a).total() * 1e-6;
+    o.area_mm2 = hw.arch.core().layer_area_mm2(hw, v);
     // The mapper's estimate beside the simulated busy time, and the tile's units.
-    nlohmann::json units = nlohmann::json::object(), estimate_us, over_estimate, bound;
-    double est = -1;  // a tile's busy time as the mapper estimates it (-1: not a tile's)
     if (!st.bound_by.empty()) {
       const double lanes_ns = static_cast<double>(st.replication) * std::max(r.makespan_ns(), 1e-9);
       for (int u = 0; u < kStages; ++u) {
-        units[unit_name(static_cast<Stage>(u))] = st.unit_busy_ns[u] / lanes_ns;
+        o.unit_utilization[unit_name(static_cast<Stage>(u))] = st.unit_busy_ns[u] / lanes_ns;
         unit_busy[u] += st.unit_busy_ns[u];
       }
       unit_lanes_ns += lanes_ns;
-      bound = st.bound_by;
-      est = machine  ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
-            : sparse ? sparse_estimated_ns(sparse_iteration_ns(unreplicated, pc), pc)
-                     : estimated_compute_ns(unreplicated, &L, &hw.mapping, pc, replication[st.linear]);
-      estimate_us = est * 1e-3;
-      over_estimate = est > 0 ? busy / est : 0.0;
+      o.bound_by = st.bound_by;
+      const double est = machine  ? machine->mapping.layers[static_cast<size_t>(st.linear)].compute_ns
+                         : sparse ? sparse_estimated_ns(sparse_iteration_ns(unreplicated, pc), pc)
+                                  : estimated_compute_ns(unreplicated, &L, &hw.mapping, pc, replication[st.linear]);
+      o.estimated_busy_us = est * 1e-3;
+      o.busy_over_estimate = est > 0 ? busy / est : 0.0;
       estimated_period_ns = std::max(estimated_period_ns, est);
     }
-    layers.push_back({{"name", L.name},
-                      {"stage", stage},
-                      {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
-                      {"rows", L.rows()},
-                      {"cols", L.c_out},
-                      {"crossbars", v.crossbars},
-                      {"replication", replication[st.linear]},
-                      {"adcs", v.adcs},
-                      {"dacs", v.dacs},
-                      {"iterations", v.iterations},
-                      {"cycles", std::llround(busy / clk)},
-                      {"busy_us", busy * 1e-3},
-                      {"estimated_busy_us", estimate_us},
-                      {"busy_over_estimate", over_estimate},
-                      {"bound_by", bound},
-                      {"unit_utilization", units},
-                      {"stall_us", stall * 1e-3},
-                      {"starved_us", st.starved_ns / images * 1e-3},
-                      {"buffer_bytes", st.buffer_bytes},
-                      {"buffer_peak_bytes", st.buffer_peak_bytes},
-                      {"energy_uj", e_uj},
-                      {"area_mm2", area.total()},
-                      {"area_breakdown_mm2", area.to_json()}});
-    if (print)
-      table.print_row(
-          stdout, {L.name, kernel_name(L), v.crossbars, (long long)replication[st.linear], v.adcs, v.dacs, v.iterations,
-                   busy * 1e-3, est < 0 ? 0.0 : est * 1e-3, st.bound_by.empty() ? std::string("-") : st.bound_by,
-                   stall * 1e-3,
-                   st.starved_ns / images * 1e-3, st.buffer_bytes, e_uj});
+    out.layers.push_back(std::move(out_layer));
   }
   platform.actions.bus_bytes = r.bus_bytes / images;
   platform.actions.memory_bytes = r.memory_bytes / images;
@@ -191,133 +158,289 @@ nlohmann::json report(const Model& model, const HardwareContext& hw, const Pipel
   const double throughput = unfilled ? 1e9 / bottleneck_ns : r.throughput_per_s();
   if (machine) estimated_period_ns = std::max(estimated_period_ns, machine->mapping.bottleneck_ns);
   estimated_period_ns = std::max(estimated_period_ns, bus_ns / images);
-  nlohmann::json j;
-  j["warnings"] = nlohmann::json::array();
   if (unfilled)
-    j["warnings"].push_back(
+    out.warnings.push_back(
         "one image never fills a pipelined schedule: the throughput is the bottleneck stage's rate (1 / its busy "
         "time per image), not the spacing of simulated outputs (1 / latency would say " +
         std::to_string(std::llround(1e9 / std::max(r.latency_ns(), 1e-9))) +
         " images/s); simulate 2 or more images (--images) to measure it");
-  j["iterations_total"] = iterations;
-  j["cycles_total"] = std::llround(r.latency_ns() / clk);
-  j["latency_us"] = r.latency_ns() * 1e-3;
-  j["makespan_us"] = r.makespan_ns() * 1e-3;
-  j["throughput_images_per_s"] = throughput;
-  j["throughput_from"] = unfilled ? "bottleneck stage (one image)" : "simulated outputs";
+  out.iterations_total = iterations;
+  out.cycles_total = std::llround(r.latency_ns() / clk);
+  out.latency_us = r.latency_ns() * 1e-3;
+  out.makespan_us = r.makespan_ns() * 1e-3;
+  out.throughput_images_per_s = throughput;
+  out.throughput_from = unfilled ? "bottleneck stage (one image)" : "simulated outputs";
   // The simulated period (1 / throughput) against the closed forms' slowest stage: above 1 where
   // the stages wait for one another (fill, contention, back-pressure) more than the estimate
   // knows; below 1 only within temporal decoupling's bound (platform.quantum_ns).
-  j["estimated_period_us"] = estimated_period_ns * 1e-3;
-  j["period_over_estimate"] = throughput > 0 && estimated_period_ns > 0 ? 1e9 / throughput / estimated_period_ns : 0.0;
-  j["tiles"] = std::accumulate(replication.begin(), replication.end(), 0);
-  j["bus_bytes_per_image"] = platform.actions.bus_bytes;
-  j["bus_utilization"] = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0;
-  if (!machine) j["interconnect_busy_us_per_image"] = bus_ns / images * 1e-3;
-  j.update(cost.to_json());
+  out.estimated_period_us = estimated_period_ns * 1e-3;
+  out.period_over_estimate = throughput > 0 && estimated_period_ns > 0 ? 1e9 / throughput / estimated_period_ns : 0.0;
+  out.tiles = std::accumulate(replication.begin(), replication.end(), 0);
   // Efficiency: 2 operations per MAC; peak with every crossbar reading (a machine), achieved
   // on the network at the simulated throughput.
   const double energy_uj = cost.energy_uj().total();
-  j["macs_per_image"] = macs;
-  j["achieved_gops"] = 2 * macs * throughput * 1e-9;
-  j["achieved_tops_per_w"] = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
-  j["achieved_gops_per_mm2"] = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
+  out.macs_per_image = macs;
+  out.achieved_gops = 2 * macs * throughput * 1e-9;
+  out.achieved_tops_per_w = energy_uj > 0 ? 2 * macs / (energy_uj * 1e-6) * 1e-12 : 0.0;
+  out.achieved_gops_per_mm2 = 2 * macs * throughput * 1e-9 / std::max(cost.area_mm2.total(), 1e-12);
   if (bus_bound)
-    j["bottleneck"] = {{"stage", "interconnect (platform.bus_lanes)"}, {"busy_us_per_image", bus_ns / images * 1e-3}};
+    out.bottleneck = SimulationReport::Bottleneck{"interconnect (platform.bus_lanes)", bus_ns / images * 1e-3, {}};
   else if (slow)
-    j["bottleneck"] = {{"stage", slow->name},
-                       {"busy_us_per_image", slow->busy_ns / images * 1e-3},
-                       {"unit", !slow->bound_by.empty() ? slow->bound_by : std::string(digital_op_name(slow->kind))}};
-  // How busy each kind of tile unit was over the run, every copy counted.
-  nlohmann::json util = nlohmann::json::object();
+    out.bottleneck = SimulationReport::Bottleneck{
+        slow->name, slow->busy_ns / images * 1e-3,
+        !slow->bound_by.empty() ? slow->bound_by : std::string(digital_op_name(slow->kind))};
   for (int u = 0; u < kStages; ++u)
-    util[unit_name(static_cast<Stage>(u))] = unit_lanes_ns > 0 ? unit_busy[u] / unit_lanes_ns : 0.0;
-  j["unit_utilization"] = util;
+    out.unit_utilization[unit_name(static_cast<Stage>(u))] = unit_lanes_ns > 0 ? unit_busy[u] / unit_lanes_ns : 0.0;
   if (machine) {
-    j["architecture"] = machine->name;
-    j["peak_gops"] = machine->peak_gops;
-    j["placement"] = machine->mapping.to_json();
-    j["noc"] = {{"bytes_per_image", r.bus_bytes / images},
-                {"router_bytes_per_image", r.router_bytes / images},
-                {"local_bytes_per_image", r.local_bytes / images},
-                {"contention_us_per_image", r.noc_contention_ns / images * 1e-3},
-                {"link_utilization", r.makespan_ns() > 0 ? r.bus_busy_ns / (r.noc_links * r.makespan_ns()) : 0.0}};
-    j.erase("bus_bytes_per_image");
-    j.erase("bus_utilization");
+    out.architecture = machine->name;
+    SimulationReport::Machine m;
+    m.peak_gops = machine->peak_gops;
+    m.placement = machine->mapping.to_json();
+    m.noc_bytes_per_image = r.bus_bytes / images;
+    m.router_bytes_per_image = r.router_bytes / images;
+    m.local_bytes_per_image = r.local_bytes / images;
+    m.contention_us_per_image = r.noc_contention_ns / images * 1e-3;
+    m.link_utilization = r.makespan_ns() > 0 ? r.bus_busy_ns / (r.noc_links * r.makespan_ns()) : 0.0;
+    out.machine = std::move(m);
   } else {
-    j["architecture"] = "layer-sized";
+    out.architecture = "layer-sized";
+    out.bus = SimulationReport::Bus{platform.actions.bus_bytes,
+                                    r.makespan_ns() > 0 ? r.bus_busy_ns / (r.makespan_ns() * pc.bus_lanes) : 0.0,
+                                    bus_ns / images * 1e-3};
   }
-  j["layers"] = layers;
-  j["digital_stages"] = digital;
-  return j;
+  return out;
+}
+
+/// Optional values as the report writes them: null when absent.
+template <typename T>
+nlohmann::json or_null(const std::optional<T>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json();
+}
+template <typename T>
+std::optional<T> optional_of(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return std::nullopt;
+  return it->get<T>();
 }
 
 }  // namespace
 
-SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg, const Model& model, int images) {
-  SimulationData d;
-  if (!dataset.empty()) {
-    // The same images as eval's (calibration split, MNIST's reserved calibration images).
-    EvalSpec spec = parse_eval_spec(cfg);
-    spec.images = images;
-    spec.offset = 0;
-    EvalData e = load_eval_data(model, dataset, resolve_data_dir(cfg), spec);
-    if (!e.note.empty()) std::fprintf(stderr, "xbarsim simulate: %s\n", e.note.c_str());
-    if (const std::string w = dataset_range_warning(e.test, model.pre, "the images"); !w.empty())
-      std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
-    d.test = std::move(e.test);
-    d.calib = std::move(e.calib);
-    d.labelled = true;
-  } else {
-    const uint64_t seed = static_cast<uint64_t>(cfg.get_int("data.synthetic_seed"));
-    d.test = random_dataset(model.input, images, derive_seed(seed, {1}));
-    d.calib = random_dataset(model.input, 20, derive_seed(seed, {2}));
+std::vector<PipelineStage> SimulationReport::pipeline_stages() const {
+  std::vector<std::pair<long long, PipelineStage>> order;  // (place in the pipeline, stage)
+  for (const SimulatedLayer& l : layers) order.push_back({l.stage, {l.name, "linear", l.busy_us, l.stall_us}});
+  for (const SimulatedDigitalStage& d : digital_stages)
+    order.push_back({d.stage, {d.name, "digital", d.busy_us, d.stall_us}});
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<PipelineStage> out;
+  for (auto& s : order) out.push_back(std::move(s.second));
+  // The shared bus carries every stage's outputs: a stage of its own, which may bound the run.
+  if (!out.empty() && bus)
+    out.push_back({"interconnect (platform.bus_lanes)", "interconnect", bus->interconnect_busy_us_per_image, 0.0});
+  return out;
+}
+
+nlohmann::json SimulationReport::to_json() const {
+  nlohmann::json j = cost.to_json();
+  j["warnings"] = warnings;
+  j["iterations_total"] = iterations_total;
+  j["cycles_total"] = cycles_total;
+  j["latency_us"] = latency_us;
+  j["makespan_us"] = makespan_us;
+  j["throughput_images_per_s"] = throughput_images_per_s;
+  j["throughput_from"] = throughput_from;
+  j["estimated_period_us"] = estimated_period_us;
+  j["period_over_estimate"] = period_over_estimate;
+  j["tiles"] = tiles;
+  if (bus) {
+    j["bus_bytes_per_image"] = bus->bytes_per_image;
+    j["bus_utilization"] = bus->utilization;
+    j["interconnect_busy_us_per_image"] = bus->interconnect_busy_us_per_image;
   }
-  return d;
+  j["macs_per_image"] = macs_per_image;
+  j["achieved_gops"] = achieved_gops;
+  j["achieved_tops_per_w"] = achieved_tops_per_w;
+  j["achieved_gops_per_mm2"] = achieved_gops_per_mm2;
+  if (bottleneck) {
+    j["bottleneck"] = {{"stage", bottleneck->stage}, {"busy_us_per_image", bottleneck->busy_us_per_image}};
+    if (bottleneck->unit) j["bottleneck"]["unit"] = *bottleneck->unit;
+  }
+  j["unit_utilization"] = unit_utilization;
+  j["architecture"] = architecture;
+  if (machine) {
+    j["peak_gops"] = machine->peak_gops;
+    j["placement"] = machine->placement;
+    j["noc"] = {{"bytes_per_image", machine->noc_bytes_per_image},
+                {"router_bytes_per_image", machine->router_bytes_per_image},
+                {"local_bytes_per_image", machine->local_bytes_per_image},
+                {"contention_us_per_image", machine->contention_us_per_image},
+                {"link_utilization", machine->link_utilization}};
+  }
+  j["layers"] = nlohmann::json::array();
+  for (const SimulatedLayer& l : layers)
+    j["layers"].push_back({{"name", l.name},
+                           {"stage", l.stage},
+                           {"kernel", {l.k_h, l.k_w, l.c_in, l.c_out}},
+                           {"rows", l.rows},
+                           {"cols", l.cols},
+                           {"crossbars", l.crossbars},
+                           {"replication", l.replication},
+                           {"adcs", l.adcs},
+                           {"dacs", l.dacs},
+                           {"iterations", l.iterations},
+                           {"cycles", l.cycles},
+                           {"busy_us", l.busy_us},
+                           {"estimated_busy_us", or_null(l.estimated_busy_us)},
+                           {"busy_over_estimate", or_null(l.busy_over_estimate)},
+                           {"bound_by", or_null(l.bound_by)},
+                           {"unit_utilization", l.unit_utilization.empty() ? nlohmann::json::object()
+                                                                           : nlohmann::json(l.unit_utilization)},
+                           {"stall_us", l.stall_us},
+                           {"starved_us", l.starved_us},
+                           {"buffer_bytes", l.buffer_bytes},
+                           {"buffer_peak_bytes", l.buffer_peak_bytes},
+                           {"energy_uj", l.energy_uj},
+                           {"area_mm2", l.area_mm2.total()},
+                           {"area_breakdown_mm2", l.area_mm2.to_json()}});
+  j["digital_stages"] = nlohmann::json::array();
+  for (const SimulatedDigitalStage& d : digital_stages)
+    j["digital_stages"].push_back({{"name", d.name},
+                                   {"stage", d.stage},
+                                   {"operation", d.operation},
+                                   {"tile", d.tile},
+                                   {"operations", d.operations},
+                                   {"busy_us", d.busy_us},
+                                   {"stall_us", d.stall_us},
+                                   {"starved_us", d.starved_us}});
+  j["model"] = model;
+  j["clock_mhz"] = clock_mhz;
+  j["timing"] = timing;
+  j["schedule"] = schedule;
+  j["mapping"] = mapping;
+  j["images"] = images;
+  j["mode"] = mode;
+  j["preprocessing"] = {{"scale", preprocessing.scale}, {"mean", preprocessing.mean}, {"std", preprocessing.std}};
+  j["quantum_ns"] = quantum_ns;
+  j["stages"] = stages;
+  if (protocol_check)
+    j["protocol_check"] = {{"transactions", protocol_check->transactions},
+                           {"violations", protocol_check->violations},
+                           {"first_violations", protocol_check->first_violations}};
+  j["component_library"] = component_library;
+  j["simulation_wall_time_s"] = wall_time_s;
+  j["simulated_images_per_wall_s"] = images_per_wall_s;
+  if (accuracy) j["accuracy"] = *accuracy;
+  if (software_accuracy) j["software_accuracy"] = *software_accuracy;
+  return j;
 }
 
 SimulationReport SimulationReport::from_json(const nlohmann::json& j) {
   SimulationReport r;
-  r.model = j.at("model").get<std::string>();
-  r.timing = j.at("timing").get<std::string>();
-  r.schedule = j.at("schedule").get<std::string>();
-  r.mode = j.at("mode").get<std::string>();
-  r.architecture = j.at("architecture").get<std::string>();
-  r.images = j.at("images").get<int>();
+  r.cost = CostReport::from_json(j);
+  r.warnings = j.at("warnings").get<std::vector<std::string>>();
   r.iterations_total = j.at("iterations_total").get<long long>();
+  r.cycles_total = j.at("cycles_total").get<long long>();
   r.latency_us = j.at("latency_us").get<double>();
   r.makespan_us = j.at("makespan_us").get<double>();
   r.throughput_images_per_s = j.at("throughput_images_per_s").get<double>();
-  r.energy_uj_per_image = j.at("energy_uj_per_image").get<double>();
-  r.avg_power_mw = j.at("avg_power_mw").get<double>();
-  r.peak_power_mw = j.at("peak_power_mw").get<double>();
-  r.area_mm2 = j.at("area_mm2").get<double>();
+  r.throughput_from = j.at("throughput_from").get<std::string>();
+  r.estimated_period_us = j.at("estimated_period_us").get<double>();
+  r.period_over_estimate = j.at("period_over_estimate").get<double>();
+  r.tiles = j.at("tiles").get<int>();
+  if (j.contains("bus_bytes_per_image"))
+    r.bus = Bus{j.at("bus_bytes_per_image").get<double>(), j.at("bus_utilization").get<double>(),
+                j.at("interconnect_busy_us_per_image").get<double>()};
+  r.macs_per_image = j.at("macs_per_image").get<double>();
+  r.achieved_gops = j.at("achieved_gops").get<double>();
   r.achieved_tops_per_w = j.at("achieved_tops_per_w").get<double>();
+  r.achieved_gops_per_mm2 = j.at("achieved_gops_per_mm2").get<double>();
   if (j.contains("bottleneck")) {
-    r.bottleneck = j["bottleneck"].at("stage").get<std::string>();
-    r.bottleneck_busy_us = j["bottleneck"].at("busy_us_per_image").get<double>();
-    if (j["bottleneck"].contains("unit")) r.bottleneck_unit = j["bottleneck"]["unit"].get<std::string>();
+    const nlohmann::json& b = j["bottleneck"];
+    r.bottleneck = Bottleneck{b.at("stage").get<std::string>(), b.at("busy_us_per_image").get<double>(),
+                              optional_of<std::string>(b, "unit")};
   }
+  r.unit_utilization = j.at("unit_utilization").get<std::map<std::string, double>>();
+  r.architecture = j.at("architecture").get<std::string>();
+  if (j.contains("noc")) {
+    const nlohmann::json& n = j["noc"];
+    r.machine = Machine{j.at("peak_gops").get<double>(),
+                        j.at("placement"),
+                        n.at("bytes_per_image").get<double>(),
+                        n.at("router_bytes_per_image").get<double>(),
+                        n.at("local_bytes_per_image").get<double>(),
+                        n.at("contention_us_per_image").get<double>(),
+                        n.at("link_utilization").get<double>()};
+  }
+  for (const nlohmann::json& l : j.at("layers")) {
+    SimulatedLayer o;
+    o.name = l.at("name").get<std::string>();
+    o.stage = l.at("stage").get<long long>();
+    const std::vector<int> k = l.at("kernel").get<std::vector<int>>();
+    o.k_h = k.at(0), o.k_w = k.at(1), o.c_in = k.at(2), o.c_out = k.at(3);
+    o.rows = l.at("rows").get<long long>();
+    o.cols = l.at("cols").get<long long>();
+    o.crossbars = l.at("crossbars").get<long long>();
+    o.replication = l.at("replication").get<int>();
+    o.adcs = l.at("adcs").get<long long>();
+    o.dacs = l.at("dacs").get<long long>();
+    o.iterations = l.at("iterations").get<long long>();
+    o.cycles = l.at("cycles").get<long long>();
+    o.busy_us = l.at("busy_us").get<double>();
+    o.estimated_busy_us = optional_of<double>(l, "estimated_busy_us");
+    o.busy_over_estimate = optional_of<double>(l, "busy_over_estimate");
+    o.bound_by = optional_of<std::string>(l, "bound_by");
+    o.unit_utilization = l.at("unit_utilization").get<std::map<std::string, double>>();
+    o.stall_us = l.at("stall_us").get<double>();
+    o.starved_us = l.at("starved_us").get<double>();
+    o.buffer_bytes = l.at("buffer_bytes").get<long long>();
+    o.buffer_peak_bytes = l.at("buffer_peak_bytes").get<long long>();
+    o.energy_uj = l.at("energy_uj").get<double>();
+    o.area_mm2 = ComponentBreakdown::from_json(l.at("area_breakdown_mm2"));
+    r.layers.push_back(std::move(o));
+  }
+  for (const nlohmann::json& d : j.at("digital_stages"))
+    r.digital_stages.push_back({d.at("name").get<std::string>(), d.at("operation").get<std::string>(),
+                                d.at("stage").get<long long>(), d.at("tile").get<int>(),
+                                d.at("operations").get<double>(), d.at("busy_us").get<double>(),
+                                d.at("stall_us").get<double>(), d.at("starved_us").get<double>()});
+  r.model = j.at("model").get<std::string>();
+  r.clock_mhz = j.at("clock_mhz").get<double>();
+  r.timing = j.at("timing").get<std::string>();
+  r.schedule = j.at("schedule").get<std::string>();
+  r.mapping = j.at("mapping").get<std::string>();
+  r.images = j.at("images").get<int>();
+  r.mode = j.at("mode").get<std::string>();
+  const nlohmann::json& pre = j.at("preprocessing");
+  r.preprocessing.scale = pre.at("scale").get<double>();
+  r.preprocessing.mean = pre.at("mean").get<std::vector<double>>();
+  r.preprocessing.std = pre.at("std").get<std::vector<double>>();
+  r.quantum_ns = j.at("quantum_ns").get<double>();
+  r.stages = j.at("stages").get<int>();
+  if (j.contains("protocol_check")) {
+    const nlohmann::json& p = j["protocol_check"];
+    r.protocol_check = ProtocolCheck{p.at("transactions").get<long long>(), p.at("violations").get<long long>(),
+                                     p.at("first_violations").get<std::vector<std::string>>()};
+  }
+  r.component_library = j.at("component_library").get<std::string>();
   r.wall_time_s = j.at("simulation_wall_time_s").get<double>();
   r.images_per_wall_s = j.at("simulated_images_per_wall_s").get<double>();
-  if (j.contains("accuracy")) r.accuracy = j["accuracy"].get<double>();
-  if (j.contains("software_accuracy")) r.software_accuracy = j["software_accuracy"].get<double>();
-  r.json = j;
+  r.accuracy = optional_of<double>(j, "accuracy");
+  r.software_accuracy = optional_of<double>(j, "software_accuracy");
   return r;
 }
 
 SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const SimulationData& data,
-                                const std::string& vcd, bool print, const CrossbarBackend* given) {
+                                const std::string& vcd, const SimulationProgress& progress,
+                                const CrossbarBackend* given) {
   const AnalogConfig ac = parse_analog_config(cfg);
   const HardwareContext hw = make_hardware_context(cfg, ac);
   // The images the data holds (a dataset may have fewer than platform.images; its note says so).
   PlatformConfig pc = hw.platform;
   if (!pc.timing_only) pc.images = data.test.count();
   pc.threads = resolve_threads(cfg.get_int32("solver.threads"));
-  if (!ac.xbar.is_linear() && !pc.timing_only)
-    std::fprintf(stderr,
-                 "xbarsim simulate: nonlinear devices: every crossbar input vector is a nonlinear circuit solve "
-                 "(batched Newton, about 0.6 ms per 144x64 vector per core; ResNet-20 takes seconds per image)\n");
+  if (!ac.xbar.is_linear() && !pc.timing_only && progress.note)
+    progress.note(
+        "nonlinear devices: every crossbar input vector is a nonlinear circuit solve (batched Newton, about 0.6 ms "
+        "per 144x64 vector per core; ResNet-20 takes seconds per image)");
   require_fit(model, hw);  // before the crossbars are programmed
   std::unique_ptr<CrossbarBackend> own;
   if (!given && pc.timing_only) {  // the crossbars' layout only: nothing to program
@@ -325,10 +448,9 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
     own->structure_only();
   } else if (!given) {
     own = std::make_unique<CrossbarBackend>(model, ac);
-    ProgressBar bar(static_cast<int>(model.linear.size()), "programming");
     // As eval: at least calibration.samples rows kept, so both program the same crossbars.
     own->program(data.calib, std::max(cfg.get_int32("eval.calibration_samples"), ac.calibration.samples),
-                 [&](int d, int) { bar.update(d); });
+                 progress.programming);
   }
   const CrossbarBackend& programmed = given ? *given : *own;
   std::vector<bool> signed_inputs;  // as the programmed layers stream them
@@ -359,14 +481,17 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
       sparse.push_back(sparse_iteration_ns(
           hw.inventory(L, MappingScheme::Sparse, signed_inputs[sparse.size()], reads_image[sparse.size()]), pc));
   const auto t0 = std::chrono::steady_clock::now();
-  ProgressBar bar(pc.images, "simulating ");
+  const int images = pc.images;
   Pipeline pipe(
       "accelerator", model, programmed, pc, replication,
-      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); }, [&](int d) { bar.update(d); }, sparse,
-      plan.get());
+      [&](int k, float* x) { data.test.preprocess(k, model.pre, x); },
+      [&](int d) {
+        if (progress.simulating) progress.simulating(d, images);
+      },
+      sparse, plan.get());
   if (!vcd.empty()) pipe.trace(vcd, pc.vcd_images);
   sc_core::sc_start();
-  bar.finish();
+  if (progress.simulating) progress.simulating(images, images);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const PipelineResult& r = pipe.result();
   if (!r.completed) {
@@ -381,28 +506,26 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
   pipe.finish_trace();
   HardwareContext run_hw = hw;
   run_hw.platform = pc;
-  nlohmann::json j = report(model, run_hw, r, replication, signed_inputs, pipe, print, machine ? &*machine : nullptr);
-  j["model"] = model.path;
-  j["clock_mhz"] = pc.clock_mhz;
-  j["timing"] = pc.detailed ? "detailed" : "ideal";
-  j["schedule"] = pc.pipelined ? "pipelined" : "sequential";
-  j["mapping"] = hw.mapping.scheme == MappingScheme::Sparse ? "sparse" : "dense";
-  j["images"] = pc.images;
-  j["mode"] = pc.timing_only ? "timing-only" : "timing-and-values";
-  j["preprocessing"] = {{"scale", model.pre.scale}, {"mean", model.pre.mean}, {"std", model.pre.std}};
-  j["quantum_ns"] = pc.quantum_ns;
-  j["stages"] = static_cast<int>(r.stages.size());
+  SimulationReport j = report(model, run_hw, r, replication, signed_inputs, pipe, machine ? &*machine : nullptr);
+  j.model = model.path;
+  j.clock_mhz = pc.clock_mhz;
+  j.timing = pc.detailed ? "detailed" : "ideal";
+  j.schedule = pc.pipelined ? "pipelined" : "sequential";
+  j.mapping = hw.mapping.scheme == MappingScheme::Sparse ? "sparse" : "dense";
+  j.images = pc.images;
+  j.mode = pc.timing_only ? "timing-only" : "timing-and-values";
+  j.preprocessing = model.pre;
+  j.quantum_ns = pc.quantum_ns;
+  j.stages = static_cast<int>(r.stages.size());
   if (pc.check_protocol) {
     const size_t shown = std::min<size_t>(r.protocol_violations.size(), 20);
-    j["protocol_check"] = {{"transactions", r.protocol_transactions},
-                           {"violations", r.protocol_violations.size()},
-                           {"first_violations", std::vector<std::string>(r.protocol_violations.begin(),
-                                                                         r.protocol_violations.begin() + shown)}};
+    j.protocol_check = SimulationReport::ProtocolCheck{
+        r.protocol_transactions, static_cast<long long>(r.protocol_violations.size()),
+        std::vector<std::string>(r.protocol_violations.begin(), r.protocol_violations.begin() + shown)};
   }
-  j["component_library"] = hw.lib.source;
-  j["simulation_wall_time_s"] = wall_s;
-  j["simulated_images_per_wall_s"] = pc.images / std::max(wall_s, 1e-9);
-  for (const auto& w : j["warnings"]) std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.get<std::string>().c_str());
+  j.component_library = hw.lib.source;
+  j.wall_time_s = wall_s;
+  j.images_per_wall_s = pc.images / std::max(wall_s, 1e-9);
   if (data.labelled && !pc.timing_only) {
     // The crossbars' accuracy, and the software network's on the same images beside it.
     const SoftwareBackend sw(model);
@@ -416,13 +539,13 @@ SimulationReport simulate_model(const ConfigTree& cfg, const Model& model, const
       run_image(model, x.data(), sw).maxCoeff(&b);
       software_correct += b == data.test.labels[k];
     }
-    j["accuracy"] = static_cast<double>(correct) / r.logits.size();
-    j["software_accuracy"] = static_cast<double>(software_correct) / r.logits.size();
+    j.accuracy = static_cast<double>(correct) / r.logits.size();
+    j.software_accuracy = static_cast<double>(software_correct) / r.logits.size();
   }
-  return SimulationReport::from_json(j);
+  return j;
 }
 
-nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
+SimulationReport run_in_child(const std::function<SimulationReport()>& run) {
   char path[] = "/tmp/xbarsim_simulate_XXXXXX";
   const int fd = mkstemp(path);
   if (fd < 0) throw std::runtime_error("cannot create a temporary file in /tmp");
@@ -436,7 +559,7 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
   if (pid == 0) {
     nlohmann::json out;
     try {
-      out = run();
+      out = run().to_json();
     } catch (const std::exception&) {
       const Failure f = current_failure();
       out = {{"error", f.message}, {"kind", f.kind_name()}};
@@ -457,7 +580,7 @@ nlohmann::json run_in_child(const std::function<nlohmann::json()>& run) {
                                  : std::string("the simulation process wrote no result"));
   nlohmann::json j = nlohmann::json::parse(text);
   if (j.contains("error")) Failure::from_kind_name(j["kind"], j["error"]).rethrow();
-  return j;
+  return SimulationReport::from_json(j);
 }
 
 }  // namespace xbarsim

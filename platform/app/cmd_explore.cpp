@@ -43,70 +43,102 @@ struct ProgrammedGroup {
 };
 
 /// What a row takes from the platform's report: the point's figures and, per layer, its own.
-constexpr const char* kPlatformFields[] = {"energy_uj_per_image", "area_mm2", "latency_us", "throughput_images_per_s",
-                                           "avg_power_mw", "peak_power_mw", "time_ns_per_image", "energy_breakdown_uj",
-                                           "area_breakdown_mm2", "peak_power_breakdown_mw", "crossbars", "adcs", "dacs",
-                                           "tiles", "iterations_total"};
-constexpr const char* kLayerPlatformFields[] = {"busy_us", "stall_us", "cycles", "energy_uj", "area_mm2"};
+nlohmann::json platform_fields(const SimulationReport& pf) {
+  const CostReport& c = pf.cost;
+  nlohmann::json row = {{"energy_uj_per_image", pf.energy_uj_per_image()},
+                        {"area_mm2", pf.area_mm2()},
+                        {"latency_us", pf.latency_us},
+                        {"throughput_images_per_s", pf.throughput_images_per_s},
+                        {"avg_power_mw", pf.avg_power_mw()},
+                        {"peak_power_mw", pf.peak_power_mw()},
+                        {"time_ns_per_image", c.time_ns},
+                        {"energy_breakdown_uj", c.energy_uj().to_json()},
+                        {"area_breakdown_mm2", c.area_mm2.to_json()},
+                        {"peak_power_breakdown_mw", c.peak_power_mw.to_json()},
+                        {"crossbars", c.crossbars},
+                        {"adcs", c.adcs},
+                        {"dacs", c.dacs},
+                        {"tiles", pf.tiles},
+                        {"iterations_total", pf.iterations_total}};
+  row["stages"] = nlohmann::json::array();
+  for (const PipelineStage& s : pf.pipeline_stages())
+    row["stages"].push_back({{"name", s.name}, {"kind", s.kind}, {"busy_us", s.busy_us}, {"stall_us", s.stall_us}});
+  if (pf.bottleneck) {
+    row["bottleneck"] = {{"stage", pf.bottleneck->stage}, {"busy_us_per_image", pf.bottleneck->busy_us_per_image}};
+    if (pf.bottleneck->unit) row["bottleneck"]["unit"] = *pf.bottleneck->unit;
+  }
+  row["simulation_wall_time_s"] = pf.wall_time_s;  // how this run went (not a result)
+  return row;
+}
+nlohmann::json layer_platform_fields(const SimulatedLayer& l) {
+  return {{"busy_us", l.busy_us},
+          {"stall_us", l.stall_us},
+          {"cycles", l.cycles},
+          {"energy_uj", l.energy_uj},
+          {"area_mm2", l.area_mm2.total()}};
+}
 
 /// The row of a finished point: the evaluation's accuracy and per-layer error, the platform's
 /// energy, area, latency and per-layer busy/stall.
-nlohmann::json result_row(const nlohmann::json& ev, const nlohmann::json& pf) {
-  nlohmann::json row;
+nlohmann::json result_row(const EvalResult& ev, const SimulationReport& pf) {
+  nlohmann::json row = platform_fields(pf);
   row["status"] = "ok";
-  row["accuracy"] = ev["crossbar_accuracy"];
-  row["software_accuracy"] = ev["software_accuracy"];
-  for (const char* k : {"accuracy_drop", "accuracy_drop_ci95", "images_only_software_correct",
-                        "images_only_crossbar_correct", "warnings"})
-    row[k] = ev[k];
+  row["accuracy"] = ev.crossbar_accuracy;
+  row["software_accuracy"] = ev.software_accuracy;
+  const auto ci = ev.paired.drop_ci95();
+  row["accuracy_drop"] = ev.paired.drop();
+  row["accuracy_drop_ci95"] = {ci.first, ci.second};
+  row["images_only_software_correct"] = ev.paired.only_software;
+  row["images_only_crossbar_correct"] = ev.paired.only_crossbar;
+  row["warnings"] = ev.warnings();
   nlohmann::json layers = nlohmann::json::array();
-  const auto& el = ev["layers"];
-  const auto& pl = pf["layers"];
-  for (size_t l = 0; l < el.size(); ++l) {
-    nlohmann::json L = {{"name", el[l]["name"]},
-                        {"mean_relative_error", el[l]["mean_relative_error"]},
-                        {"worst_relative_error", el[l]["worst_relative_error"]}};
-    if (l < pl.size() && pl[l]["name"] == el[l]["name"])
-      for (const char* k : kLayerPlatformFields) L[k] = pl[l][k];
+  for (size_t l = 0; l < ev.layers.size(); ++l) {
+    const EvalLayer& e = ev.layers[l];
+    nlohmann::json L = {{"name", e.name},
+                        {"mean_relative_error", e.mean_relative_error},
+                        {"worst_relative_error", e.worst_relative_error}};
+    if (l < pf.layers.size() && pf.layers[l].name == e.name) L.update(layer_platform_fields(pf.layers[l]));
     layers.push_back(L);
   }
-  double mean = 0, worst = 0;
-  network_errors(el, mean, worst);
+  const auto [mean, worst] = ev.network_error();
   row["mean_relative_error"] = mean;
   row["worst_relative_error"] = worst;
-  for (const char* k : kPlatformFields) row[k] = pf[k];
-  row["stages"] = platform_stages(pf);
-  if (pf.contains("bottleneck")) row["bottleneck"] = pf["bottleneck"];
-  for (const char* k : {"adc_bits", "dac_bits", "input_bits", "image_bits", "cell_bits", "weight_bits", "adc_range", "method",
-                        "max_rows", "max_cols", "out_of_range_cells"})
-    row[k] = ev[k];
+  row.update(ev.design_json());
+  row["out_of_range_cells"] = ev.out_of_range_cells();
   row["layers"] = layers;
   // How this run went (not results: they differ between runs and ranks).
-  row["program_time_s"] = ev["program_time_s"];
-  row["evaluate_time_s"] = ev["evaluate_time_s"];
-  row["simulation_wall_time_s"] = pf["simulation_wall_time_s"];
+  row["program_time_s"] = ev.program_time_s;
+  row["evaluate_time_s"] = ev.evaluate_time_s;
   return row;
 }
 
 /// The row of a point run without accuracy (explore.accuracy false): the platform's cost and
 /// timing, timing only.
 nlohmann::json timing_row(const SimulationReport& pf) {
-  nlohmann::json row;
+  nlohmann::json row = platform_fields(pf);
   row["status"] = "ok";
   row["mode"] = "timing-only";
   nlohmann::json layers = nlohmann::json::array();
-  for (const auto& l : pf.json["layers"]) {
-    nlohmann::json L = {{"name", l["name"]}};
-    for (const char* k : kLayerPlatformFields) L[k] = l[k];
+  for (const SimulatedLayer& l : pf.layers) {
+    nlohmann::json L = {{"name", l.name}};
+    L.update(layer_platform_fields(l));
     layers.push_back(L);
   }
-  for (const char* k : kPlatformFields) row[k] = pf.json[k];
-  row["stages"] = platform_stages(pf.json);
-  if (pf.json.contains("bottleneck")) row["bottleneck"] = pf.json["bottleneck"];
   row["warnings"] = nlohmann::json::array();
   row["layers"] = layers;
-  row["simulation_wall_time_s"] = pf.wall_time_s;
   return row;
+}
+
+/// The platform's notes and warnings on stderr, as simulate says them (no progress bars: the
+/// point's own say where it is).
+SimulationProgress platform_notes() {
+  SimulationProgress p;
+  p.note = [](const std::string& n) { std::fprintf(stderr, "xbarsim explore: platform: %s\n", n.c_str()); };
+  return p;
+}
+const SimulationReport& told(const SimulationReport& pf) {
+  for (const std::string& w : pf.warnings) std::fprintf(stderr, "xbarsim explore: platform: warning: %s\n", w.c_str());
+  return pf;
 }
 
 /// Evaluates one point and simulates its platform (or, without accuracy, only simulates its
@@ -114,12 +146,12 @@ nlohmann::json timing_row(const SimulationReport& pf) {
 /// programmed once: a point of the group `programmed` holds is read out of them.
 nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData& data, const EvalSpec& spec,
                          const std::string& progress_label, bool accuracy, ProgrammedGroup& programmed) {
+  const SimulationProgress notes = platform_notes();
   try {
     if (!accuracy) {
       ConfigTree cfg = p.cfg;
       cfg.set("platform.timing_only", "true");
-      return timing_row(SimulationReport::from_json(
-          run_in_child([&] { return simulate_model(cfg, model, SimulationData{}, "", false).json; })));
+      return timing_row(told(run_in_child([&] { return simulate_model(cfg, model, SimulationData{}, "", notes); })));
     }
     const EvalPoint design = parse_eval_point(p.cfg);
     require_fit(model, design.hw);  // as simulate and eval, before the crossbars are programmed
@@ -148,12 +180,11 @@ nlohmann::json run_point(const SpacePoint& p, const Model& model, const EvalData
     sim.test = random_dataset(model.input, design.hw.platform.images,
                               derive_seed(static_cast<uint64_t>(p.cfg.get_int("data.synthetic_seed")), {1}));
     sim.calib = data.calib;
-    const nlohmann::json pf = run_in_child([&] { return simulate_model(p.cfg, model, sim, "", false, &xb).json; });
+    const SimulationReport pf = told(run_in_child([&] { return simulate_model(p.cfg, model, sim, "", notes, &xb); }));
     ProgressBar bar(data.test.count(), "evaluating  " + progress_label);
     const EvalResult r = run_eval(model, design, data.test, xb, program_s, [&](int d, int) { bar.update(d); });
     bar.finish();
-    const nlohmann::json ev = r.to_json();
-    nlohmann::json row = result_row(ev, pf);
+    nlohmann::json row = result_row(r, pf);
     row["reused_programming"] = reuse;
     return row;
   } catch (const std::exception&) {

@@ -2,14 +2,18 @@
 // Argument parsing and rendering; timing, stalls and throughput come from the simulation,
 // counts from the shared inventory, energy from the actions the processes counted.
 #include <cstdio>
+#include <optional>
 
 #include "platform/simulation.h"
 #include "sw/app/app_common.h"
 #include "sw/app/model_source.h"
 #include "sw/app/table.h"
+#include "sw/common/errors.h"
 #include "sw/common/input_file.h"
+#include "sw/common/seed.h"
 #include "sw/common/quantity_text.h"
 #include "sw/study/chip_peak.h"
+#include "sw/study/eval_study.h"
 #include "sw/study/hardware.h"
 #include "sw/study/sweep.h"
 
@@ -17,7 +21,60 @@ namespace xbarsim {
 
 namespace {
 
-/// One simulation in this process: the model and images of the arguments; `vcd`: its trace file or "".
+/// `images` test images of `dataset` (eval's split and calibration images), or random images
+/// from data.synthetic_seed when `dataset` is empty.
+SimulationData simulation_data(const std::string& dataset, const ConfigTree& cfg, const Model& model, int images) {
+  SimulationData d;
+  if (!dataset.empty()) {
+    // The same images as eval's (calibration split, MNIST's reserved calibration images).
+    EvalSpec spec = parse_eval_spec(cfg);
+    spec.images = images;
+    spec.offset = 0;
+    EvalData e = load_eval_data(model, dataset, resolve_data_dir(cfg), spec);
+    if (!e.note.empty()) std::fprintf(stderr, "xbarsim simulate: %s\n", e.note.c_str());
+    if (const std::string w = dataset_range_warning(e.test, model.pre, "the images"); !w.empty())
+      std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
+    d.test = std::move(e.test);
+    d.calib = std::move(e.calib);
+    d.labelled = true;
+  } else {
+    const uint64_t seed = static_cast<uint64_t>(cfg.get_int("data.synthetic_seed"));
+    d.test = random_dataset(model.input, images, derive_seed(seed, {1}));
+    d.calib = random_dataset(model.input, 20, derive_seed(seed, {2}));
+  }
+  return d;
+}
+
+/// The per-layer table of a run, from its report.
+void print_layers(const SimulationReport& r) {
+  std::vector<std::string> names;
+  for (const SimulatedLayer& l : r.layers) names.push_back(l.name);
+  const Table table({{"layer", fit_width("layer", names)},
+                     {"kernel", -12},
+                     {"xbars", 6},
+                     {"rep", 4},
+                     {"ADCs", 6},
+                     {"DACs", 6},
+                     {"iters", 7},
+                     {"busy_us", 9, 3},
+                     {"est_us", 9, 3},
+                     {"bound", -14},
+                     {"stall_us", 9, 3},
+                     {"starved_us", 10, 3},
+                     {"buf_B", 8},
+                     {"energy_uJ", 10, 4}});
+  table.print_header(stdout);
+  for (const SimulatedLayer& l : r.layers)
+    table.print_row(stdout, {l.name,
+                             std::to_string(l.k_h) + "x" + std::to_string(l.k_w) + "x" + std::to_string(l.c_in) + "x" +
+                                 std::to_string(l.c_out),
+                             l.crossbars, static_cast<long long>(l.replication), l.adcs, l.dacs, l.iterations,
+                             l.busy_us, l.estimated_busy_us.value_or(0.0), l.bound_by.value_or("-"), l.stall_us,
+                             l.starved_us, l.buffer_bytes, l.energy_uj});
+}
+
+/// One simulation in this process: the model and images of the arguments; `vcd`: its trace
+/// file or "". `print`: progress bars and the per-layer table (a sweep's points print a row).
 SimulationReport simulate_once(const CliArgs& args, const ConfigTree& cfg, bool print, const std::string& vcd) {
   Model model = model_from_args(args, cfg);
   apply_preprocessing_overrides(cfg, model.pre, model.input.c);
@@ -30,7 +87,21 @@ SimulationReport simulate_once(const CliArgs& args, const ConfigTree& cfg, bool 
         "it has no use for images; give the count with --images");
   const SimulationData data =
       pc.timing_only ? SimulationData{} : simulation_data(args.get("--dataset"), cfg, model, pc.images);
-  return simulate_model(cfg, model, data, vcd, print);
+  // Each bar starts with its first report and ends with its last (a timing-only run programs nothing).
+  std::optional<ProgressBar> programming, simulating;
+  const auto bar = [](std::optional<ProgressBar>& b, const char* label, int done, int total) {
+    if (!b) b.emplace(total, label);
+    b->update(done, total);
+    if (done == total) b->finish();
+  };
+  SimulationProgress progress;
+  progress.programming = [&](int d, int total) { bar(programming, "programming", d, total); };
+  progress.simulating = [&](int d, int total) { bar(simulating, "simulating ", d, total); };
+  progress.note = [](const std::string& n) { std::fprintf(stderr, "xbarsim simulate: %s\n", n.c_str()); };
+  const SimulationReport r = simulate_model(cfg, model, data, vcd, progress);
+  if (print) print_layers(r);
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "xbarsim simulate: warning: %s\n", w.c_str());
+  return r;
 }
 
 /// Registers the files a point will read, before anything is written (sw/common/input_file.h):
@@ -50,11 +121,12 @@ void print_summary(const SimulationReport& r) {
       "area %.4f mm2, %.3f TOPS/W achieved\n",
       r.model.c_str(), r.architecture.c_str(), r.timing.c_str(), r.schedule.c_str(),
       count_text(r.images, "image").c_str(), r.iterations_total, r.latency_us, r.makespan_us,
-      compact_number(r.throughput_images_per_s).c_str(), r.energy_uj_per_image, power_text(r.avg_power_mw).c_str(),
-      power_text(r.peak_power_mw).c_str(), r.area_mm2, r.achieved_tops_per_w);
-  if (!r.bottleneck.empty())
-    std::printf("bottleneck: %s, busy %.3f us per image%s%s\n", r.bottleneck.c_str(), r.bottleneck_busy_us,
-                r.bottleneck_unit.empty() ? "" : ", bound by its ", r.bottleneck_unit.c_str());
+      compact_number(r.throughput_images_per_s).c_str(), r.energy_uj_per_image(), power_text(r.avg_power_mw()).c_str(),
+      power_text(r.peak_power_mw()).c_str(), r.area_mm2(), r.achieved_tops_per_w);
+  if (r.bottleneck)
+    std::printf("bottleneck: %s, busy %.3f us per image%s%s\n", r.bottleneck->stage.c_str(),
+                r.bottleneck->busy_us_per_image, r.bottleneck->unit.value_or("").empty() ? "" : ", bound by its ",
+                r.bottleneck->unit.value_or("").c_str());
   std::printf("simulation (%s): %.2f s wall (%.1f images/s), programming excluded\n", r.mode.c_str(), r.wall_time_s,
               r.images_per_wall_s);
   if (r.accuracy) {
@@ -66,8 +138,8 @@ void print_summary(const SimulationReport& r) {
 
 /// The CSV columns after the point's: the figures of the header below.
 void csv_figures(std::ostream& os, const SimulationReport& r) {
-  for (double x : {r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image, r.avg_power_mw,
-                   r.peak_power_mw, r.area_mm2})
+  for (double x : {r.latency_us, r.makespan_us, r.throughput_images_per_s, r.energy_uj_per_image(), r.avg_power_mw(),
+                   r.peak_power_mw(), r.area_mm2()})
     os << "," << nlohmann::json(x).dump();  // shortest text that reads back as the same double
   os << "\n";
 }
@@ -152,7 +224,7 @@ int cmd_simulate(int argc, char** argv) {
     const SimulationReport r = simulate_once(args, base, true, vcd);
     print_summary(r);
     if (out.csv().enabled()) csv_figures(out.csv().row(0, points[0]), r);
-    out.add(r.json, points[0]);
+    out.add(r.to_json(), points[0]);
     out.finish();
     return 0;
   }
@@ -168,14 +240,13 @@ int cmd_simulate(int argc, char** argv) {
   for (size_t k = 0; k < points.size(); ++k) {
     const ConfigTree cfg = sweep_config(base, points[k]);
     const std::string point_vcd = vcds.empty() ? std::string() : vcds[k].second;
-    const SimulationReport r = SimulationReport::from_json(
-        run_in_child([&] { return simulate_once(args, cfg, false, point_vcd).json; }));
+    const SimulationReport r = run_in_child([&] { return simulate_once(args, cfg, false, point_vcd); });
     if (!point_vcd.empty())
       std::fprintf(stderr, "xbarsim simulate: %s traced into %s\n", labels[k].c_str(), point_vcd.c_str());
-    table.print_row(stdout, {labels[k], r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image,
-                             power_text(r.avg_power_mw), power_text(r.peak_power_mw), r.area_mm2});
+    table.print_row(stdout, {labels[k], r.latency_us, r.throughput_images_per_s, r.energy_uj_per_image(),
+                             power_text(r.avg_power_mw()), power_text(r.peak_power_mw()), r.area_mm2()});
     if (out.csv().enabled()) csv_figures(out.csv().row(static_cast<int>(k), points[k]), r);
-    out.add(r.json, points[k]);
+    out.add(r.to_json(), points[k]);
   }
   std::printf("\npower: in mW below 10 W, in W from 10 W up (the CSV and JSON: mW)\n");
   out.finish();

@@ -60,6 +60,34 @@ nlohmann::json ComponentBreakdown::to_json() const {
   return j;
 }
 
+ComponentBreakdown ComponentBreakdown::from_json(const nlohmann::json& j) {
+  ComponentBreakdown b;
+  const std::pair<const char*, double ComponentBreakdown::*> fields[] = {
+      {"crossbar", &ComponentBreakdown::crossbar},
+      {"adc", &ComponentBreakdown::adc},
+      {"dac", &ComponentBreakdown::dac},
+      {"accumulator", &ComponentBreakdown::accumulator},
+      {"shift_register", &ComponentBreakdown::shift_register},
+      {"buffer", &ComponentBreakdown::buffer},
+      {"sample_hold", &ComponentBreakdown::sample_hold},
+      {"shift_add", &ComponentBreakdown::shift_add},
+      {"output_register", &ComponentBreakdown::output_register},
+      {"interconnect", &ComponentBreakdown::interconnect},
+      {"digital", &ComponentBreakdown::digital},
+      {"memory", &ComponentBreakdown::memory}};
+  for (const auto& [key, value] : j.items()) {
+    if (key == "total") continue;
+    bool field = false;
+    for (const auto& [name, member] : fields)
+      if (key == name) {
+        b.*member = value.get<double>();
+        field = true;
+      }
+    if (!field) b.parts[key] = value.get<double>();
+  }
+  return b;
+}
+
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
   dac_conversions += o.dac_conversions;
   adc_conversions += o.adc_conversions;

@@ -39,6 +39,8 @@ struct ComponentBreakdown {
     return r += o;
   }
   nlohmann::json to_json() const;
+  /// The inverse of to_json (its "total" is derived, every key not a field is a part).
+  static ComponentBreakdown from_json(const nlohmann::json& j);
 };
 
 /// Actions of the units of one layer (or a network), counted by a command or a simulation.

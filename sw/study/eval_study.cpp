@@ -450,10 +450,38 @@ std::vector<std::string> EvalResult::warnings() const {
   return w;
 }
 
-nlohmann::json EvalResult::to_json() const {
-  nlohmann::json j;
+nlohmann::json EvalResult::design_json() const {
   auto bits = [](int b) { return b ? nlohmann::json(b) : nlohmann::json("none"); };
   auto size = [](int s) { return s ? nlohmann::json(s) : nlohmann::json("unbounded"); };
+  return {{"method", ac->mitigation.name()},
+          {"dac_bits", bits(ac->converters.dac_bits)},
+          {"adc_bits", bits(ac->converters.adc_bits)},
+          {"input_bits", bits(ac->converters.input_bits)},
+          {"image_bits", bits(ac->converters.image_bits)},
+          {"cell_bits", bits(ac->mapping.cell_bits)},
+          {"weight_bits", bits(ac->mapping.weight_bits)},
+          {"adc_range", to_string(ac->converters.adc_range)},
+          {"max_rows", size(ac->mapping.max_rows)},
+          {"max_cols", size(ac->mapping.max_cols)}};
+}
+
+long long EvalResult::out_of_range_cells() const {
+  long long n = 0;
+  for (const auto& l : layers) n += l.out_of_range_cells;
+  return n;
+}
+
+std::pair<double, double> EvalResult::network_error() const {
+  double mean = 0, worst = 0;
+  for (const auto& l : layers) {
+    mean += l.mean_relative_error / layers.size();
+    worst = std::max(worst, l.worst_relative_error);
+  }
+  return {mean, worst};
+}
+
+nlohmann::json EvalResult::to_json() const {
+  nlohmann::json j = design_json();
   j["model"] = model;
   j["dataset"] = dataset;
   j["images"] = images;
@@ -464,14 +492,6 @@ nlohmann::json EvalResult::to_json() const {
   j["accuracy_drop_ci95"] = {ci.first, ci.second};
   j["images_only_software_correct"] = paired.only_software;
   j["images_only_crossbar_correct"] = paired.only_crossbar;
-  j["method"] = ac->mitigation.name();
-  j["dac_bits"] = bits(ac->converters.dac_bits);
-  j["adc_bits"] = bits(ac->converters.adc_bits);
-  j["input_bits"] = bits(ac->converters.input_bits);
-  j["image_bits"] = bits(ac->converters.image_bits);
-  j["cell_bits"] = bits(ac->mapping.cell_bits);
-  j["weight_bits"] = bits(ac->mapping.weight_bits);
-  j["adc_range"] = to_string(ac->converters.adc_range);
   j["negative"] = ac->mapping.differential() ? "differential" : "shift";
   const RangingSpec& rs = ac->ranging;
   j["ranging"] = {{"weights", to_string(rs.weights)},
@@ -494,18 +514,14 @@ nlohmann::json EvalResult::to_json() const {
   if (ac->xbar.memristor.model == MemristorModel::Sinh) j["memristor_k_per_v"] = ac->xbar.memristor.k_per_v;
   j["dac_predistortion"] = ac->converters.dac_predistortion;
   j["transistor_model"] = to_string(ac->xbar.transistor.model);
-  j["max_rows"] = size(ac->mapping.max_rows);
-  j["max_cols"] = size(ac->mapping.max_cols);
   if (!note.empty()) j["note"] = note;
   j["program_time_s"] = program_time_s;
   j["evaluate_time_s"] = evaluate_time_s;
   j["images_from_journal"] = images_from_journal;
   j["images_per_s"] = (images - images_from_journal) / std::max(1e-9, evaluate_time_s);
   j["layers"] = nlohmann::json::array();
-  long long oor = 0;
   for (const auto& l : layers) {
     const LinearLayer& L = *l.layer;
-    oor += l.out_of_range_cells;
     j["layers"].push_back({{"name", l.name},
                            {"kernel", {L.k_h, L.k_w, L.c_in, L.c_out}},
                            {"rows", L.rows()},
@@ -531,7 +547,7 @@ nlohmann::json EvalResult::to_json() const {
                            {"mean_relative_error", l.mean_relative_error},
                            {"worst_relative_error", l.worst_relative_error}});
   }
-  j["out_of_range_cells"] = oor;
+  j["out_of_range_cells"] = out_of_range_cells();
   j["warnings"] = warnings();
   j.update(cost.to_json());
   // Eval's time per image is not simulate's: the linear layers' crossbar reads back to back,

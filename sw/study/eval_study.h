@@ -90,6 +90,13 @@ struct EvalResult {
   CostReport cost;  ///< per image: closed-form action counts, leakage over ideal timing
   const AnalogConfig* ac = nullptr;
   nlohmann::json to_json() const;
+  /// The design's converter and mapping settings as to_json writes them (method, the bits,
+  /// adc_range, max_rows, max_cols): explore's rows carry the same fields.
+  nlohmann::json design_json() const;
+  /// Cells the conversion wanted outside [g_min, g_max], over the layers.
+  long long out_of_range_cells() const;
+  /// The network's relative error: the layers' mean errors averaged, their worst errors' maximum.
+  std::pair<double, double> network_error() const;
   /// One sentence per layer with more than kClippedCellsWarning of its cells clipped, then one
   /// per layer whose mean error passes kLayerErrorWarning (sw/analog/error_metrics.h).
   std::vector<std::string> warnings() const;

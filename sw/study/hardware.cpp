@@ -23,8 +23,22 @@ nlohmann::json CostReport::to_json() const {
           {"dynamic_energy_uj_per_image", dynamic_energy_uj.total()},
           {"dynamic_energy_breakdown_uj", dynamic_energy_uj.to_json()},
           {"leakage_mw", leakage_mw.total()},
+          {"leakage_breakdown_mw", leakage_mw.to_json()},
           {"avg_power_mw", avg_power_mw()},
           {"time_ns_per_image", time_ns}};
+}
+
+CostReport CostReport::from_json(const nlohmann::json& j) {
+  CostReport r;
+  r.crossbars = j.at("crossbars").get<long long>();
+  r.adcs = j.at("adcs").get<long long>();
+  r.dacs = j.at("dacs").get<long long>();
+  r.area_mm2 = ComponentBreakdown::from_json(j.at("area_breakdown_mm2"));
+  r.peak_power_mw = ComponentBreakdown::from_json(j.at("peak_power_breakdown_mw"));
+  r.dynamic_energy_uj = ComponentBreakdown::from_json(j.at("dynamic_energy_breakdown_uj"));
+  r.leakage_mw = ComponentBreakdown::from_json(j.at("leakage_breakdown_mw"));
+  r.time_ns = j.at("time_ns_per_image").get<double>();
+  return r;
 }
 
 void add_layer_cost(CostReport& r, const HardwareContext& hw, const LayerInventory& v, const ActionCounts& a) {

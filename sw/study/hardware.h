@@ -16,6 +16,8 @@ struct CostReport {
   ComponentBreakdown energy_uj() const { return dynamic_energy_uj + leakage_mw * (time_ns * 1e-6); }
   double avg_power_mw() const { return time_ns > 0 ? energy_uj().total() * 1e6 / time_ns : 0.0; }
   nlohmann::json to_json() const;
+  /// The inverse of to_json: the breakdowns it holds (energy and average power are derived).
+  static CostReport from_json(const nlohmann::json& j);
 };
 
 /// Adds one layer (its inventory and the actions of one image) to `r`.
