@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "sw/analog/input_slicing.h"
 #include "sw/common/yaml_section.h"
 
 namespace xbarsim {
@@ -33,7 +34,9 @@ nlohmann::json ReadSteps::to_json() const {
 
 ReadSteps neuron_read_steps(const InputSpec& in, const ReadoutSpec& out, int input_bits, int output_bits) {
   ReadSteps r;
-  r.magnitude_bits = std::max(1, input_bits - 1);
+  // The read applies a signed code in one multi-bit read: InputSlicing's one-read case, whose
+  // magnitude bits it keeps (every layer's input is read as signed: the sign costs no pulse).
+  r.magnitude_bits = make_input_slicing(input_bits, input_bits, /*signed_inputs=*/true, 1.0).magnitude_bits;
   const int m = r.magnitude_bits;
   const int per_phase = std::max(1, in.max_bits_per_phase);
   if (m <= per_phase) {

@@ -18,6 +18,11 @@ namespace xbarsim {
 
 class YamlSection;
 
+/// How an architecture's rows take an input code. The codes themselves, their digits and the
+/// reads they take are one description, InputSlicing (sw/analog/input_slicing.h), which the
+/// evaluation streams and the inventory counts: bit-serial is its sliced case (dac_bits-wide
+/// digits, one read each), sign-magnitude its one-read case (dac_bits = the input's bits, the
+/// sign as the pulses' polarity), whose magnitude bits a neuron's read integrates.
 enum class InputEncoding {
   BitSerial,     ///< two's complement, one bit (DAC slice) per read (ISAAC)
   SignMagnitude  ///< a sign and magnitude bits as pulses, integrated in one read (NeuRRAM)
@@ -59,7 +64,7 @@ struct ReadoutSpec {
 
 /// What one read of the array does, per neuron, at (input, output) bits.
 struct ReadSteps {
-  int magnitude_bits = 0;  ///< max(1, input_bits - 1): the sign costs no pulse
+  int magnitude_bits = 0;  ///< the one-read signed InputSlicing's: max(1, input_bits - 1), the sign costs no pulse
   int phases = 0;
   int first_phase_bits = 0, second_phase_bits = 0;
   long long integrate_steps = 0;  ///< sum over phases of 2^bits - 1
