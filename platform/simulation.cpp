@@ -83,9 +83,7 @@ SimulationReport report(const Model& model, const HardwareContext& hw, const Pip
       a = layer_actions_per_image(v, 0);  // counted from the Toeplitz inventory (one iteration)
     } else {
       a = pipe.tile(st.linear).actions();
-      for (double* x : {&a.dac_conversions, &a.adc_conversions, &a.cell_reads, &a.accumulates, &a.shifts, &a.samples,
-                        &a.shift_adds, &a.buffer_read_bytes, &a.buffer_write_bytes, &a.scale_multiplies})
-        *x /= images;
+      a /= images;  // the tile counts units' actions only: its bus, digital and memory counts are 0
     }
     add_layer_cost(cost, hw, v, a);
     on_machine.edram_read_bytes += a.buffer_read_bytes;  // on a machine they cross its tile's bus
@@ -94,9 +92,8 @@ SimulationReport report(const Model& model, const HardwareContext& hw, const Pip
     const double busy = st.busy_ns / images;
     SimulatedLayer out_layer;
     SimulatedLayer& o = out_layer;
-    o.name = L.name;
+    static_cast<LayerShape&>(o) = LayerShape::of(L);
     o.stage = static_cast<long long>(stage);
-    o.k_h = L.k_h, o.k_w = L.k_w, o.c_in = L.c_in, o.c_out = L.c_out;
     o.rows = L.rows();
     o.cols = L.c_out;
     o.crossbars = v.crossbars;

@@ -30,10 +30,8 @@ struct SimulationData {
 
 /// A linear layer's stage as simulated: its units, the time its tile was busy, stalled and
 /// starved per image beside the mapper's estimate, and its cost.
-struct SimulatedLayer {
-  std::string name;
+struct SimulatedLayer : LayerShape {  ///< (the JSON holds its name and kernel)
   long long stage = 0;  ///< its place in the pipeline
-  int k_h = 0, k_w = 0, c_in = 0, c_out = 0;
   long long rows = 0, cols = 0, crossbars = 0, adcs = 0, dacs = 0, iterations = 0, cycles = 0;
   int replication = 1;
   double busy_us = 0, stall_us = 0, starved_us = 0;

@@ -151,8 +151,7 @@ int cmd_overhead(int argc, char** argv) {
     csv->commit();
   }
   for (const auto& l : rep.layers) {
-    const std::string kernel = std::to_string(l.k_h) + "x" + std::to_string(l.k_w) + "x" + std::to_string(l.c_in) +
-                               "x" + std::to_string(l.c_out);
+    const std::string kernel = l.kernel_text();
     const std::string input = std::to_string(l.input.h) + "x" + std::to_string(l.input.w);
     table.print_row(stdout, cells(l.name, kernel, input, "dense", l.dense));
     table.print_row(stdout, cells("", "", "", "sparse", l.sparse));

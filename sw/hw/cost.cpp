@@ -1,5 +1,8 @@
 #include "sw/hw/cost.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include "sw/nn/ops.h"
 
 namespace xbarsim {
@@ -43,68 +46,44 @@ ComponentBreakdown ComponentBreakdown::operator*(double k) const {
 }
 
 nlohmann::json ComponentBreakdown::to_json() const {
-  nlohmann::json j = {{"crossbar", crossbar},
-          {"adc", adc},
-          {"dac", dac},
-          {"accumulator", accumulator},
-          {"shift_register", shift_register},
-          {"buffer", buffer},
-          {"sample_hold", sample_hold},
-          {"shift_add", shift_add},
-          {"output_register", output_register},
-          {"interconnect", interconnect},
-          {"digital", digital},
-          {"memory", memory},
-          {"total", total()}};
+  nlohmann::json j = {{"total", total()}};
+  for (size_t k = 0; k < std::size(kParts); ++k) j[kPartNames[k]] = this->*kParts[k];
   for (const auto& [name, v] : parts) j[name] = v;
   return j;
 }
 
 ComponentBreakdown ComponentBreakdown::from_json(const nlohmann::json& j) {
   ComponentBreakdown b;
-  const std::pair<const char*, double ComponentBreakdown::*> fields[] = {
-      {"crossbar", &ComponentBreakdown::crossbar},
-      {"adc", &ComponentBreakdown::adc},
-      {"dac", &ComponentBreakdown::dac},
-      {"accumulator", &ComponentBreakdown::accumulator},
-      {"shift_register", &ComponentBreakdown::shift_register},
-      {"buffer", &ComponentBreakdown::buffer},
-      {"sample_hold", &ComponentBreakdown::sample_hold},
-      {"shift_add", &ComponentBreakdown::shift_add},
-      {"output_register", &ComponentBreakdown::output_register},
-      {"interconnect", &ComponentBreakdown::interconnect},
-      {"digital", &ComponentBreakdown::digital},
-      {"memory", &ComponentBreakdown::memory}};
   for (const auto& [key, value] : j.items()) {
     if (key == "total") continue;
-    bool field = false;
-    for (const auto& [name, member] : fields)
-      if (key == name) {
-        b.*member = value.get<double>();
-        field = true;
-      }
-    if (!field) b.parts[key] = value.get<double>();
+    const auto* named = std::find(std::begin(kPartNames), std::end(kPartNames), key);
+    if (named != std::end(kPartNames))
+      b.*kParts[named - std::begin(kPartNames)] = value.get<double>();
+    else
+      b.parts[key] = value.get<double>();
   }
   return b;
 }
 
+namespace {
+/// Every count of a layer's actions, for the element-wise operations.
+constexpr double ActionCounts::*kActions[] = {
+    &ActionCounts::dac_conversions,    &ActionCounts::adc_conversions, &ActionCounts::cell_reads,
+    &ActionCounts::accumulates,        &ActionCounts::shifts,          &ActionCounts::samples,
+    &ActionCounts::shift_adds,         &ActionCounts::buffer_read_bytes, &ActionCounts::buffer_write_bytes,
+    &ActionCounts::bus_bytes,          &ActionCounts::digital_ops,     &ActionCounts::memory_bytes,
+    &ActionCounts::scale_multiplies};
+}  // namespace
+
 ActionCounts& ActionCounts::operator+=(const ActionCounts& o) {
-  dac_conversions += o.dac_conversions;
-  adc_conversions += o.adc_conversions;
-  cell_reads += o.cell_reads;
-  accumulates += o.accumulates;
-  shifts += o.shifts;
-  samples += o.samples;
-  shift_adds += o.shift_adds;
-  buffer_read_bytes += o.buffer_read_bytes;
-  buffer_write_bytes += o.buffer_write_bytes;
-  bus_bytes += o.bus_bytes;
-  digital_ops += o.digital_ops;
-  memory_bytes += o.memory_bytes;
-  scale_multiplies += o.scale_multiplies;
+  for (auto f : kActions) this->*f += o.*f;
   return *this;
 }
 
+ActionCounts& ActionCounts::operator/=(double n) {
+  for (auto f : kActions) this->*f /= n;
+  return *this;
+}
 namespace {
 
 /// A breakdown from price()'s figures by part, each part a ComponentBreakdown field by name.

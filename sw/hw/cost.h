@@ -54,6 +54,7 @@ struct ActionCounts {
   /// accumulated crossbar output, priced as a digital unit's operation.
   double scale_multiplies = 0;
   ActionCounts& operator+=(const ActionCounts& o);
+  ActionCounts& operator/=(double n);  ///< every count (a run's counts per image)
 };
 
 /// What prices an inventory: the library, the converters' resolutions (0 = ideal, priced at

@@ -118,13 +118,7 @@ LayerInventory layer_inventory(const LinearLayer& L, MappingScheme scheme, const
     v.cells_used = add(mul(mul(v.cols, L.rows() / L.group), mapping.columns_per_weight()),
                        mapping.analog_sum() ? mul(v.rows, v.col_blocks) : 0);
   }
-  v.name = L.name;
-  v.k_h = L.k_h;
-  v.k_w = L.k_w;
-  v.c_in = L.c_in;
-  v.c_out = L.c_out;
-  v.input = L.in;
-  v.output = L.out;
+  static_cast<LayerShape&>(v) = LayerShape::of(L);
   v.scheme = scheme;
   v.buffer_bytes = L.in.size();
   return v;

@@ -19,10 +19,19 @@ namespace xbarsim {
 /// physical columns when unbounded); one shift register (input register) of `rows` entries of
 /// input_bytes per dense layer; with sliced reads (input slices or weight slices > 1) an
 /// output register of 2 bytes per weight column of every crossbar.
-struct LayerInventory {
+/// A linear layer as every report names it: its name, kernel and input and output shapes.
+struct LayerShape {
   std::string name;
   int k_h = 1, k_w = 1, c_in = 0, c_out = 0;
   Shape input, output;
+  static LayerShape of(const LinearLayer& L) { return {L.name, L.k_h, L.k_w, L.c_in, L.c_out, L.in, L.out}; }
+  /// "KhxKwxCinxCout", as the commands' tables print a kernel.
+  std::string kernel_text() const {
+    return std::to_string(k_h) + "x" + std::to_string(k_w) + "x" + std::to_string(c_in) + "x" + std::to_string(c_out);
+  }
+};
+
+struct LayerInventory : LayerShape {
   MappingScheme scheme = MappingScheme::Dense;
   long long rows = 0, cols = 0;  ///< logical matrix (inputs x weight columns)
   long long row_blocks = 0, col_blocks = 0;

@@ -46,12 +46,7 @@ OverheadReport overhead_study(const Model& m, const HardwareContext& hw) {
   for (size_t l = 0; l < m.linear.size(); ++l) {
     const LinearLayer& L = m.linear[l];
     LayerOverhead o;
-    o.name = L.name;
-    o.k_h = L.k_h;
-    o.k_w = L.k_w;
-    o.c_in = L.c_in;
-    o.c_out = L.c_out;
-    o.input = L.in;
+    static_cast<LayerShape&>(o) = LayerShape::of(L);
     o.dense = priced(hw.inventory(L, MappingScheme::Dense, signed_inputs[l], reads_image[l]));
     o.sparse = priced(hw.inventory(L, MappingScheme::Sparse, signed_inputs[l], reads_image[l]));
     for (auto [total, part] : {std::pair{&r.dense_total, &o.dense}, std::pair{&r.sparse_total, &o.sparse}}) {

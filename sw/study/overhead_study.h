@@ -16,10 +16,7 @@ struct MappingOverhead {
   nlohmann::json to_json() const;
 };
 
-struct LayerOverhead {
-  std::string name;
-  int k_h = 1, k_w = 1, c_in = 0, c_out = 0;
-  Shape input;
+struct LayerOverhead : LayerShape {
   MappingOverhead dense, sparse;
 };
 
