@@ -69,11 +69,12 @@ struct PyDevice {
 
 /// The areas, each in its file: Config; the crossbar circuit (solve, netlist); the device model
 /// (Device); analog layers (Crossbar, the DAC's full scale, the mapping, the training mapper);
-/// the network rules eval applies per layer (errors, calibration picks).
+/// the network rules eval applies per layer (errors, calibration picks); the datasets (CIFAR-10).
 void bind_config(py::module_& m);
 void bind_circuit(py::module_& m);
 void bind_devices(py::module_& m);
 void bind_analog(py::module_& m);
 void bind_networks(py::module_& m);
+void bind_data(py::module_& m);
 
 }  // namespace xbarsim::bindings

@@ -1,5 +1,5 @@
 // The `xbarsim._core` extension: the configuration, the exact crossbar circuit, the device
-// model and analog layers on NumPy arrays, and eval's per-layer rules, each area bound in a file
+// model and analog layers on NumPy arrays, eval's per-layer rules and its datasets, each area bound in a file
 // of its own (python/bind_*.cpp). Whole commands (eval, simulate, explore, overhead) are run by
 // python/xbarsim/commands.py through the xbarsim executable, so their results are the CLI's JSON
 // by construction: the platform (SystemC) is not bound.
@@ -34,4 +34,5 @@ PYBIND11_MODULE(_core, m) {
   bindings::bind_circuit(m);
   bindings::bind_analog(m);
   bindings::bind_networks(m);
+  bindings::bind_data(m);
 }

@@ -3,10 +3,12 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <map>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -89,10 +91,12 @@ Dataset random_dataset(const Shape& s, int count, uint64_t seed) {
 Dataset load_cifar10(const std::string& file, int offset, int count) {
   open_as_input(file, "the dataset file");
   std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in) throw InputError("cannot open CIFAR-10 file '" + file + "'");
+  if (!in) throw InputError("cannot open CIFAR-10 file '" + file + "': " + std::strerror(errno));
   const long long size = in.tellg();
   constexpr int kRecord = 1 + 3072;
-  if (size <= 0 || size % kRecord) throw InputError("'" + file + "' is not in the CIFAR-10 binary record format");
+  if (size <= 0 || size % kRecord)
+    throw InputError("'" + file + "' is not in the CIFAR-10 binary record format (" + std::to_string(size) +
+                     " bytes is not a whole number of " + std::to_string(kRecord) + "-byte records)");
   const int total = static_cast<int>(size / kRecord);
   clamp_range(total, offset, count, file);
   Dataset d;

@@ -352,6 +352,11 @@ def test_cifar10_bad_files(tmp_path):
     (tmp_path / "data_batch_1.bin").write_bytes(b"\x00" * 100)
     with pytest.raises(ValueError, match="whole number"):
         xdata.Cifar10(tmp_path)
+    with pytest.raises(ValueError, match="missing.bin.*No such file"):
+        xdata.Cifar10(files=[tmp_path / "missing.bin"])
+    (tmp_path / "data_batch_1.bin").write_bytes(b"\x0a" + b"\x00" * 3072)
+    with pytest.raises(ValueError, match="data_batch_1.bin.*label > 9"):
+        xdata.Cifar10(tmp_path)
 
 
 # --- ONNX ----------------------------------------------------------------------------------------
