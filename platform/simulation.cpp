@@ -90,8 +90,7 @@ SimulationReport report(const Model& model, const HardwareContext& hw, const Pip
     macs += static_cast<double>(L.rows()) * L.c_out * L.iterations();
     iterations += v.iterations;
     const double busy = st.busy_ns / images;
-    SimulatedLayer out_layer;
-    SimulatedLayer& o = out_layer;
+    SimulatedLayer o;
     static_cast<LayerShape&>(o) = LayerShape::of(L);
     o.stage = static_cast<long long>(stage);
     o.rows = L.rows();
@@ -125,7 +124,7 @@ SimulationReport report(const Model& model, const HardwareContext& hw, const Pip
       o.busy_over_estimate = est > 0 ? busy / est : 0.0;
       estimated_period_ns = std::max(estimated_period_ns, est);
     }
-    out.layers.push_back(std::move(out_layer));
+    out.layers.push_back(std::move(o));
   }
   platform.actions.bus_bytes = r.bus_bytes / images;
   platform.actions.memory_bytes = r.memory_bytes / images;
@@ -236,6 +235,12 @@ std::vector<PipelineStage> SimulationReport::pipeline_stages() const {
   return out;
 }
 
+nlohmann::json SimulationReport::Bottleneck::to_json() const {
+  nlohmann::json j = {{"stage", stage}, {"busy_us_per_image", busy_us_per_image}};
+  if (unit) j["unit"] = *unit;
+  return j;
+}
+
 nlohmann::json SimulationReport::to_json() const {
   nlohmann::json j = cost.to_json();
   j["warnings"] = warnings;
@@ -257,10 +262,7 @@ nlohmann::json SimulationReport::to_json() const {
   j["achieved_gops"] = achieved_gops;
   j["achieved_tops_per_w"] = achieved_tops_per_w;
   j["achieved_gops_per_mm2"] = achieved_gops_per_mm2;
-  if (bottleneck) {
-    j["bottleneck"] = {{"stage", bottleneck->stage}, {"busy_us_per_image", bottleneck->busy_us_per_image}};
-    if (bottleneck->unit) j["bottleneck"]["unit"] = *bottleneck->unit;
-  }
+  if (bottleneck) j["bottleneck"] = bottleneck->to_json();
   j["unit_utilization"] = unit_utilization;
   j["architecture"] = architecture;
   if (machine) {

@@ -78,6 +78,7 @@ struct SimulationReport {
     std::string stage;
     double busy_us_per_image = 0;
     std::optional<std::string> unit;
+    nlohmann::json to_json() const;
   };
   std::optional<Bottleneck> bottleneck;
   std::map<std::string, double> unit_utilization;  ///< each kind of tile unit over the run, every copy

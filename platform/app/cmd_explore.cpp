@@ -63,10 +63,7 @@ nlohmann::json platform_fields(const SimulationReport& pf) {
   row["stages"] = nlohmann::json::array();
   for (const PipelineStage& s : pf.pipeline_stages())
     row["stages"].push_back({{"name", s.name}, {"kind", s.kind}, {"busy_us", s.busy_us}, {"stall_us", s.stall_us}});
-  if (pf.bottleneck) {
-    row["bottleneck"] = {{"stage", pf.bottleneck->stage}, {"busy_us_per_image", pf.bottleneck->busy_us_per_image}};
-    if (pf.bottleneck->unit) row["bottleneck"]["unit"] = *pf.bottleneck->unit;
-  }
+  if (pf.bottleneck) row["bottleneck"] = pf.bottleneck->to_json();
   row["simulation_wall_time_s"] = pf.wall_time_s;  // how this run went (not a result)
   return row;
 }

@@ -65,8 +65,8 @@ void print_layers(const SimulationReport& r) {
                      {"energy_uJ", 10, 4}});
   table.print_header(stdout);
   for (const SimulatedLayer& l : r.layers)
-    table.print_row(stdout, {l.name, l.kernel_text(), l.crossbars, static_cast<long long>(l.replication), l.adcs, l.dacs, l.iterations,
-                             l.busy_us, l.estimated_busy_us.value_or(0.0), l.bound_by.value_or("-"), l.stall_us,
+    table.print_row(stdout, {l.name, l.kernel_text(), l.crossbars, static_cast<long long>(l.replication), l.adcs,
+                             l.dacs, l.iterations, l.busy_us, l.estimated_busy_us.value_or(0.0), l.bound_by.value_or("-"), l.stall_us,
                              l.starved_us, l.buffer_bytes, l.energy_uj});
 }
 

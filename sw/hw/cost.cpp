@@ -30,6 +30,12 @@ constexpr const char* kPartNames[] = {"crossbar",    "adc",         "dac",      
                                       "output_register", "interconnect", "digital",  "memory"};
 static_assert(std::size(kPartNames) == std::size(kParts), "a name for every part");
 
+/// The field of the part named `name`, or null when it is not a field (a named component's part).
+double ComponentBreakdown::*field_named(const std::string& name) {
+  const auto* it = std::find(std::begin(kPartNames), std::end(kPartNames), name);
+  return it == std::end(kPartNames) ? nullptr : kParts[it - std::begin(kPartNames)];
+}
+
 }  // namespace
 
 ComponentBreakdown& ComponentBreakdown::operator+=(const ComponentBreakdown& o) {
@@ -56,9 +62,8 @@ ComponentBreakdown ComponentBreakdown::from_json(const nlohmann::json& j) {
   ComponentBreakdown b;
   for (const auto& [key, value] : j.items()) {
     if (key == "total") continue;
-    const auto* named = std::find(std::begin(kPartNames), std::end(kPartNames), key);
-    if (named != std::end(kPartNames))
-      b.*kParts[named - std::begin(kPartNames)] = value.get<double>();
+    if (const auto field = field_named(key))
+      b.*field = value.get<double>();
     else
       b.parts[key] = value.get<double>();
   }
@@ -90,9 +95,9 @@ namespace {
 ComponentBreakdown by_part(const std::map<std::string, double>& parts) {
   ComponentBreakdown b;
   for (const auto& [name, v] : parts) {
-    const auto it = std::find(std::begin(kPartNames), std::end(kPartNames), name);
-    if (it == std::end(kPartNames)) throw std::logic_error("by_part: no part '" + name + "'");
-    b.*kParts[it - std::begin(kPartNames)] = v;
+    const auto field = field_named(name);
+    if (!field) throw std::logic_error("by_part: no part '" + name + "'");
+    b.*field = v;
   }
   return b;
 }
